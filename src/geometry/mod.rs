@@ -1,0 +1,12 @@
+//! Geometric primitives shared by every backend and integrator: rays, bounding boxes,
+//! triangles and shading frames.
+
+mod aabb;
+mod frame;
+mod ray;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use frame::Frame;
+pub use ray::{Ray, offset_origin};
+pub use triangle::{TriangleHit, intersect_triangle};

@@ -1,0 +1,10 @@
+//! pir: Progressive Instant Radiosity.
+//!
+//! A renderer that converges to the exact image of a scene with virtual point lights whose
+//! bias shrinks progressively, with a path tracer as its ground truth.
+
+pub mod accel;
+pub mod geometry;
+pub mod material;
+pub mod sampling;
+pub mod scene;

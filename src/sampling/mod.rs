@@ -1,0 +1,8 @@
+//! Random numbers and warps. Every random number in pir is a pure function of
+//! (seed, iteration, domain, index, dimension): see [`Sampler`].
+
+mod rng;
+mod warp;
+
+pub use rng::{Domain, Sampler};
+pub use warp::*;

@@ -1,0 +1,128 @@
+//! Warps from the unit square to the domains the renderer samples.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Cosine-weighted direction about +z (Malley's method); pdf = cos θ / π.
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) / PI
+}
+
+/// Shirley–Chiu concentric map to the unit disk.
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o == Vec2::ZERO {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, (PI / 4.0) * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Uniform barycentrics `(u, v)` on a triangle (the point is `(1-u-v) a + u b + v c`).
+pub fn uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// Uniform direction in the cone about +z with `cos θ ≥ cos_max`; pdf = 1 / (2π (1 − cos_max)).
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_t = 1.0 - u.x * (1.0 - cos_max);
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
+/// A discrete distribution sampled in O(log n) from its cumulative sums.
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    cdf: Vec<f64>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// `None` when the weights are empty or sum to zero (or are not finite).
+    pub fn new(weights: &[f64]) -> Option<Self> {
+        let mut cdf = Vec::with_capacity(weights.len());
+        let mut acc = 0.0;
+        for &w in weights {
+            acc += w.max(0.0);
+            cdf.push(acc);
+        }
+        (acc > 0.0 && acc.is_finite()).then_some(Distribution1D { cdf, total: acc })
+    }
+
+    pub fn len(&self) -> usize {
+        self.cdf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Draws an index with probability proportional to its weight; returns it with its
+    /// probability.
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        let target = u as f64 * self.total;
+        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
+        (i, self.pmf(i))
+    }
+
+    pub fn pmf(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        ((self.cdf[i] - lo) / self.total) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distribution_skips_zero_weights_and_matches_pmf() {
+        let d = Distribution1D::new(&[0.0, 1.0, 0.0, 3.0]).unwrap();
+        let mut counts = [0usize; 4];
+        let n = 40_000;
+        for k in 0..n {
+            let (i, p) = d.sample((k as f32 + 0.5) / n as f32);
+            assert!(p > 0.0);
+            counts[i] += 1;
+        }
+        assert_eq!(counts[0], 0);
+        assert_eq!(counts[2], 0);
+        assert!((counts[1] as f32 / n as f32 - 0.25).abs() < 1e-3);
+        assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn warps_stay_in_their_domains() {
+        for i in 0..32 {
+            for j in 0..32 {
+                let u = Vec2::new(i as f32 / 31.0, j as f32 / 31.0);
+                let w = cosine_hemisphere(u);
+                assert!(w.z >= 0.0 && (w.length() - 1.0).abs() < 1e-5);
+                let b = uniform_triangle(u);
+                assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+                let c = uniform_cone(u, 0.8);
+                assert!(c.z >= 0.8 - 1e-6 && (c.length() - 1.0).abs() < 1e-5);
+            }
+        }
+    }
+}
