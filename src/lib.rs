@@ -5,6 +5,10 @@
 
 pub mod accel;
 pub mod geometry;
+pub mod image;
+pub mod integrator;
+pub mod light;
 pub mod material;
+pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -1,0 +1,30 @@
+//! Command-line interface: argument definitions and dispatch.
+
+mod compare;
+mod render;
+
+use clap::{Parser, Subcommand};
+
+/// pir: Progressive Instant Radiosity.
+///
+/// Renders scenes written to pir's TOML scene format with a path tracer (the ground truth) or
+/// with progressive many-light methods, and compares images with references.
+#[derive(Parser, Debug)]
+#[command(name = "pir", version, about, long_about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    Render(render::RenderArgs),
+    Compare(compare::CompareArgs),
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Compare(a) => compare::run(a),
+    }
+}

@@ -1,0 +1,257 @@
+//! `pir render SCENE`: render a scene to EXR (linear RGB) and a PNG preview.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use pir::accel::{Accelerator, BruteForce, Bvh};
+use pir::image::{write_exr, write_preview};
+use pir::integrator::{Integrator, PathTracer, RenderContext};
+use pir::light::Emitters;
+use pir::render::{Budget, Control, RenderSettings, render};
+
+/// Largest accepted image side, and pixel count (refused before anything is allocated).
+const MAX_SIDE: u32 = 65_536;
+const MAX_PIXELS: u64 = 1 << 28;
+
+/// Rendering methods.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Path tracer with next-event estimation and MIS: the ground truth.
+    Pt,
+}
+
+/// Ray-query backends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AccelChoice {
+    /// pir's own BVH (binned SAH).
+    Bvh,
+    /// Every ray against every triangle (for tests on tiny scenes).
+    Brute,
+}
+
+/// Render a scene progressively and write an EXR and a PNG preview.
+///
+/// Each iteration adds one sample per pixel; the image is the mean over iterations. The
+/// render stops after --spp iterations or after --time seconds, whichever comes first
+/// (default: 64 spp).
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scene file (TOML, see the README's scene format).
+    pub scene: PathBuf,
+    /// Rendering method.
+    #[arg(long, value_enum, default_value_t = Method::Pt)]
+    pub method: Method,
+    /// Samples per pixel (= iterations; one sample per pixel per iteration).
+    #[arg(long, visible_alias = "iterations", value_name = "N")]
+    pub spp: Option<u64>,
+    /// Wall-clock budget in seconds (at least one iteration is always rendered).
+    #[arg(long, value_name = "SECONDS")]
+    pub time: Option<f64>,
+    /// Output EXR; the PNG preview is written beside it [default: SCENE-METHOD.exr in the
+    /// current directory].
+    #[arg(long, short, value_name = "FILE.exr")]
+    pub out: Option<PathBuf>,
+    /// Random seed [default: the scene's render.seed]. The same seed gives the same image for
+    /// any number of threads.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Largest number of path segments from the camera to an emitter [default: the scene's
+    /// render.max_depth]; 1 = emitters only, 2 = direct light, 3 = one bounce, …
+    #[arg(long, value_name = "D")]
+    pub max_depth: Option<u32>,
+    /// Image size in pixels [default: the scene's camera.resolution].
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub resolution: Option<Vec<u32>>,
+    /// Exposure of the PNG preview in stops (the EXR is never scaled).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Do not write the PNG preview.
+    #[arg(long)]
+    pub no_preview: bool,
+    /// Ray-query backend.
+    #[arg(long, value_enum, default_value_t = AccelChoice::Bvh)]
+    pub accel: AccelChoice,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+pub fn run(a: RenderArgs) -> Result<()> {
+    // ---- Check every argument before any work.
+    let budget = budget(&a)?;
+    if let Some(0) = a.threads {
+        bail!("--threads must be at least 1");
+    }
+    if a.max_depth == Some(0) {
+        bail!("--max-depth must be at least 1");
+    }
+    if !a.exposure.is_finite() {
+        bail!("--exposure must be a finite number");
+    }
+    let method_name = a.method.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
+    let out = a.out.clone().unwrap_or_else(|| default_output(&a.scene, &method_name));
+    if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
+        bail!("{}: the output must be an .exr file", out.display());
+    }
+    check_writable(&out)?;
+
+    let scene = pir::scene::load(&a.scene)?;
+    let (width, height) = match &a.resolution {
+        Some(r) => (r[0], r[1]),
+        None => (scene.camera.width, scene.camera.height),
+    };
+    check_resolution(width, height)?;
+    let max_depth = a.max_depth.unwrap_or(scene.render.max_depth);
+    let seed = a.seed.unwrap_or(scene.render.seed);
+    let emitters = Emitters::new(&scene)
+        .with_context(|| format!("{}: the scene has no emitter with positive power", a.scene.display()))?;
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0))
+        .build()
+        .context("cannot start the worker threads")?;
+
+    let t_build = Instant::now();
+    let accel: Box<dyn Accelerator> = match a.accel {
+        AccelChoice::Bvh => Box::new(Bvh::new(&scene.positions, &scene.indices)),
+        AccelChoice::Brute => Box::new(BruteForce::new(&scene.positions, &scene.indices)),
+    };
+    let build_time = t_build.elapsed();
+
+    let mut integrator: Box<dyn Integrator> = match a.method {
+        Method::Pt => Box::new(PathTracer),
+    };
+    let ctx = RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth, seed };
+    let settings = RenderSettings {
+        width: width as usize,
+        height: height as usize,
+        budget,
+        tile_size: 16,
+        progress: !a.quiet,
+    };
+    eprintln!(
+        "pir: {} ({} triangles, {} emitting), {}×{}, method {}, max_depth {}, seed {}, {} threads",
+        a.scene.display(),
+        scene.indices.len(),
+        emitters.len(),
+        width,
+        height,
+        integrator.name(),
+        max_depth,
+        seed,
+        pool.current_num_threads()
+    );
+    eprintln!("pir: accelerator {} built in {:.1} ms", accel.describe(), build_time.as_secs_f64() * 1e3);
+
+    let (film, stats) =
+        pool.install(|| render(&ctx, integrator.as_mut(), &settings, |_, _| Control::Continue));
+
+    // ---- Output.
+    let image = film.image();
+    let mut attrs: Vec<(String, String)> = vec![
+        ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
+        ("pir.scene".into(), a.scene.display().to_string()),
+        ("pir.method".into(), integrator.name().into()),
+        ("pir.max_depth".into(), max_depth.to_string()),
+        ("pir.seed".into(), seed.to_string()),
+        ("pir.iterations".into(), stats.iterations.to_string()),
+        ("pir.spp".into(), stats.iterations.to_string()),
+        ("pir.resolution".into(), format!("{width} {height}")),
+        ("pir.render_time_s".into(), format!("{:.3}", stats.elapsed.as_secs_f64())),
+        ("pir.accel".into(), accel.describe()),
+        ("pir.threads".into(), pool.current_num_threads().to_string()),
+        ("pir.dropped_samples".into(), stats.dropped.to_string()),
+    ];
+    for (k, v) in integrator.parameters() {
+        attrs.push((format!("pir.param.{k}"), v));
+    }
+    write_exr(&out, &image, &attrs)?;
+    let preview = (!a.no_preview).then(|| out.with_extension("png"));
+    if let Some(p) = &preview {
+        write_preview(p, &image, a.exposure)?;
+    }
+
+    // ---- Summary.
+    let secs = stats.elapsed.as_secs_f64();
+    let pixels = (width as u64 * height as u64) as f64;
+    eprintln!(
+        "pir: {} iterations ({} spp) in {:.2} s ({:.2} s pixels, {:.2} s preparation): {:.2} Msamples/s, {:.2} Mrays/s ({} closest-hit, {} shadow)",
+        stats.iterations,
+        stats.iterations,
+        secs,
+        stats.pixel_time.as_secs_f64(),
+        stats.prepare_time.as_secs_f64(),
+        pixels * stats.iterations as f64 / secs.max(1e-9) / 1e6,
+        stats.rays_per_second() / 1e6,
+        stats.counters.rays,
+        stats.counters.shadow_rays
+    );
+    if stats.dropped > 0 {
+        let (x, y, it) = stats.first_dropped.unwrap_or_default();
+        eprintln!(
+            "pir: warning: {} samples were NaN or infinite and were dropped (first at pixel ({x}, {y}), iteration {it})",
+            stats.dropped
+        );
+    }
+    match &preview {
+        Some(p) => eprintln!("pir: wrote {} and {}", out.display(), p.display()),
+        None => eprintln!("pir: wrote {}", out.display()),
+    }
+    Ok(())
+}
+
+fn budget(a: &RenderArgs) -> Result<Budget> {
+    if a.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    let time = match a.time {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 && t < 1e9 => Some(Duration::from_secs_f64(t)),
+        Some(t) => bail!("--time {t}: must be a positive number of seconds"),
+    };
+    let iterations = match (a.spp, time) {
+        (None, None) => Some(64),
+        (n, _) => n,
+    };
+    Ok(Budget { iterations, time })
+}
+
+fn check_resolution(w: u32, h: u32) -> Result<()> {
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
+        bail!(
+            "resolution {w}×{h}: each side must be 1 to {MAX_SIDE} and the total at most {MAX_PIXELS} pixels"
+        );
+    }
+    Ok(())
+}
+
+fn default_output(scene: &Path, method: &str) -> PathBuf {
+    let stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("render");
+    let stem = if stem == "scene" {
+        scene.parent().and_then(|p| p.file_name()).and_then(|s| s.to_str()).unwrap_or(stem)
+    } else {
+        stem
+    };
+    PathBuf::from(format!("{stem}-{method}.exr"))
+}
+
+/// Fails now, not after the render, when the output's folder is missing or not writable.
+fn check_writable(out: &Path) -> Result<()> {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!("{}: the output folder {} does not exist", out.display(), dir.display());
+    }
+    tempfile::Builder::new()
+        .prefix(".pir-check-")
+        .tempfile_in(dir)
+        .with_context(|| format!("{}: cannot write in {}", out.display(), dir.display()))?;
+    Ok(())
+}

@@ -1,0 +1,92 @@
+//! Direct lighting from the real emitters: next-event estimation with multiple importance
+//! sampling against BSDF sampling (power heuristic), shared by every method.
+
+use glam::Vec3;
+
+use super::{Counters, RenderContext};
+use crate::geometry::{Ray, offset_origin};
+use crate::material::{Bsdf, LocalGeometry, TransportMode};
+use crate::sampling::Sampler;
+use crate::scene::SurfacePoint;
+
+/// Veach's power heuristic (β = 2) for the technique with density `a` against `b`.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2.is_infinite() {
+        return 1.0;
+    }
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// The segment between two surface points, both ends moved off their surfaces so that
+/// neither surface occludes it. The interval is `(0, 1)` in units of the segment.
+#[inline]
+pub fn shadow_ray(p: Vec3, ng: Vec3, q: Vec3, nq: Vec3) -> Ray {
+    let o = offset_origin(p, ng, q - p);
+    let t = offset_origin(q, nq, p - q);
+    Ray { origin: o, dir: t - o, tmin: 0.0, tmax: 1.0 }
+}
+
+/// Whether anything blocks the segment between two surface points.
+#[inline]
+pub fn occluded(ctx: &RenderContext, p: Vec3, ng: Vec3, q: Vec3, nq: Vec3, counters: &mut Counters) -> bool {
+    counters.shadow_rays += 1;
+    ctx.accel.occluded(&shadow_ray(p, ng, q, nq))
+}
+
+/// One light sample at `sp`: picks a point on an emitter by power, and returns its
+/// contribution f · Le · G · V / pdf, MIS-weighted against BSDF sampling. Always draws three
+/// numbers from `sampler`.
+pub fn sample_emitters(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+) -> Vec3 {
+    let u_select = sampler.next_f32();
+    let u = sampler.next_2d();
+    let es = ctx.emitters.sample(ctx.scene, u_select, u);
+    let d = es.point.p - sp.p;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 || !dist2.is_finite() {
+        return Vec3::ZERO;
+    }
+    let wi = d / dist2.sqrt();
+    let cos_light = es.point.ng.dot(-wi);
+    if cos_light <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
+    let f = bsdf.eval(&g, wo, wi, TransportMode::Radiance);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    if occluded(ctx, sp.p, sp.ng, es.point.p, es.point.ng, counters) {
+        return Vec3::ZERO;
+    }
+    let pdf_light = es.pdf_area * dist2 / cos_light;
+    let pdf_bsdf = bsdf.pdf(&g, wo, wi, TransportMode::Radiance);
+    f * es.radiance * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light)
+}
+
+/// The MIS weight of emission found by BSDF sampling: the BSDF sampled the direction from
+/// `prev_p` with solid-angle density `pdf_bsdf` and hit emitter point `hit` seen from
+/// direction `wo` (pointing back to `prev_p`).
+#[inline]
+pub fn emission_weight(
+    ctx: &RenderContext,
+    prev_p: Vec3,
+    pdf_bsdf: f32,
+    hit: &SurfacePoint,
+    wo: Vec3,
+) -> f32 {
+    let cos = hit.ng.dot(wo).abs();
+    if cos <= 0.0 {
+        return 0.0;
+    }
+    let pdf_light = ctx.emitters.pdf_area(hit.prim) * (hit.p - prev_p).length_squared() / cos;
+    power_heuristic(pdf_bsdf, pdf_light)
+}

@@ -1,0 +1,64 @@
+//! Integrators: what a camera sample sees.
+//!
+//! An integrator has three parts (as in Tungsten): settings with documented defaults, a
+//! per-iteration preparation ([`Integrator::begin_iteration`], e.g. tracing VPLs) and the
+//! per-ray radiance estimate ([`Integrator::radiance`]). The progressive driver in
+//! [`crate::render`] owns pixels, iterations and threads.
+
+mod direct;
+mod path;
+
+pub use direct::{occluded, power_heuristic, sample_emitters, shadow_ray};
+pub use path::PathTracer;
+
+use glam::Vec3;
+
+use crate::accel::Accelerator;
+use crate::geometry::Ray;
+use crate::light::Emitters;
+use crate::sampling::Sampler;
+use crate::scene::Scene;
+
+/// What every integrator reads while rendering.
+pub struct RenderContext<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a dyn Accelerator,
+    pub emitters: &'a Emitters,
+    /// Largest number of path segments from the camera to an emitter.
+    pub max_depth: u32,
+    pub seed: u64,
+}
+
+/// Ray counts, kept per task and summed for the summary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Closest-hit queries (camera rays and bounces).
+    pub rays: u64,
+    /// Occlusion queries.
+    pub shadow_rays: u64,
+}
+
+impl std::ops::AddAssign for Counters {
+    fn add_assign(&mut self, o: Counters) {
+        self.rays += o.rays;
+        self.shadow_rays += o.shadow_rays;
+    }
+}
+
+/// A rendering method.
+pub trait Integrator: Send + Sync {
+    /// The `--method` name.
+    fn name(&self) -> &'static str;
+
+    /// Parameters for the summary and the EXR metadata, as (key, value).
+    fn parameters(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
+
+    /// Work done once per iteration before any pixel (iterations count from 1).
+    fn begin_iteration(&mut self, _ctx: &RenderContext, _iteration: u64) {}
+
+    /// Radiance arriving along the camera ray `ray` (unit direction).
+    fn radiance(&self, ctx: &RenderContext, ray: Ray, sampler: &mut Sampler, counters: &mut Counters)
+    -> Vec3;
+}

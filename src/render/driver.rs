@@ -1,0 +1,189 @@
+//! The progressive loop.
+//!
+//! Iteration i (from 1) lets the integrator prepare (e.g. trace its VPLs), then renders one
+//! sample in every pixel, tiles spread over rayon's pool. The sample of pixel p in iteration
+//! i uses `Sampler::new(seed, i, Domain::Camera, p)`, and each pixel's sum is accumulated in
+//! iteration order, so the image depends on the seed only, never on the thread count.
+//!
+//! Samples that are NaN or infinite never reach the film: they are counted, dropped and
+//! reported (with the first pixel) so that a bug shows instead of hiding.
+
+use glam::Vec2;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+use super::Film;
+use crate::integrator::{Counters, Integrator, RenderContext};
+use crate::sampling::{Domain, Sampler};
+
+/// When to stop: after `iterations`, after `time`, or whichever comes first.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Budget {
+    pub iterations: Option<u64>,
+    pub time: Option<Duration>,
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: usize,
+    pub height: usize,
+    pub budget: Budget,
+    /// Square tile edge in pixels.
+    pub tile_size: usize,
+    /// Draw a progress bar on a terminal.
+    pub progress: bool,
+}
+
+/// What a per-iteration callback tells the driver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    Continue,
+    Stop,
+}
+
+/// Statistics of a finished render.
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub iterations: u64,
+    pub elapsed: Duration,
+    /// Time in `begin_iteration` (e.g. light tracing).
+    pub prepare_time: Duration,
+    /// Time rendering pixels.
+    pub pixel_time: Duration,
+    pub counters: Counters,
+    /// Samples dropped for being NaN or infinite.
+    pub dropped: u64,
+    /// The first dropped sample: (x, y, iteration).
+    pub first_dropped: Option<(usize, usize, u64)>,
+}
+
+impl RenderStats {
+    pub fn rays_per_second(&self) -> f64 {
+        (self.counters.rays + self.counters.shadow_rays) as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+struct Tile {
+    x0: usize,
+    y0: usize,
+    x1: usize,
+    y1: usize,
+}
+
+fn tiles(width: usize, height: usize, size: usize) -> Vec<Tile> {
+    let size = size.max(1);
+    let mut v = Vec::new();
+    for y0 in (0..height).step_by(size) {
+        for x0 in (0..width).step_by(size) {
+            v.push(Tile { x0, y0, x1: (x0 + size).min(width), y1: (y0 + size).min(height) });
+        }
+    }
+    v
+}
+
+/// Renders progressively until the budget is spent or `on_iteration` says stop. Runs on the
+/// current rayon pool.
+pub fn render(
+    ctx: &RenderContext,
+    integrator: &mut dyn Integrator,
+    settings: &RenderSettings,
+    mut on_iteration: impl FnMut(&Film, &RenderStats) -> Control,
+) -> (Film, RenderStats) {
+    let (w, h) = (settings.width, settings.height);
+    let camera = ctx.scene.camera.with_resolution(w as u32, h as u32);
+    let tiles = tiles(w, h, settings.tile_size);
+    let mut film = Film::new(w, h);
+    let mut stats = RenderStats::default();
+    let bar = progress_bar(settings);
+    let start = Instant::now();
+
+    for iteration in 1.. {
+        if settings.budget.iterations.is_some_and(|n| iteration > n) {
+            break;
+        }
+        if settings.budget.time.is_some_and(|t| iteration > 1 && start.elapsed() >= t) {
+            break;
+        }
+        let t0 = Instant::now();
+        integrator.begin_iteration(ctx, iteration);
+        let t1 = Instant::now();
+        let integ: &dyn Integrator = integrator;
+        let results: Vec<(Vec<glam::Vec3>, Counters)> = tiles
+            .par_iter()
+            .map(|t| {
+                let mut counters = Counters::default();
+                let mut out = Vec::with_capacity((t.x1 - t.x0) * (t.y1 - t.y0));
+                for y in t.y0..t.y1 {
+                    for x in t.x0..t.x1 {
+                        let mut sampler =
+                            Sampler::new(ctx.seed, iteration, Domain::Camera, (y * w + x) as u64);
+                        let film_pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                        let ray = camera.generate_ray(film_pos);
+                        out.push(integ.radiance(ctx, ray, &mut sampler, &mut counters));
+                    }
+                }
+                (out, counters)
+            })
+            .collect();
+        for (tile, (values, counters)) in tiles.iter().zip(results) {
+            stats.counters += counters;
+            let mut k = 0;
+            for y in tile.y0..tile.y1 {
+                for x in tile.x0..tile.x1 {
+                    let v = values[k];
+                    k += 1;
+                    if v.is_finite() {
+                        film.add(y * w + x, v);
+                    } else {
+                        stats.dropped += 1;
+                        stats.first_dropped.get_or_insert((x, y, iteration));
+                    }
+                }
+            }
+        }
+        film.end_iteration();
+        stats.iterations = iteration;
+        stats.prepare_time += t1 - t0;
+        stats.pixel_time += t1.elapsed();
+        stats.elapsed = start.elapsed();
+        update_progress(&bar, settings, &stats);
+        if on_iteration(&film, &stats) == Control::Stop {
+            break;
+        }
+    }
+    stats.elapsed = start.elapsed();
+    bar.finish_and_clear();
+    (film, stats)
+}
+
+fn progress_bar(settings: &RenderSettings) -> ProgressBar {
+    if !settings.progress {
+        return ProgressBar::hidden();
+    }
+    let (len, unit) = match (settings.budget.iterations, settings.budget.time) {
+        (Some(n), _) => (n, "it"),
+        (None, Some(t)) => (t.as_millis() as u64, "ms"),
+        (None, None) => (0, "it"),
+    };
+    let bar = ProgressBar::new(len);
+    let template = format!("{{elapsed_precise}} [{{bar:40.cyan/blue}}] {{pos}}/{{len}} {unit}  {{msg}}");
+    if let Ok(style) = ProgressStyle::with_template(&template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+fn update_progress(bar: &ProgressBar, settings: &RenderSettings, stats: &RenderStats) {
+    let secs = stats.elapsed.as_secs_f64().max(1e-9);
+    match settings.budget.iterations {
+        Some(_) => bar.set_position(stats.iterations),
+        None => bar.set_position(stats.elapsed.as_millis() as u64),
+    }
+    bar.set_message(format!(
+        "{} it, {:.2} it/s, {:.1} Mrays/s",
+        stats.iterations,
+        stats.iterations as f64 / secs,
+        stats.rays_per_second() / 1e6
+    ));
+}

@@ -1,0 +1,8 @@
+//! The progressive driver shared by every method: iterations of one sample per pixel, a
+//! running mean, budgets, tiles over rayon, deterministic sampling.
+
+mod driver;
+mod film;
+
+pub use driver::{Budget, Control, RenderSettings, RenderStats, render};
+pub use film::Film;
