@@ -1,0 +1,172 @@
+//! Helpers shared by the integration tests: scenes built in code, in-process renders, and the
+//! location of the optional `../shared` material.
+#![allow(dead_code)]
+
+use glam::Vec3;
+use std::path::PathBuf;
+
+use pir::accel::{Accelerator, Bvh};
+use pir::geometry::Aabb;
+use pir::image::RgbImage;
+use pir::integrator::{Integrator, RenderContext};
+use pir::light::Emitters;
+use pir::material::{Bsdf, Material};
+use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render};
+use pir::scene::{Camera, RenderDefaults, Scene};
+
+/// `../shared` beside the checkout, when present.
+pub fn shared_dir() -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared");
+    p.is_dir().then_some(p)
+}
+
+/// The inside of the cube [-1, 1]³, every face facing inwards, all of one material; the
+/// camera sits at the centre looking down −z.
+pub fn closed_cube(material: Material) -> Scene {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    // For each axis and sign, a face at coordinate `sign` whose normal points to −sign.
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let corner = |a: f32, b: f32| {
+                let mut p = [0.0f32; 3];
+                p[axis] = sign;
+                p[u] = a;
+                p[v] = b;
+                Vec3::from(p)
+            };
+            let base = positions.len() as u32;
+            positions.extend([corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]);
+            let inward = {
+                let mut n = [0.0f32; 3];
+                n[axis] = -sign;
+                Vec3::from(n)
+            };
+            let (a, b, c) = (positions[base as usize], positions[base as usize + 1], positions[base as usize + 2]);
+            if (b - a).cross(c - a).dot(inward) > 0.0 {
+                indices.push([base, base + 1, base + 2]);
+                indices.push([base, base + 2, base + 3]);
+            } else {
+                indices.push([base, base + 2, base + 1]);
+                indices.push([base, base + 3, base + 2]);
+            }
+        }
+    }
+    let n = indices.len();
+    Scene {
+        path: PathBuf::from("closed-cube"),
+        camera: Camera {
+            eye: Vec3::ZERO,
+            target: Vec3::new(0.0, 0.0, -1.0),
+            up: Vec3::Y,
+            fov_deg: 60.0,
+            width: 16,
+            height: 16,
+        },
+        render: RenderDefaults::default(),
+        normals: vec![Vec3::ZERO; positions.len()],
+        bounds: Aabb::from_points(&positions),
+        positions,
+        indices,
+        tri_material: vec![0; n],
+        materials: vec![material],
+        degenerate_dropped: 0,
+    }
+}
+
+pub fn diffuse(albedo: f32, emission: f32) -> Material {
+    Material {
+        name: "m".into(),
+        bsdf: Bsdf::Diffuse { albedo: Vec3::splat(albedo) },
+        emission: Vec3::splat(emission),
+    }
+}
+
+/// A finished in-process render.
+pub struct Rendered {
+    pub film: Film,
+    pub stats: RenderStats,
+    /// Per-channel image mean of every iteration's samples (iteration i at index i − 1).
+    pub iteration_means: Vec<[f64; 3]>,
+    /// Images after the iterations asked for in `snapshot_at`.
+    pub snapshots: Vec<(u64, RgbImage)>,
+}
+
+impl Rendered {
+    pub fn image(&self) -> RgbImage {
+        self.film.image()
+    }
+
+    /// Mean over iterations of the per-iteration channel means, and its standard error.
+    pub fn mean_and_stderr(&self) -> ([f64; 3], [f64; 3]) {
+        let k = self.iteration_means.len() as f64;
+        let mut mean = [0.0; 3];
+        let mut se = [0.0; 3];
+        for c in 0..3 {
+            mean[c] = self.iteration_means.iter().map(|m| m[c]).sum::<f64>() / k;
+            let var = self.iteration_means.iter().map(|m| (m[c] - mean[c]).powi(2)).sum::<f64>() / (k - 1.0);
+            se[c] = (var / k).sqrt();
+        }
+        (mean, se)
+    }
+}
+
+/// Renders `iterations` iterations of `scene` at `width`×`height` on a pool of `threads`.
+pub fn render_scene(
+    scene: &Scene,
+    integrator: &mut dyn Integrator,
+    width: usize,
+    height: usize,
+    iterations: u64,
+    seed: u64,
+    max_depth: u32,
+    threads: usize,
+) -> Rendered {
+    let accel = Bvh::new(&scene.positions, &scene.indices);
+    render_with(scene, &accel, integrator, width, height, iterations, seed, max_depth, threads, &[])
+}
+
+#[allow(clippy::too_many_arguments)]
+pub fn render_with(
+    scene: &Scene,
+    accel: &dyn Accelerator,
+    integrator: &mut dyn Integrator,
+    width: usize,
+    height: usize,
+    iterations: u64,
+    seed: u64,
+    max_depth: u32,
+    threads: usize,
+    snapshot_at: &[u64],
+) -> Rendered {
+    let emitters = Emitters::new(scene).expect("scene has emitters");
+    let ctx = RenderContext { scene, accel, emitters: &emitters, max_depth, seed };
+    let settings = RenderSettings {
+        width,
+        height,
+        budget: Budget { iterations: Some(iterations), time: None },
+        tile_size: 16,
+        progress: false,
+    };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let mut iteration_means = Vec::new();
+    let mut snapshots = Vec::new();
+    let mut prev = vec![glam::DVec3::ZERO; width * height];
+    let npix = (width * height) as f64;
+    let (film, stats) = pool.install(|| {
+        render(&ctx, integrator, &settings, |film, _| {
+            let mut m = glam::DVec3::ZERO;
+            for (s, p) in film.sums().iter().zip(prev.iter_mut()) {
+                m += *s - *p;
+                *p = *s;
+            }
+            iteration_means.push([m.x / npix, m.y / npix, m.z / npix]);
+            if snapshot_at.contains(&film.iterations()) {
+                snapshots.push((film.iterations(), film.image()));
+            }
+            Control::Continue
+        })
+    });
+    Rendered { film, stats, iteration_means, snapshots }
+}
