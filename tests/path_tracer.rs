@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{closed_cube, diffuse, render_scene};
+use common::{Job, closed_cube, diffuse};
 use pir::integrator::PathTracer;
 
 /// Furnace test: inside a closed cube whose walls all emit Le and reflect diffusely with
@@ -19,7 +19,7 @@ fn furnace_matches_the_closed_form_for_every_max_depth() {
     let scene = closed_cube(diffuse(a as f32, le as f32));
     for depth in [1u32, 2, 3, 8] {
         let expected: f64 = (0..depth).map(|k| le * a.powi(k as i32)).sum();
-        let r = render_scene(&scene, &mut PathTracer, 16, 16, 64, 1, depth, 2);
+        let r = Job { iterations: 64, max_depth: depth, ..Job::default() }.run(&scene, &mut PathTracer);
         assert_eq!(r.stats.dropped, 0);
         let (mean, se) = r.mean_and_stderr();
         for c in 0..3 {
@@ -38,7 +38,8 @@ fn furnace_matches_the_closed_form_for_every_max_depth() {
 #[test]
 fn max_depth_one_sees_emission_only() {
     let scene = closed_cube(diffuse(0.9, 2.0));
-    let r = render_scene(&scene, &mut PathTracer, 8, 8, 4, 3, 1, 1);
+    let r = Job { width: 8, height: 8, iterations: 4, max_depth: 1, threads: 1, ..Job::default() }
+        .run(&scene, &mut PathTracer);
     for p in &r.image().pixels {
         assert!((*p - glam::Vec3::splat(2.0)).abs().max_element() < 1e-6, "{p}");
     }
@@ -48,9 +49,11 @@ fn max_depth_one_sees_emission_only() {
 #[test]
 fn same_seed_same_image_for_any_thread_count() {
     let scene = closed_cube(diffuse(0.7, 1.0));
-    let a = render_scene(&scene, &mut PathTracer, 24, 20, 3, 9, 5, 1).image();
-    let b = render_scene(&scene, &mut PathTracer, 24, 20, 3, 9, 5, 2).image();
+    let job =
+        Job { width: 24, height: 20, iterations: 3, seed: 9, max_depth: 5, threads: 1, ..Job::default() };
+    let a = job.run(&scene, &mut PathTracer).image();
+    let b = Job { threads: 2, ..job.clone() }.run(&scene, &mut PathTracer).image();
     assert_eq!(a, b);
-    let c = render_scene(&scene, &mut PathTracer, 24, 20, 3, 10, 5, 2).image();
+    let c = Job { seed: 10, ..job }.run(&scene, &mut PathTracer).image();
     assert_ne!(a, c);
 }

@@ -21,7 +21,7 @@ mod common;
 
 use glam::DVec3;
 
-use common::{render_with, shared_dir};
+use common::{Job, shared_dir};
 use pir::accel::Bvh;
 use pir::image::{RgbImage, metrics, read_exr};
 use pir::integrator::PathTracer;
@@ -56,18 +56,16 @@ fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
     let accel = Bvh::new(&scene.positions, &scene.indices);
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     let quarter = spp / 4;
-    let r = render_with(
-        &scene,
-        &accel,
-        &mut PathTracer,
-        w,
-        h,
-        spp,
-        2024,
-        scene.render.max_depth,
+    let job = Job {
+        width: w,
+        height: h,
+        iterations: spp,
+        seed: 2024,
+        max_depth: scene.render.max_depth,
         threads,
-        &[quarter],
-    );
+        snapshot_at: vec![quarter],
+    };
+    let r = job.run_with(&scene, &accel, &mut PathTracer);
     assert_eq!(r.stats.dropped, 0, "{scene_rel}: NaN/Inf samples");
 
     // ---- 1. Image means.
@@ -104,7 +102,9 @@ fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
     let (_, z_full) = relmse_z(&full, &var, &reference, spp as f64);
     // The variance estimate from all n samples serves the n/4 snapshot too (same σⱼ²).
     let (_, z_quarter) = relmse_z(snap, &var, &reference, quarter as f64);
-    eprintln!("{scene_rel}: relMSE-vs-variance z = {z_full:+.2} at {spp} spp, {z_quarter:+.2} at {quarter} spp");
+    eprintln!(
+        "{scene_rel}: relMSE-vs-variance z = {z_full:+.2} at {spp} spp, {z_quarter:+.2} at {quarter} spp"
+    );
     assert!(z_full.abs() < Z, "{scene_rel}: relMSE at {spp} spp is not V/n (z = {z_full:.2})");
     assert!(z_quarter.abs() < Z, "{scene_rel}: relMSE at {quarter} spp is not V/n (z = {z_quarter:.2})");
 }

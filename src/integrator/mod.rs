@@ -6,9 +6,13 @@
 //! [`crate::render`] owns pixels, iterations and threads.
 
 mod direct;
+mod instant_radiosity;
 mod path;
+pub mod schedule;
+pub mod vpl;
 
 pub use direct::{occluded, power_heuristic, sample_emitters, shadow_ray};
+pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity};
 pub use path::PathTracer;
 
 use glam::Vec3;
@@ -36,12 +40,18 @@ pub struct Counters {
     pub rays: u64,
     /// Occlusion queries.
     pub shadow_rays: u64,
+    /// Closest-hit queries of light paths (VPL tracing).
+    pub light_rays: u64,
+    /// Virtual lights created.
+    pub vpls: u64,
 }
 
 impl std::ops::AddAssign for Counters {
     fn add_assign(&mut self, o: Counters) {
         self.rays += o.rays;
         self.shadow_rays += o.shadow_rays;
+        self.light_rays += o.light_rays;
+        self.vpls += o.vpls;
     }
 }
 
@@ -55,8 +65,9 @@ pub trait Integrator: Send + Sync {
         Vec::new()
     }
 
-    /// Work done once per iteration before any pixel (iterations count from 1).
-    fn begin_iteration(&mut self, _ctx: &RenderContext, _iteration: u64) {}
+    /// Work done once per iteration before any pixel (iterations count from 1), counting
+    /// what it traces in `counters`.
+    fn begin_iteration(&mut self, _ctx: &RenderContext, _iteration: u64, _counters: &mut Counters) {}
 
     /// Radiance arriving along the camera ray `ray` (unit direction).
     fn radiance(&self, ctx: &RenderContext, ray: Ray, sampler: &mut Sampler, counters: &mut Counters)

@@ -60,7 +60,13 @@ pub struct RenderStats {
 
 impl RenderStats {
     pub fn rays_per_second(&self) -> f64 {
-        (self.counters.rays + self.counters.shadow_rays) as f64 / self.elapsed.as_secs_f64().max(1e-9)
+        let c = &self.counters;
+        (c.rays + c.shadow_rays + c.light_rays) as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+
+    /// Occlusion queries per second of pixel time (the gather's rate for VPL methods).
+    pub fn shadow_rays_per_second(&self) -> f64 {
+        self.counters.shadow_rays as f64 / self.pixel_time.as_secs_f64().max(1e-9)
     }
 }
 
@@ -106,7 +112,7 @@ pub fn render(
             break;
         }
         let t0 = Instant::now();
-        integrator.begin_iteration(ctx, iteration);
+        integrator.begin_iteration(ctx, iteration, &mut stats.counters);
         let t1 = Instant::now();
         let integ: &dyn Integrator = integrator;
         let results: Vec<(Vec<glam::Vec3>, Counters)> = tiles

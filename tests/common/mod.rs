@@ -43,7 +43,8 @@ pub fn closed_cube(material: Material) -> Scene {
                 n[axis] = -sign;
                 Vec3::from(n)
             };
-            let (a, b, c) = (positions[base as usize], positions[base as usize + 1], positions[base as usize + 2]);
+            let (a, b, c) =
+                (positions[base as usize], positions[base as usize + 1], positions[base as usize + 2]);
             if (b - a).cross(c - a).dot(inward) > 0.0 {
                 indices.push([base, base + 1, base + 2]);
                 indices.push([base, base + 2, base + 3]);
@@ -112,61 +113,76 @@ impl Rendered {
     }
 }
 
-/// Renders `iterations` iterations of `scene` at `width`×`height` on a pool of `threads`.
-pub fn render_scene(
-    scene: &Scene,
-    integrator: &mut dyn Integrator,
-    width: usize,
-    height: usize,
-    iterations: u64,
-    seed: u64,
-    max_depth: u32,
-    threads: usize,
-) -> Rendered {
-    let accel = Bvh::new(&scene.positions, &scene.indices);
-    render_with(scene, &accel, integrator, width, height, iterations, seed, max_depth, threads, &[])
+/// An in-process render: image size, iterations, seed, path length, threads, and the
+/// iterations after which to keep a snapshot of the image.
+#[derive(Clone, Debug)]
+pub struct Job {
+    pub width: usize,
+    pub height: usize,
+    pub iterations: u64,
+    pub seed: u64,
+    pub max_depth: u32,
+    pub threads: usize,
+    pub snapshot_at: Vec<u64>,
 }
 
-#[allow(clippy::too_many_arguments)]
-pub fn render_with(
-    scene: &Scene,
-    accel: &dyn Accelerator,
-    integrator: &mut dyn Integrator,
-    width: usize,
-    height: usize,
-    iterations: u64,
-    seed: u64,
-    max_depth: u32,
-    threads: usize,
-    snapshot_at: &[u64],
-) -> Rendered {
-    let emitters = Emitters::new(scene).expect("scene has emitters");
-    let ctx = RenderContext { scene, accel, emitters: &emitters, max_depth, seed };
-    let settings = RenderSettings {
-        width,
-        height,
-        budget: Budget { iterations: Some(iterations), time: None },
-        tile_size: 16,
-        progress: false,
-    };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    let mut iteration_means = Vec::new();
-    let mut snapshots = Vec::new();
-    let mut prev = vec![glam::DVec3::ZERO; width * height];
-    let npix = (width * height) as f64;
-    let (film, stats) = pool.install(|| {
-        render(&ctx, integrator, &settings, |film, _| {
-            let mut m = glam::DVec3::ZERO;
-            for (s, p) in film.sums().iter().zip(prev.iter_mut()) {
-                m += *s - *p;
-                *p = *s;
-            }
-            iteration_means.push([m.x / npix, m.y / npix, m.z / npix]);
-            if snapshot_at.contains(&film.iterations()) {
-                snapshots.push((film.iterations(), film.image()));
-            }
-            Control::Continue
-        })
-    });
-    Rendered { film, stats, iteration_means, snapshots }
+impl Default for Job {
+    fn default() -> Self {
+        Job {
+            width: 16,
+            height: 16,
+            iterations: 16,
+            seed: 1,
+            max_depth: 8,
+            threads: 2,
+            snapshot_at: Vec::new(),
+        }
+    }
+}
+
+impl Job {
+    /// Renders `scene` with pir's BVH.
+    pub fn run(&self, scene: &Scene, integrator: &mut dyn Integrator) -> Rendered {
+        let accel = Bvh::new(&scene.positions, &scene.indices);
+        self.run_with(scene, &accel, integrator)
+    }
+
+    pub fn run_with(
+        &self,
+        scene: &Scene,
+        accel: &dyn Accelerator,
+        integrator: &mut dyn Integrator,
+    ) -> Rendered {
+        let (width, height) = (self.width, self.height);
+        let emitters = Emitters::new(scene).expect("scene has emitters");
+        let ctx =
+            RenderContext { scene, accel, emitters: &emitters, max_depth: self.max_depth, seed: self.seed };
+        let settings = RenderSettings {
+            width,
+            height,
+            budget: Budget { iterations: Some(self.iterations), time: None },
+            tile_size: 16,
+            progress: false,
+        };
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(self.threads).build().unwrap();
+        let mut iteration_means = Vec::new();
+        let mut snapshots = Vec::new();
+        let mut prev = vec![glam::DVec3::ZERO; width * height];
+        let npix = (width * height) as f64;
+        let (film, stats) = pool.install(|| {
+            render(&ctx, integrator, &settings, |film, _| {
+                let mut m = glam::DVec3::ZERO;
+                for (s, p) in film.sums().iter().zip(prev.iter_mut()) {
+                    m += *s - *p;
+                    *p = *s;
+                }
+                iteration_means.push([m.x / npix, m.y / npix, m.z / npix]);
+                if self.snapshot_at.contains(&film.iterations()) {
+                    snapshots.push((film.iterations(), film.image()));
+                }
+                Control::Continue
+            })
+        });
+        Rendered { film, stats, iteration_means, snapshots }
+    }
 }

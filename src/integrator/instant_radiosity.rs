@@ -1,0 +1,284 @@
+//! Instant radiosity with virtual point lights, plain, clamped and progressively clamped.
+//!
+//! | `--method` | geometry term | reference |
+//! |---|---|---|
+//! | `ir` | G unclamped: unbiased, spiky near creases and on glossy surfaces | Keller 1997 |
+//! | `ir-clamp` | G' = min(G, b) with constant b: biased (too dark) for ever | Keller; pbrt-v2 `igi` |
+//! | `pir-clamp` | G' = min(G, b_i), b_i = b_1 · i^α: consistent | the thesis, section 4.2.1 |
+//!
+//! Parameters (flags of `pir render`):
+//! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]). Each leaves a VPL at
+//!   every non-delta vertex.
+//! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default:
+//!   100 / diagonal², the G of two facing surfaces at a tenth of the scene's diagonal, so the
+//!   default needs no tuning whatever the scene's units.
+//! - `--alpha A` the schedule exponent of `pir-clamp` (default 0.6, the thesis' best).
+//!
+//! # Path space
+//! Every method must render exactly the path space of `pt` for the same `max_depth`. The
+//! camera path follows delta bounces to its first non-delta vertex x (depth d segments). Paths
+//! through x split into disjoint classes by their next vertex:
+//! - an emitter: direct light, by light sampling and BSDF sampling with MIS (the BSDF-sampled
+//!   ray's emission is added with its MIS weight);
+//! - a non-delta surface point y: a VPL connection x–y, where y is a VPL of s segments from its
+//!   emitter, admitted when d + 1 + s ≤ max_depth;
+//! - a delta surface (mirror, glass): the BSDF-sampled ray continues through the delta chain
+//!   and the next non-delta vertex gathers in turn (plain VPL gathering misses these paths,
+//!   e.g. a diffuse floor lit by a wall seen in a mirror).
+//!
+//! # Gathering
+//! L(x) = Σ_j Φ_j f_j(ω_j, y_j→x) cos θ_j · f_x(x→y_j, ω_o) cos θ_x / ‖y_j − x‖² · V(x, y_j),
+//! both BSDFs evaluated in full (a glossy VPL emits its lobe), with Φ_j already divided by the
+//! number of light paths. Shadow rays are issued in batches through the accelerator.
+
+use glam::Vec3;
+
+use super::direct::{emission_weight, sample_emitters, shadow_ray};
+use super::schedule::{DEFAULT_ALPHA, clamp_bound};
+use super::vpl::{Vpl, trace_vpls};
+use super::{Counters, Integrator, RenderContext};
+use crate::geometry::{Ray, offset_origin};
+use crate::light::emitted;
+use crate::material::{Bsdf, LocalGeometry, TransportMode};
+use crate::sampling::Sampler;
+use crate::scene::SurfacePoint;
+
+/// Light paths per iteration when `--vpls` is not given.
+pub const DEFAULT_PATHS: usize = 256;
+
+/// Shadow rays per batch handed to the accelerator.
+const BATCH: usize = 64;
+
+/// How the geometry term is bounded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Clamping {
+    /// `ir`: no bound.
+    None,
+    /// `ir-clamp`: a constant bound b.
+    Constant { b: f32 },
+    /// `pir-clamp`: b_i = b_1 · i^α.
+    Progressive { b1: f32, alpha: f32 },
+}
+
+impl Clamping {
+    /// The default b (or b_1) for a scene of the given diagonal: 100 / diagonal².
+    pub fn default_bound(scene_diagonal: f32) -> f32 {
+        100.0 / (scene_diagonal * scene_diagonal).max(1e-12)
+    }
+
+    /// Progressive clamping with the default α.
+    pub fn progressive(b1: f32) -> Self {
+        Clamping::Progressive { b1, alpha: DEFAULT_ALPHA }
+    }
+
+    fn bound(&self, iteration: u64) -> f32 {
+        match *self {
+            Clamping::None => f32::INFINITY,
+            Clamping::Constant { b } => b,
+            Clamping::Progressive { b1, alpha } => clamp_bound(b1, alpha, iteration),
+        }
+    }
+}
+
+pub struct InstantRadiosity {
+    clamping: Clamping,
+    paths: usize,
+    /// This iteration's VPLs and geometry-term bound.
+    vpls: Vec<Vpl>,
+    bound: f32,
+}
+
+impl InstantRadiosity {
+    pub fn new(clamping: Clamping, paths: usize) -> Self {
+        InstantRadiosity { clamping, paths, vpls: Vec::new(), bound: f32::INFINITY }
+    }
+
+    /// This iteration's VPLs.
+    pub fn vpls(&self) -> &[Vpl] {
+        &self.vpls
+    }
+
+    /// Indirect light at x from every VPL of at most `max_vpl_depth` segments.
+    fn gather(
+        &self,
+        ctx: &RenderContext,
+        sp: &SurfacePoint,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        max_vpl_depth: u32,
+        counters: &mut Counters,
+    ) -> Vec3 {
+        let gx = LocalGeometry { ng: sp.ng, frame: sp.frame };
+        let mut total = Vec3::ZERO;
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); BATCH];
+        let mut contrib = [Vec3::ZERO; BATCH];
+        let mut occluded = [false; BATCH];
+        let mut n = 0;
+        let mut flush = |n: usize, rays: &[Ray; BATCH], contrib: &[Vec3; BATCH], counters: &mut Counters| {
+            counters.shadow_rays += n as u64;
+            ctx.accel.occluded_batch(&rays[..n], &mut occluded[..n]);
+            let mut sum = Vec3::ZERO;
+            for k in 0..n {
+                if !occluded[k] {
+                    sum += contrib[k];
+                }
+            }
+            sum
+        };
+        for vpl in &self.vpls {
+            if vpl.depth > max_vpl_depth {
+                continue;
+            }
+            let d = vpl.p - sp.p;
+            let dist2 = d.length_squared();
+            if dist2 <= 0.0 {
+                continue;
+            }
+            let w = d / dist2.sqrt();
+            let fx = bsdf.eval(&gx, wo, w, TransportMode::Radiance);
+            if fx == Vec3::ZERO {
+                continue;
+            }
+            let fy = ctx.scene.materials[vpl.material as usize].bsdf.eval(
+                &vpl.geometry(),
+                vpl.w_in,
+                -w,
+                TransportMode::Importance,
+            );
+            if fy == Vec3::ZERO {
+                continue;
+            }
+            let mut c = vpl.flux * fx * fy / dist2;
+            if self.bound.is_finite() {
+                let g = sp.frame.n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
+                if g > self.bound {
+                    c *= self.bound / g;
+                }
+            }
+            rays[n] = shadow_ray(sp.p, sp.ng, vpl.p, vpl.ng);
+            contrib[n] = c;
+            n += 1;
+            if n == BATCH {
+                total += flush(n, &rays, &contrib, counters);
+                n = 0;
+            }
+        }
+        if n > 0 {
+            total += flush(n, &rays, &contrib, counters);
+        }
+        total
+    }
+}
+
+impl Integrator for InstantRadiosity {
+    fn name(&self) -> &'static str {
+        match self.clamping {
+            Clamping::None => "ir",
+            Clamping::Constant { .. } => "ir-clamp",
+            Clamping::Progressive { .. } => "pir-clamp",
+        }
+    }
+
+    fn parameters(&self) -> Vec<(String, String)> {
+        let mut p = vec![("vpls".to_string(), self.paths.to_string())];
+        match self.clamping {
+            Clamping::None => {}
+            Clamping::Constant { b } => p.push(("clamp".into(), b.to_string())),
+            Clamping::Progressive { b1, alpha } => {
+                p.push(("clamp".into(), b1.to_string()));
+                p.push(("alpha".into(), alpha.to_string()));
+            }
+        }
+        p
+    }
+
+    fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
+        // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
+        let max_vpl_depth = ctx.max_depth.saturating_sub(2);
+        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, max_vpl_depth);
+        counters.light_rays += rays;
+        counters.vpls += vpls.len() as u64;
+        self.vpls = vpls;
+        self.bound = self.clamping.bound(iteration);
+    }
+
+    fn radiance(
+        &self,
+        ctx: &RenderContext,
+        ray: Ray,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Vec3 {
+        let mut radiance = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        let mut prev_delta = true;
+        let mut prev_pdf = 0.0f32;
+        let mut prev_p = ray.origin;
+        let mut ray = ray;
+        let mut depth = 0u32;
+        counters.rays += 1;
+        let Some(mut hit) = ctx.accel.intersect(&ray) else { return radiance };
+        loop {
+            depth += 1;
+            let sp = ctx.scene.surface_of_hit(&ray, &hit);
+            let wo = -ray.dir.normalize();
+            let material = &ctx.scene.materials[sp.material as usize];
+            if material.is_emitter() {
+                let le = emitted(material.emission, sp.ng, wo);
+                if le != Vec3::ZERO {
+                    let w = if prev_delta { 1.0 } else { emission_weight(ctx, prev_p, prev_pdf, &sp, wo) };
+                    radiance += beta * le * w;
+                }
+            }
+            if depth >= ctx.max_depth {
+                break;
+            }
+            let bsdf = &material.bsdf;
+            let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
+            if !bsdf.is_delta() {
+                // ---- Direct light (light sampling half of the MIS pair) and VPLs.
+                radiance += beta * sample_emitters(ctx, &sp, bsdf, wo, sampler, counters);
+                radiance += beta * self.gather(ctx, &sp, bsdf, wo, ctx.max_depth - depth - 1, counters);
+            }
+            // ---- BSDF sampling: the MIS half of direct light, or a delta bounce.
+            let u_lobe = sampler.next_f32();
+            let u = sampler.next_2d();
+            let Some(s) = bsdf.sample(&g, wo, u_lobe, u, TransportMode::Radiance) else { break };
+            beta *= s.weight;
+            if beta.max_element() <= 0.0 || !beta.is_finite() {
+                break;
+            }
+            let from_delta = bsdf.is_delta();
+            prev_delta = s.delta;
+            prev_pdf = s.pdf;
+            prev_p = sp.p;
+            ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+            counters.rays += 1;
+            let Some(next) = ctx.accel.intersect(&ray) else { break };
+            hit = next;
+            if !from_delta {
+                // From a non-delta vertex only the class "next vertex is delta" continues; a
+                // non-delta next vertex contributes its emission (direct light) and stops,
+                // since the VPLs carry everything beyond it.
+                let next_material = ctx.scene.material_of(hit.prim);
+                if !next_material.bsdf.is_delta() {
+                    if next_material.is_emitter() {
+                        let np = ctx.scene.surface_of_hit(&ray, &hit);
+                        let nwo = -ray.dir.normalize();
+                        let le = emitted(next_material.emission, np.ng, nwo);
+                        if le != Vec3::ZERO {
+                            let w = if prev_delta {
+                                1.0
+                            } else {
+                                emission_weight(ctx, prev_p, prev_pdf, &np, nwo)
+                            };
+                            radiance += beta * le * w;
+                        }
+                    }
+                    break;
+                }
+            }
+        }
+        radiance
+    }
+}

@@ -1,0 +1,135 @@
+//! Virtual point lights: light tracing (the first phase of instant radiosity, Keller 1997).
+//!
+//! Each iteration traces N light paths. A path starts on an emitter triangle chosen by power
+//! at a uniform point, leaves in a cosine-distributed direction, and at every hit samples the
+//! BSDF in importance mode (with the adjoint shading-normal correction), continuing under
+//! Russian roulette. Every non-delta vertex gets a VPL that stores what its own BSDF needs
+//! later (position, normals, incoming direction, material) and the path's throughput Φ
+//! divided by N, the number of light PATHS traced (not of VPLs). Delta vertices (mirror,
+//! glass) get none, but the path continues through them: that is how caustics reach diffuse
+//! surfaces.
+//!
+//! Path `k` of iteration `i` draws its numbers from `Sampler::new(seed, i, LightPath, k)`,
+//! and paths are traced in parallel but collected in path order, so the VPL set is a function
+//! of the seed alone.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::RenderContext;
+use crate::geometry::{Frame, Ray, offset_origin};
+use crate::material::{LocalGeometry, TransportMode};
+use crate::sampling::{Domain, Sampler, cosine_hemisphere};
+
+/// A virtual point light at a non-delta vertex of a light path.
+#[derive(Clone, Copy, Debug)]
+pub struct Vpl {
+    pub p: Vec3,
+    pub ng: Vec3,
+    /// Shading frame at the vertex.
+    pub frame: Frame,
+    /// Unit direction towards the previous vertex of the light path (where light came from).
+    pub w_in: Vec3,
+    pub material: u32,
+    /// Incident flux Φ / N (already divided by the number of paths).
+    pub flux: Vec3,
+    /// Segments from the emitter to this vertex (1 for a vertex lit directly by an emitter).
+    pub depth: u32,
+}
+
+impl Vpl {
+    pub fn geometry(&self) -> LocalGeometry {
+        LocalGeometry { ng: self.ng, frame: self.frame }
+    }
+}
+
+/// Number of segments after which light paths use Russian roulette.
+const RR_DEPTH: u32 = 3;
+
+/// Traces `paths` light paths for `iteration` and returns their VPLs, in path order. Only
+/// vertices within `max_vpl_depth` segments of the emitter are traced.
+pub fn trace_vpls(ctx: &RenderContext, iteration: u64, paths: usize, max_vpl_depth: u32) -> (Vec<Vpl>, u64) {
+    const CHUNK: usize = 64;
+    let chunks: Vec<(Vec<Vpl>, u64)> = (0..paths.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut vpls = Vec::new();
+            let mut rays = 0u64;
+            for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
+                let mut sampler = Sampler::new(ctx.seed, iteration, Domain::LightPath, k as u64);
+                rays += trace_path(ctx, &mut sampler, paths as f32, max_vpl_depth, &mut vpls);
+            }
+            (vpls, rays)
+        })
+        .collect();
+    let rays = chunks.iter().map(|c| c.1).sum();
+    (chunks.into_iter().flat_map(|c| c.0).collect(), rays)
+}
+
+/// Traces one light path, appending its VPLs; returns the number of rays traced.
+fn trace_path(
+    ctx: &RenderContext,
+    sampler: &mut Sampler,
+    n_paths: f32,
+    max_depth: u32,
+    out: &mut Vec<Vpl>,
+) -> u64 {
+    if max_depth == 0 {
+        return 0;
+    }
+    let u_select = sampler.next_f32();
+    let u_point = sampler.next_2d();
+    let es = ctx.emitters.sample(ctx.scene, u_select, u_point);
+    let u_dir = sampler.next_2d();
+    // Cosine-distributed direction about the emitter's front (geometric) normal:
+    // throughput Le · cos / (p_A · cos / π) = Le · π / p_A.
+    let local = cosine_hemisphere(u_dir);
+    if local.z <= 0.0 {
+        return 0;
+    }
+    let dir = Frame::from_normal(es.point.ng).to_world(local);
+    let mut beta = es.radiance * (std::f32::consts::PI / es.pdf_area) / n_paths;
+    let mut ray = Ray::new(offset_origin(es.point.p, es.point.ng, dir), dir);
+    let beta0 = beta.max_element();
+    let mut rays = 0;
+    for depth in 1..=max_depth {
+        rays += 1;
+        let Some(hit) = ctx.accel.intersect(&ray) else { break };
+        let sp = ctx.scene.surface_of_hit(&ray, &hit);
+        let w_in = -ray.dir.normalize();
+        let bsdf = &ctx.scene.materials[sp.material as usize].bsdf;
+        if !bsdf.is_delta() {
+            out.push(Vpl {
+                p: sp.p,
+                ng: sp.ng,
+                frame: sp.frame,
+                w_in,
+                material: sp.material,
+                flux: beta,
+                depth,
+            });
+        }
+        if depth == max_depth {
+            break;
+        }
+        let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
+        let u_lobe = sampler.next_f32();
+        let u = sampler.next_2d();
+        let Some(s) = bsdf.sample(&g, w_in, u_lobe, u, TransportMode::Importance) else { break };
+        beta *= s.weight;
+        if beta.max_element() <= 0.0 || !beta.is_finite() {
+            break;
+        }
+        if depth >= RR_DEPTH {
+            // Survival by the throughput relative to the path's start (importance transport
+            // has no 1/η² radiance scaling to compensate).
+            let q = (beta.max_element() / beta0).min(0.95);
+            if sampler.next_f32() >= q {
+                break;
+            }
+            beta /= q;
+        }
+        ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    }
+    rays
+}
