@@ -17,7 +17,7 @@ fn plain_vpls_are_unbiased_in_the_furnace_for_every_max_depth() {
     let scene = closed_cube(diffuse(a as f32, le as f32));
     for depth in [2u32, 3, 4, 8] {
         let expected: f64 = (0..depth).map(|k| le * a.powi(k as i32)).sum();
-        let mut ir = InstantRadiosity::new(Clamping::None, 64);
+        let mut ir = InstantRadiosity::points(Clamping::None, 64);
         let r = Job { iterations: 48, max_depth: depth, ..Job::default() }.run(&scene, &mut ir);
         let (mean, se) = r.mean_and_stderr();
         let z = (mean[0] - expected) / se[0].max(1e-12);
@@ -40,14 +40,14 @@ fn constant_clamp_darkens_and_progressive_clamp_recovers() {
     // A harsh bound, so that the bias is large against the noise.
     let b = 0.5;
     let job = Job { iterations: 64, max_depth: depth, ..Job::default() };
-    let clamped = job.run(&scene, &mut InstantRadiosity::new(Clamping::Constant { b }, 64));
+    let clamped = job.run(&scene, &mut InstantRadiosity::points(Clamping::Constant { b }, 64));
     let (m_c, se_c) = clamped.mean_and_stderr();
     let z_c = (m_c[0] - expected) / se_c[0];
     eprintln!("ir-clamp b={b}: mean {:.5} expected {expected:.5} (z {z_c:+.1})", m_c[0]);
     assert!(z_c < -Z, "a constant clamp must darken: z = {z_c:.2}");
 
     let progressive =
-        job.run(&scene, &mut InstantRadiosity::new(Clamping::Progressive { b1: b, alpha: 0.6 }, 64));
+        job.run(&scene, &mut InstantRadiosity::points(Clamping::Progressive { b1: b, alpha: 0.6 }, 64));
     // Bias of the last quarter of the iterations (b_i is largest there).
     let late = &progressive.iteration_means[48..];
     let m_late = late.iter().map(|m| m[0]).sum::<f64>() / late.len() as f64;

@@ -8,7 +8,9 @@ use std::time::{Duration, Instant};
 use pir::accel::{Accelerator, BruteForce, Bvh};
 use pir::image::{write_exr, write_preview};
 use pir::integrator::schedule::DEFAULT_ALPHA;
-use pir::integrator::{Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, RenderContext};
+use pir::integrator::{
+    Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, Radius, RenderContext, VirtualLights,
+};
 use pir::light::Emitters;
 use pir::render::{Budget, Control, RenderSettings, render};
 
@@ -27,6 +29,10 @@ pub enum Method {
     IrClamp,
     /// Progressive clamping, b_i = b_1 · i^α (--clamp b_1, --alpha α): consistent.
     PirClamp,
+    /// Virtual spherical lights of constant radius (Hašan et al. 2009; --radius): biased.
+    Vsl,
+    /// Progressive VSLs, r_i = r_1 · i^((α−1)/2) (--radius r_1, --alpha α): consistent.
+    PirVsl,
 }
 
 /// Ray-query backends.
@@ -88,7 +94,12 @@ pub struct RenderArgs {
     /// 100 / scene diagonal², the G of facing surfaces a tenth of the scene apart].
     #[arg(long, value_name = "B")]
     pub clamp: Option<f32>,
-    /// pir-clamp: exponent α of the schedule b_i = b_1 · i^α, in (0, 1).
+    /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
+    /// [default: per light, 2 × the distance to its 10th nearest VPL].
+    #[arg(long, value_name = "R")]
+    pub radius: Option<f32>,
+    /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
+    /// r_i = r_1 · i^((α−1)/2), in (0, 1).
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA)]
     pub alpha: f32,
     /// Ray-query backend.
@@ -118,6 +129,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
         && !(b.is_finite() && b > 0.0)
     {
         bail!("--clamp {b}: must be a positive number");
+    }
+    if let Some(r) = a.radius
+        && !(r.is_finite() && r > 0.0)
+    {
+        bail!("--radius {r}: must be a positive number");
     }
     if !(a.alpha > 0.0 && a.alpha < 1.0) {
         bail!("--alpha {}: must lie strictly between 0 and 1", a.alpha);
@@ -155,10 +171,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let bound = a.clamp.unwrap_or_else(|| Clamping::default_bound(scene.bounds.diagonal()));
     let mut integrator: Box<dyn Integrator> = match a.method {
         Method::Pt => Box::new(PathTracer),
-        Method::Ir => Box::new(InstantRadiosity::new(Clamping::None, a.vpls)),
-        Method::IrClamp => Box::new(InstantRadiosity::new(Clamping::Constant { b: bound }, a.vpls)),
+        Method::Ir => Box::new(InstantRadiosity::points(Clamping::None, a.vpls)),
+        Method::IrClamp => Box::new(InstantRadiosity::points(Clamping::Constant { b: bound }, a.vpls)),
         Method::PirClamp => {
-            Box::new(InstantRadiosity::new(Clamping::Progressive { b1: bound, alpha: a.alpha }, a.vpls))
+            Box::new(InstantRadiosity::points(Clamping::Progressive { b1: bound, alpha: a.alpha }, a.vpls))
+        }
+        Method::Vsl | Method::PirVsl => {
+            let radius = a.radius.map_or(Radius::Density, Radius::Global);
+            let alpha = (a.method == Method::PirVsl).then_some(a.alpha);
+            Box::new(InstantRadiosity::new(VirtualLights::Spheres { radius, alpha }, a.vpls))
         }
     };
     let ctx = RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth, seed };

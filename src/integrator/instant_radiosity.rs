@@ -1,18 +1,26 @@
-//! Instant radiosity with virtual point lights, plain, clamped and progressively clamped.
+//! Instant radiosity: virtual point lights, plain, clamped and progressively clamped, and
+//! virtual spherical lights of constant or progressively shrinking radius.
 //!
-//! | `--method` | geometry term | reference |
-//! |---|---|---|
-//! | `ir` | G unclamped: unbiased, spiky near creases and on glossy surfaces | Keller 1997 |
-//! | `ir-clamp` | G' = min(G, b) with constant b: biased (too dark) for ever | Keller; pbrt-v2 `igi` |
-//! | `pir-clamp` | G' = min(G, b_i), b_i = b_1 · i^α: consistent | the thesis, section 4.2.1 |
+//! | `--method` | virtual light | bias | reference |
+//! |---|---|---|---|
+//! | `ir` | point, G unclamped | none, but spiky near creases and on glossy surfaces | Keller 1997 |
+//! | `ir-clamp` | point, G' = min(G, b) | too dark, for ever | Keller; pbrt-v2 `igi` |
+//! | `pir-clamp` | point, G' = min(G, b_i), b_i = b_1 · i^α | vanishes: consistent | thesis 4.2.1 |
+//! | `vsl` | sphere of radius r | blur, for ever | Hašan et al. 2009 |
+//! | `pir-vsl` | sphere, r_i = r_1 · i^((α−1)/2) | vanishes: consistent | thesis 4.2.2 |
 //!
 //! Parameters (flags of `pir render`):
-//! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]). Each leaves a VPL at
-//!   every non-delta vertex.
+//! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]). Each leaves a virtual
+//!   light at every non-delta vertex.
 //! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default:
-//!   100 / diagonal², the G of two facing surfaces at a tenth of the scene's diagonal, so the
-//!   default needs no tuning whatever the scene's units.
-//! - `--alpha A` the schedule exponent of `pir-clamp` (default 0.6, the thesis' best).
+//!   100 / diagonal², the G of two facing surfaces a tenth of the scene's diagonal apart, so
+//!   the default needs no tuning whatever the scene's units.
+//! - `--radius R` the radius r (`vsl`) or r_1 (`pir-vsl`), one for all lights. Default: per
+//!   light from the VPL density, 2 × the distance to its 10th nearest VPL of the iteration
+//!   (see [`super::vsl`]); a scene too small for 10 neighbours falls back to 2 % of the
+//!   diagonal.
+//! - `--alpha A` the schedule exponent of `pir-clamp` and `pir-vsl` (default 0.6, the
+//!   thesis' best).
 //!
 //! # Path space
 //! Every method must render exactly the path space of `pt` for the same `max_depth`. The
@@ -34,8 +42,10 @@
 use glam::Vec3;
 
 use super::direct::{emission_weight, sample_emitters, shadow_ray};
-use super::schedule::{DEFAULT_ALPHA, clamp_bound};
+use super::knn::KdTree;
+use super::schedule::{DEFAULT_ALPHA, clamp_bound, radius};
 use super::vpl::{Vpl, trace_vpls};
+use super::vsl::{self, KNN_K, KNN_SCALE};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::{Ray, offset_origin};
 use crate::light::emitted;
@@ -80,17 +90,81 @@ impl Clamping {
     }
 }
 
+/// The radius of virtual spherical lights (r, or r_1 for the progressive schedule).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Radius {
+    /// One radius for every light.
+    Global(f32),
+    /// Per light, 2 × the distance to its 10th nearest VPL.
+    Density,
+}
+
+/// Which virtual lights, with which bias control.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VirtualLights {
+    Points(Clamping),
+    /// Spheres; with `alpha` the radius shrinks as r_1 · i^((α−1)/2).
+    Spheres {
+        radius: Radius,
+        alpha: Option<f32>,
+    },
+}
+
 pub struct InstantRadiosity {
-    clamping: Clamping,
+    lights: VirtualLights,
     paths: usize,
-    /// This iteration's VPLs and geometry-term bound.
+    /// Fallback radius when the density radius cannot be computed.
+    fallback_radius: f32,
+    /// This iteration's VPLs, geometry-term bound and (for spheres) radii.
     vpls: Vec<Vpl>,
     bound: f32,
+    radii: Vec<f32>,
 }
 
 impl InstantRadiosity {
-    pub fn new(clamping: Clamping, paths: usize) -> Self {
-        InstantRadiosity { clamping, paths, vpls: Vec::new(), bound: f32::INFINITY }
+    pub fn new(lights: VirtualLights, paths: usize) -> Self {
+        InstantRadiosity {
+            lights,
+            paths,
+            fallback_radius: 0.0,
+            vpls: Vec::new(),
+            bound: f32::INFINITY,
+            radii: Vec::new(),
+        }
+    }
+
+    /// Point lights with the given clamping.
+    pub fn points(clamping: Clamping, paths: usize) -> Self {
+        Self::new(VirtualLights::Points(clamping), paths)
+    }
+
+    /// This iteration's radius of every VSL (empty for point lights).
+    pub fn radii(&self) -> &[f32] {
+        &self.radii
+    }
+
+    fn compute_radii(&mut self, iteration: u64) {
+        let VirtualLights::Spheres { radius: r, alpha } = self.lights else {
+            self.radii.clear();
+            return;
+        };
+        let factor = alpha.map_or(1.0, |a| radius(1.0, a, iteration));
+        self.radii = match r {
+            Radius::Global(r1) => vec![r1 * factor; self.vpls.len()],
+            Radius::Density => {
+                let points: Vec<Vec3> = self.vpls.iter().map(|v| v.p).collect();
+                let tree = KdTree::new(&points);
+                // The light itself is its own nearest point: the 10th neighbour is the 11th.
+                points
+                    .iter()
+                    .map(|&p| {
+                        let r1 =
+                            tree.kth_distance(p, KNN_K + 1).map_or(self.fallback_radius, |d| KNN_SCALE * d);
+                        r1.max(self.fallback_radius * 1e-3) * factor
+                    })
+                    .collect()
+            }
+        };
     }
 
     /// This iteration's VPLs.
@@ -99,6 +173,7 @@ impl InstantRadiosity {
     }
 
     /// Indirect light at x from every VPL of at most `max_vpl_depth` segments.
+    #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
         ctx: &RenderContext,
@@ -106,6 +181,7 @@ impl InstantRadiosity {
         bsdf: &Bsdf,
         wo: Vec3,
         max_vpl_depth: u32,
+        sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
         let gx = LocalGeometry { ng: sp.ng, frame: sp.frame };
@@ -125,8 +201,24 @@ impl InstantRadiosity {
             }
             sum
         };
-        for vpl in &self.vpls {
+        let spheres = matches!(self.lights, VirtualLights::Spheres { .. });
+        for (j, vpl) in self.vpls.iter().enumerate() {
             if vpl.depth > max_vpl_depth {
+                continue;
+            }
+            let bsdf_p = &ctx.scene.materials[vpl.material as usize].bsdf;
+            if spheres {
+                let c = vsl::contribution(&gx, sp.p, bsdf, wo, vpl, bsdf_p, self.radii[j], sampler);
+                if c == Vec3::ZERO {
+                    continue;
+                }
+                rays[n] = shadow_ray(sp.p, sp.ng, vpl.p, vpl.ng);
+                contrib[n] = c;
+                n += 1;
+                if n == BATCH {
+                    total += flush(n, &rays, &contrib, counters);
+                    n = 0;
+                }
                 continue;
             }
             let d = vpl.p - sp.p;
@@ -139,12 +231,7 @@ impl InstantRadiosity {
             if fx == Vec3::ZERO {
                 continue;
             }
-            let fy = ctx.scene.materials[vpl.material as usize].bsdf.eval(
-                &vpl.geometry(),
-                vpl.w_in,
-                -w,
-                TransportMode::Importance,
-            );
+            let fy = bsdf_p.eval(&vpl.geometry(), vpl.w_in, -w, TransportMode::Importance);
             if fy == Vec3::ZERO {
                 continue;
             }
@@ -172,21 +259,33 @@ impl InstantRadiosity {
 
 impl Integrator for InstantRadiosity {
     fn name(&self) -> &'static str {
-        match self.clamping {
-            Clamping::None => "ir",
-            Clamping::Constant { .. } => "ir-clamp",
-            Clamping::Progressive { .. } => "pir-clamp",
+        match self.lights {
+            VirtualLights::Points(Clamping::None) => "ir",
+            VirtualLights::Points(Clamping::Constant { .. }) => "ir-clamp",
+            VirtualLights::Points(Clamping::Progressive { .. }) => "pir-clamp",
+            VirtualLights::Spheres { alpha: None, .. } => "vsl",
+            VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
         }
     }
 
     fn parameters(&self) -> Vec<(String, String)> {
         let mut p = vec![("vpls".to_string(), self.paths.to_string())];
-        match self.clamping {
-            Clamping::None => {}
-            Clamping::Constant { b } => p.push(("clamp".into(), b.to_string())),
-            Clamping::Progressive { b1, alpha } => {
+        match self.lights {
+            VirtualLights::Points(Clamping::None) => {}
+            VirtualLights::Points(Clamping::Constant { b }) => p.push(("clamp".into(), b.to_string())),
+            VirtualLights::Points(Clamping::Progressive { b1, alpha }) => {
                 p.push(("clamp".into(), b1.to_string()));
                 p.push(("alpha".into(), alpha.to_string()));
+            }
+            VirtualLights::Spheres { radius, alpha } => {
+                let r = match radius {
+                    Radius::Global(r) => r.to_string(),
+                    Radius::Density => format!("density (k={KNN_K}, x{KNN_SCALE})"),
+                };
+                p.push(("radius".into(), r));
+                if let Some(a) = alpha {
+                    p.push(("alpha".into(), a.to_string()));
+                }
             }
         }
         p
@@ -199,7 +298,12 @@ impl Integrator for InstantRadiosity {
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
         self.vpls = vpls;
-        self.bound = self.clamping.bound(iteration);
+        self.bound = match self.lights {
+            VirtualLights::Points(c) => c.bound(iteration),
+            VirtualLights::Spheres { .. } => f32::INFINITY,
+        };
+        self.fallback_radius = 0.02 * ctx.scene.bounds.diagonal();
+        self.compute_radii(iteration);
     }
 
     fn radiance(
@@ -238,7 +342,8 @@ impl Integrator for InstantRadiosity {
             if !bsdf.is_delta() {
                 // ---- Direct light (light sampling half of the MIS pair) and VPLs.
                 radiance += beta * sample_emitters(ctx, &sp, bsdf, wo, sampler, counters);
-                radiance += beta * self.gather(ctx, &sp, bsdf, wo, ctx.max_depth - depth - 1, counters);
+                radiance +=
+                    beta * self.gather(ctx, &sp, bsdf, wo, ctx.max_depth - depth - 1, sampler, counters);
             }
             // ---- BSDF sampling: the MIS half of direct light, or a delta bounce.
             let u_lobe = sampler.next_f32();

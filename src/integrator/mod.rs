@@ -7,12 +7,14 @@
 
 mod direct;
 mod instant_radiosity;
+mod knn;
 mod path;
 pub mod schedule;
 pub mod vpl;
+pub mod vsl;
 
 pub use direct::{occluded, power_heuristic, sample_emitters, shadow_ray};
-pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity};
+pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights};
 pub use path::PathTracer;
 
 use glam::Vec3;
