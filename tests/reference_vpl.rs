@@ -1,0 +1,147 @@
+//! The many-light methods against the Mitsuba 3 references (skipped, with a message, when
+//! `../shared` is absent): the progressive methods converge, the constant-parameter ones keep
+//! a bias.
+//!
+//! Renders are 32×32 and compared with the 256×256 reference box-averaged 8×8, which is
+//! exactly the 32×32 image (one-pixel box filter), so the image means are the same quantity
+//! at a fraction of the cost.
+//!
+//! Bounds: iterations are independent (fresh VPLs each), so the per-iteration image means are
+//! i.i.d. and give the standard error of the rendered mean; the reference's own noise is
+//! negligible against it (16,384 spp of a path tracer). Consistency: the mean must pass a z-test
+//! at |z| < 4.5 AND lie within 0.5 % of the reference (the acceptance criterion). Persistent
+//! bias: the constant clamp must be darker than the reference by more than 4.5 standard
+//! errors. Convergence: the relative MSE after all iterations is below that after a quarter of
+//! them.
+
+mod common;
+
+use common::{Job, shared_dir};
+use pir::accel::Bvh;
+use pir::image::{RgbImage, metrics, read_exr};
+use pir::integrator::{Clamping, InstantRadiosity, Integrator, Radius, VirtualLights};
+use pir::scene::Scene;
+
+const Z: f64 = 4.5;
+const FACTOR: usize = 8;
+
+struct Case {
+    scene: Scene,
+    reference: RgbImage,
+    name: &'static str,
+}
+
+fn case(scene_rel: &str, reference_rel: &str, name: &'static str) -> Option<Case> {
+    let Some(shared) = shared_dir() else {
+        eprintln!("skipping {scene_rel}: ../shared is absent");
+        return None;
+    };
+    let scene = pir::scene::load(&shared.join(scene_rel)).unwrap();
+    let (reference, _) = read_exr(&shared.join(reference_rel)).unwrap();
+    Some(Case { scene, reference: reference.downsample(FACTOR).unwrap(), name })
+}
+
+fn cornell() -> Option<Case> {
+    case("scenes/cornell-box/original.toml", "references/cornell-box-original.exr", "cornell")
+}
+
+fn spheres() -> Option<Case> {
+    case("scenes/cornell-box/sphere.toml", "references/cornell-box-sphere.exr", "mirror-glass")
+}
+
+struct Outcome {
+    z: [f64; 3],
+    rel: [f64; 3],
+    rel_mse_quarter: f64,
+    rel_mse: f64,
+}
+
+fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
+    let accel = Bvh::new(&c.scene.positions, &c.scene.indices);
+    let job = Job {
+        width: c.reference.width,
+        height: c.reference.height,
+        iterations,
+        seed: 77,
+        max_depth: c.scene.render.max_depth,
+        threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
+        snapshot_at: vec![iterations / 4],
+    };
+    let r = job.run_with(&c.scene, &accel, integrator);
+    assert_eq!(r.stats.dropped, 0, "{}: NaN/Inf samples", c.name);
+    let (mean, se) = r.mean_and_stderr();
+    let ref_mean = c.reference.mean();
+    let z = std::array::from_fn(|k| (mean[k] - ref_mean[k]) / se[k]);
+    let rel = std::array::from_fn(|k| (mean[k] - ref_mean[k]) / ref_mean[k]);
+    let rel_mse = metrics(&r.image(), &c.reference).unwrap().rel_mse;
+    let rel_mse_quarter = metrics(&r.snapshots[0].1, &c.reference).unwrap().rel_mse;
+    eprintln!(
+        "{} {}: {} it, mean {:+.3} {:+.3} {:+.3} % (z {:+.1} {:+.1} {:+.1}), relMSE {:.3e} at {} it, {:.3e} at {} it",
+        c.name,
+        integrator.name(),
+        iterations,
+        100.0 * rel[0],
+        100.0 * rel[1],
+        100.0 * rel[2],
+        z[0],
+        z[1],
+        z[2],
+        rel_mse_quarter,
+        iterations / 4,
+        rel_mse,
+        iterations
+    );
+    Outcome { z, rel, rel_mse_quarter, rel_mse }
+}
+
+fn assert_consistent(c: &Case, o: &Outcome) {
+    for k in 0..3 {
+        assert!(o.z[k].abs() < Z, "{}: channel {k} z = {:.2}", c.name, o.z[k]);
+        assert!(o.rel[k].abs() < 0.005, "{}: channel {k} mean off by {:.3} %", c.name, 100.0 * o.rel[k]);
+    }
+    assert!(o.rel_mse < o.rel_mse_quarter, "{}: relative MSE must fall with iterations", c.name);
+}
+
+const PATHS: usize = 64;
+
+fn pir_clamp(c: &Case) -> InstantRadiosity {
+    InstantRadiosity::points(Clamping::progressive(Clamping::default_bound(c.scene.bounds.diagonal())), PATHS)
+}
+
+fn pir_vsl() -> InstantRadiosity {
+    InstantRadiosity::new(VirtualLights::Spheres { radius: Radius::Density, alpha: Some(0.6) }, PATHS)
+}
+
+#[test]
+fn pir_clamp_converges_on_the_cornell_box() {
+    let Some(c) = cornell() else { return };
+    assert_consistent(&c, &run(&c, &mut pir_clamp(&c), 400));
+}
+
+#[test]
+fn pir_clamp_converges_on_the_mirror_and_glass_box() {
+    let Some(c) = spheres() else { return };
+    assert_consistent(&c, &run(&c, &mut pir_clamp(&c), 400));
+}
+
+#[test]
+fn pir_vsl_converges_on_the_cornell_box() {
+    let Some(c) = cornell() else { return };
+    assert_consistent(&c, &run(&c, &mut pir_vsl(), 400));
+}
+
+#[test]
+fn pir_vsl_converges_on_the_mirror_and_glass_box() {
+    let Some(c) = spheres() else { return };
+    assert_consistent(&c, &run(&c, &mut pir_vsl(), 400));
+}
+
+#[test]
+fn constant_clamp_stays_too_dark_on_the_cornell_box() {
+    let Some(c) = cornell() else { return };
+    let b = Clamping::default_bound(c.scene.bounds.diagonal());
+    let o = run(&c, &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), 400);
+    for k in 0..3 {
+        assert!(o.z[k] < -Z, "ir-clamp must stay darker than the reference: channel {k} z = {:.2}", o.z[k]);
+    }
+}
