@@ -720,3 +720,40 @@ fn repo_scenes_load_without_shared() {
     assert_eq!((s.camera.width, s.camera.height, s.render.max_depth), (512, 512, 8));
     assert_eq!(s.camera.eye, Vec3::new(0.0, 0.795, 3.2));
 }
+
+#[test]
+fn messages_name_file_line_and_key() {
+    let f = scene(
+        &format!("{LIGHT}[materials.floor]\nkind = \"glossy\"\nspecular = [0.3, 0.3, 0.3]\nroughness = -1\n"),
+        &[],
+    );
+    let e = f.load("s.toml").unwrap_err().to_string();
+    let want = format!(
+        "{}: line 12: [materials.floor] roughness = -1: must be a GGX alpha in (0, 1]",
+        f.path("s.toml").display()
+    );
+    assert_eq!(e, want);
+
+    let head = "mtllib q.mtl\nusemtl light\nv 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    let f = scene("[[mesh]]\nobj = \"b.obj\"\n", &[("b.obj", &format!("{head}f 1 2 4\n"))]);
+    let e = f.load("s.toml").unwrap_err().to_string();
+    let want = format!(
+        "{}: line 6: face corner \"4\": vertex index 4 is out of range (3 defined so far)",
+        f.path("b.obj").display()
+    );
+    assert_eq!(e, want);
+
+    let f = scene(&format!("{LIGHT}\n[[mesh]]\nobj = \"nope.obj\"\n"), &[]);
+    let e = f.load("s.toml").unwrap_err().to_string();
+    let want = format!(
+        "{}: line 11: [[mesh]] #2 (obj = \"nope.obj\"): cannot read {}: ",
+        f.path("s.toml").display(),
+        f.path("nope.obj").display()
+    );
+    assert!(e.starts_with(&want), "{e}");
+
+    let f = scene(&format!("{LIGHT}scale = 1\nrotate_z = 3\n"), &[]);
+    let e = f.load("s.toml").unwrap_err().to_string();
+    assert!(e.starts_with(&format!("{}: TOML parse error at line 10", f.path("s.toml").display())), "{e}");
+    assert!(e.contains("unknown field `rotate_z`"), "{e}");
+}

@@ -21,14 +21,14 @@ pub enum SceneError {
     #[error("{}: {message}", .path.display())]
     Toml { path: PathBuf, message: String },
     /// A value in the scene file is out of its domain.
-    #[error("{}: {key}: {problem}", .path.display())]
-    Value { path: PathBuf, key: String, problem: String },
+    #[error("{}: {}{key}: {problem}", .path.display(), LineNo(*.line))]
+    Value { path: PathBuf, line: Option<usize>, key: String, problem: String },
     /// An OBJ or MTL file is malformed (`line` is 1-based when known).
     #[error("{}: {}{problem}", .path.display(), LineNo(*.line))]
     Syntax { path: PathBuf, line: Option<usize>, problem: String },
     /// A mesh of the scene cannot be built (missing material, no faces, ...).
-    #[error("{}: [[mesh]] #{mesh} (obj = {obj:?}): {problem}", .path.display())]
-    Mesh { path: PathBuf, mesh: usize, obj: String, problem: String },
+    #[error("{}: {}[[mesh]] #{mesh} (obj = {obj:?}): {problem}", .path.display(), LineNo(*.line))]
+    Mesh { path: PathBuf, line: Option<usize>, mesh: usize, obj: String, problem: String },
     /// No triangle of the scene emits light.
     #[error(
         "{}: no emitter: no triangle has a material with non-zero emission (MTL `Ke` or \
@@ -52,10 +52,6 @@ impl fmt::Display for LineNo {
 impl SceneError {
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
         SceneError::Io { path: path.to_path_buf(), source }
-    }
-
-    pub(crate) fn value(path: &Path, key: impl Into<String>, problem: impl Into<String>) -> Self {
-        SceneError::Value { path: path.to_path_buf(), key: key.into(), problem: problem.into() }
     }
 
     pub(crate) fn syntax(path: &Path, line: Option<usize>, problem: impl Into<String>) -> Self {

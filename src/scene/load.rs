@@ -26,42 +26,51 @@ use crate::material::Material;
 /// Loads the scene file `path` and everything it names.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = read_text(path)?;
-    let file = format::parse(path, &text)?;
-    let camera = format::camera(path, &file.camera)?;
-    let render = format::render(path, file.render.as_ref())?;
+    let doc = format::Doc { path, text: &text };
+    let file = doc.parse()?;
+    let camera = doc.camera(&file.camera)?;
+    let render = doc.render(file.render.as_ref())?;
     let mut overrides: HashMap<&str, Material> = HashMap::new();
     for (name, m) in &file.materials {
-        overrides.insert(name.as_str(), format::material(path, name, m)?);
+        overrides.insert(name.as_str(), doc.material(name, m)?);
     }
     if file.mesh.is_empty() {
-        return Err(SceneError::value(path, "[[mesh]]", "the scene has no mesh"));
+        return Err(SceneError::Value {
+            path: path.to_path_buf(),
+            line: None,
+            key: "[[mesh]]".into(),
+            problem: "the scene has no mesh".into(),
+        });
     }
     let base = path.parent().unwrap_or(Path::new(""));
 
     let mut b = Builder::default();
     for (k, m) in file.mesh.iter().enumerate() {
         let index = k + 1;
-        let transform = format::mesh_transform(path, index, m)?;
+        let transform = doc.mesh_transform(index, m)?;
         let mesh_err = |problem: String| SceneError::Mesh {
             path: path.to_path_buf(),
+            line: Some(doc.line(&m.obj)),
             mesh: index,
-            obj: m.obj.clone(),
+            obj: m.obj.get_ref().clone(),
             problem,
         };
-        let obj_path = base.join(&m.obj);
+        let material = m.material.as_ref().map(|s| s.get_ref().as_str());
+        let obj_path = base.join(m.obj.get_ref());
         let obj = obj::read(&obj_path).map_err(|e| match e {
             SceneError::Io { path: p, source } => mesh_err(format!("cannot read {}: {source}", p.display())),
             other => other,
         })?;
-        if m.material.is_none() && !obj.has_mtl {
+        if material.is_none() && !obj.has_mtl {
             return Err(mesh_err(
                 "the OBJ names no MTL file (mtllib) and the mesh sets no `material`".into(),
             ));
         }
         let mut slot_material = Vec::with_capacity(obj.slots.len());
         for slot in &obj.slots {
-            let name = match (&m.material, &slot.name) {
-                (Some(n), _) | (None, Some(n)) => n.as_str(),
+            let name = match (material, &slot.name) {
+                (Some(n), _) => n,
+                (None, Some(n)) => n.as_str(),
                 (None, None) => {
                     return Err(mesh_err(format!(
                         "the face on line {} of {} has no material (no usemtl before it) and \
@@ -75,7 +84,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
                 o.clone()
             } else if let Some((mtl_path, entry)) = obj.mtl.get(name) {
                 mtl::to_material(mtl_path, name, entry)?
-            } else if m.material.is_some() {
+            } else if material.is_some() {
                 return Err(mesh_err(format!(
                     "material = {name:?} is defined neither in [materials] nor in the OBJ's MTL"
                 )));
@@ -89,7 +98,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
             };
             slot_material.push(b.intern(mat));
         }
-        let mesh_has_normals = m.material.is_none() || obj.all_normals();
+        let mesh_has_normals = material.is_none() || obj.all_normals();
         let before = b.indices.len();
         for part in &obj.parts {
             let offset = u32::try_from(b.positions.len())
