@@ -690,7 +690,16 @@ fn shared_example_scenes_load() {
     let s = load_ok(&dir.join("cornell-box/sphere.toml"));
     check_sphere(&s);
     assert_eq!(s.camera.eye, Vec3::new(0.0, 0.795, 3.2));
+    let t = std::time::Instant::now();
     let s = load_ok(&dir.join("bunny/cornell-bunny.toml"));
+    eprintln!(
+        "cornell-bunny: {} triangles, {} degenerate dropped, {} materials, bounds {:?}, {:?}",
+        s.indices.len(),
+        s.degenerate_dropped,
+        s.materials.len(),
+        s.bounds,
+        t.elapsed()
+    );
     assert_eq!(s.indices.len() + s.degenerate_dropped, 6 * 2 + 69451);
     assert_eq!(material_named(&s, "bunny").bsdf, Bsdf::Diffuse { albedo: Vec3::new(0.725, 0.71, 0.68) });
     assert_eq!(material_named(&s, "light").emission, Vec3::new(17.0, 12.0, 4.0));
@@ -756,4 +765,41 @@ fn messages_name_file_line_and_key() {
     let e = f.load("s.toml").unwrap_err().to_string();
     assert!(e.starts_with(&format!("{}: TOML parse error at line 10", f.path("s.toml").display())), "{e}");
     assert!(e.contains("unknown field `rotate_z`"), "{e}");
+}
+
+/// Mutated inputs never panic: each load either succeeds or returns an error.
+#[test]
+fn mutated_inputs_never_panic() {
+    let toml = format!(
+        "{CAMERA}[render]\nmax_depth = 4\n[[mesh]]\nobj = \"m.obj\"\nscale = [1, 2, 1]\nrotate_y = 30\n[materials.x]\nkind = \"glossy\"\nspecular = [0.5, 0.5, 0.5]\nroughness = 0.2\n"
+    );
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nvt 0 0\nusemtl light\nf 1/1/1 2/1/1 3/1/1 4/1/1\nusemtl x\nf -4 -2 -1\n";
+    let mtl = "newmtl light\nKd 0.5 0.5 0.5\nKs 0.1 0.1 0.1\nNs 10\nKe 1 1 1\nillum 2\n";
+    let f = Fixture::new(&[("s.toml", &toml), ("m.obj", obj), ("m.mtl", mtl)]);
+    f.load("s.toml").unwrap();
+    let alphabet = b"0123456789-./ #\n\tefinavxf[]=\"";
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut rnd = |n: usize| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % n as u64) as usize
+    };
+    for round in 0..300 {
+        let (name, base) = [("s.toml", toml.as_str()), ("m.obj", obj), ("m.mtl", mtl)][round % 3];
+        let mut bytes = base.as_bytes().to_vec();
+        for _ in 0..1 + rnd(3) {
+            let at = rnd(bytes.len());
+            match rnd(3) {
+                0 => {
+                    bytes.remove(at);
+                }
+                1 => bytes.insert(at, alphabet[rnd(alphabet.len())]),
+                _ => bytes[at] = alphabet[rnd(alphabet.len())],
+            }
+        }
+        std::fs::write(f.path(name), &bytes).unwrap();
+        let _ = f.load("s.toml");
+        std::fs::write(f.path(name), base).unwrap();
+    }
 }
