@@ -2,7 +2,12 @@
 //! format of `shared/scene-format.md` (see [`load`]).
 
 mod camera;
+mod error;
+mod format;
 mod load;
+mod mtl;
+mod obj;
+mod transform;
 
 pub use camera::Camera;
 pub use load::{SceneError, load};
