@@ -421,4 +421,42 @@ mod with_embree {
         let a = build_accelerator(Backend::Embree, &[], &[]).unwrap();
         assert_eq!(a.intersect(&Ray::new(Vec3::ZERO, Vec3::X)), None);
     }
+
+    /// A quick single-thread rate check (not a benchmark): `cargo test --release --test embree
+    /// -- --ignored --nocapture rates`.
+    #[test]
+    #[ignore]
+    fn rates() {
+        use std::time::Instant;
+        let (p, t) = dense();
+        let e = Embree::new(&p, &t).unwrap();
+        let brute = BruteForce::new(&p, &t);
+        let rays = random_rays(9, 200_000);
+        let rate = |name: &str, n: usize, f: &mut dyn FnMut() -> usize| {
+            let start = Instant::now();
+            let hits = f();
+            let s = start.elapsed().as_secs_f64();
+            println!("{name:32} {:8.3} Mrays/s ({hits} of {n})", n as f64 / s / 1e6);
+        };
+        set_flush_denormals();
+        rate("embree intersect, single", rays.len(), &mut || {
+            rays.iter().filter(|r| e.intersect(r).is_some()).count()
+        });
+        rate("embree occluded, single", rays.len(), &mut || rays.iter().filter(|r| e.occluded(r)).count());
+        let mut hits = vec![None; rays.len()];
+        let mut occ = vec![false; rays.len()];
+        rate("embree intersect, batch", rays.len(), &mut || {
+            e.intersect_batch(&rays, &mut hits);
+            hits.iter().filter(|h| h.is_some()).count()
+        });
+        rate("embree occluded, batch", rays.len(), &mut || {
+            e.occluded_batch(&rays, &mut occ);
+            occ.iter().filter(|o| **o).count()
+        });
+        let few = &rays[..2000];
+        rate("brute intersect, single", few.len(), &mut || {
+            few.iter().filter(|r| brute.intersect(r).is_some()).count()
+        });
+        println!("{}", e.describe());
+    }
 }

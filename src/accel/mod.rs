@@ -6,7 +6,8 @@
 //! that into a shading point once, for every backend (`Scene::surface_at`).
 //!
 //! Backends: [`Bvh`] (pure Rust, binned SAH), [`BruteForce`] (the test oracle) and, when built
-//! with Embree, `Embree`.
+//! with Embree, `Embree` (see [`embree`]; [`embree_status`] says whether it is built in).
+//! [`Backend`] names them and [`build_accelerator`] builds one behind `Box<dyn Accelerator>`.
 
 mod brute;
 mod bvh;

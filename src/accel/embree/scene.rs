@@ -17,10 +17,12 @@
 //!   coordinate beyond Embree's `FLT_LARGE` (1.844e18) never reach Embree (Debian's build
 //!   asserts on them and aborts): they miss and are not occluded. In packets they are
 //!   inactive lanes.
-//! - Embree tests hits on `(tnear, tfar]`; the trait asks for `(tmin, tmax)`. pir passes
-//!   `tfar = `the largest float below `tmax` (for finite `tmax`), so the far end is open as
-//!   well, up to Embree's rounding of the comparison. Differences remain only for hits within
-//!   rounding of `tmin` or `tmax`, which no caller can rely on anyway.
+//! - Embree's documentation speaks of the segment `[tnear, tfar]`; its triangle test (checked
+//!   by `interval_ends_are_open` below) accepts `tnear < t <= tfar`. The trait asks for the
+//!   open `(tmin, tmax)`, so pir passes `tfar =` the largest float below a finite `tmax`: both
+//!   ends are then open. Embree compares scaled values (`T <= tfar * |det|`), so hits within
+//!   rounding of either end may still differ from the brute-force oracle; no caller can rely
+//!   on those anyway.
 //! - Each ray: `mask = u32::MAX`, `flags = 0`, `time = 0`, `geomID = primID = instID[*] =
 //!   RTC_INVALID_GEOMETRY_ID`; a hit is `geomID != RTC_INVALID_GEOMETRY_ID`, an occluded ray
 //!   comes back with `tfar = -inf` (tested as `tfar < 0`).
@@ -622,6 +624,21 @@ mod tests {
         assert!(e.intersect(&Ray::segment(ray.origin, ray.dir, 2.0)).is_none());
         assert!(!e.occluded(&Ray::segment(ray.origin, ray.dir, 2.0)));
         assert!(e.occluded(&Ray::segment(ray.origin, ray.dir, 2.001)));
+    }
+
+    /// Both ends of the interval are open, as the trait asks: Embree's near end is open by
+    /// itself, the far end through `tfar_of`.
+    #[test]
+    fn interval_ends_are_open() {
+        let (p, i) = quad();
+        let e = Embree::new(&p, &i).unwrap();
+        let o = Vec3::new(0.5, -0.25, 2.0);
+        let at_tmin = Ray { origin: o, dir: Vec3::NEG_Z, tmin: 2.0, tmax: 3.0 };
+        assert_eq!(e.intersect(&at_tmin), None);
+        assert!(!e.occluded(&at_tmin));
+        let past = Ray { origin: o, dir: Vec3::NEG_Z, tmin: 0.0, tmax: f32::from_bits(2.0f32.to_bits() + 1) };
+        assert_eq!(e.intersect(&past).map(|h| h.t), Some(2.0));
+        assert!(e.occluded(&past));
     }
 
     #[test]
