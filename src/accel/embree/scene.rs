@@ -132,6 +132,19 @@ impl Drop for SceneHandle {
     }
 }
 
+/// A scene being built: released on drop *without* taking the build lock, because it only
+/// exists inside `Embree::build`, which holds that lock.
+struct UnfinishedScene(sys::RTCScene);
+
+impl Drop for UnfinishedScene {
+    fn drop(&mut self) {
+        // SAFETY: the handle came from `rtcNewScene`, is released exactly once (the success
+        // path `forget`s it and hands it to a `SceneHandle`), under the build lock held by
+        // `Embree::build`; the device is alive because `build` holds an `Arc` to it.
+        unsafe { sys::rtcReleaseScene(self.0) };
+    }
+}
+
 /// An owned `RTCGeometry`, released on drop (the scene keeps its own reference once attached).
 struct GeometryHandle(sys::RTCGeometry);
 
@@ -262,12 +275,13 @@ impl Embree {
         // SAFETY: the device is live (we hold an `Arc`); creation is done under its build lock.
         let raw = unsafe { sys::rtcNewScene(device.raw()) };
         if raw.is_null() {
-            drop(guard);
             return Err(format!("rtcNewScene failed: {:?}", device.errors_since(errors_before)));
         }
-        let scene = SceneHandle { raw, device: Arc::clone(&device) };
-        // SAFETY: `scene.raw` is a live scene not yet shared with anyone.
-        unsafe { sys::rtcSetSceneBuildQuality(scene.raw, quality.raw()) };
+        // Declared after `guard`, so dropped (released) first on every early return or
+        // unwind, while the lock is still held.
+        let scene = UnfinishedScene(raw);
+        // SAFETY: `scene.0` is a live scene not yet shared with anyone.
+        unsafe { sys::rtcSetSceneBuildQuality(scene.0, quality.raw()) };
 
         if !indices.is_empty() {
             // SAFETY: live device, under the build lock.
@@ -275,7 +289,6 @@ impl Embree {
                 sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE)
             };
             if geom.is_null() {
-                drop(guard);
                 return Err(format!("rtcNewGeometry failed: {:?}", device.errors_since(errors_before)));
             }
             let geom = GeometryHandle(geom);
@@ -305,8 +318,6 @@ impl Embree {
                 )
             } as *mut u32;
             if vb.is_null() || ib.is_null() {
-                drop(geom);
-                drop(guard);
                 return Err(format!(
                     "rtcSetNewGeometryBuffer failed: {:?}",
                     device.errors_since(errors_before)
@@ -329,17 +340,19 @@ impl Embree {
             // `geom` drops at the end of this block, still under the build lock.
             unsafe {
                 sys::rtcCommitGeometry(geom.0);
-                sys::rtcAttachGeometry(scene.raw, geom.0);
+                sys::rtcAttachGeometry(scene.0, geom.0);
             }
         }
         // SAFETY: live scene, all its geometries committed; nothing traces it yet.
-        unsafe { sys::rtcCommitScene(scene.raw) };
-        drop(guard);
+        unsafe { sys::rtcCommitScene(scene.0) };
         let errors = device.errors_since(errors_before);
         if !errors.is_empty() {
             return Err(format!("building the Embree scene failed: {}", errors.join("; ")));
         }
-        Ok(scene)
+        let raw = scene.0;
+        std::mem::forget(scene);
+        drop(guard);
+        Ok(SceneHandle { raw, device })
     }
 
     /// The settings the scene was built with.
@@ -639,6 +652,37 @@ mod tests {
         let past = Ray { origin: o, dir: Vec3::NEG_Z, tmin: 0.0, tmax: f32::from_bits(2.0f32.to_bits() + 1) };
         assert_eq!(e.intersect(&past).map(|h| h.t), Some(2.0));
         assert!(e.occluded(&past));
+    }
+
+    #[test]
+    fn embree_errors_reach_the_callback() {
+        let device = Device::new().unwrap();
+        assert_eq!(device.error_count(), 0);
+        {
+            let _guard = device.build_guard();
+            // SAFETY: a live device, under its build lock; the geometry is released by its
+            // handle. A UINT3 vertex buffer is an invalid operation: Embree reports it through
+            // the error callback and returns null, which is not dereferenced.
+            let buffer = unsafe {
+                let geom = GeometryHandle(sys::rtcNewGeometry(
+                    device.raw(),
+                    sys::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE,
+                ));
+                sys::rtcSetNewGeometryBuffer(
+                    geom.0,
+                    sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    sys::RTCFormat::RTC_FORMAT_UINT3,
+                    12,
+                    3,
+                )
+            };
+            assert!(buffer.is_null());
+        }
+        assert_eq!(device.error_count(), 1);
+        let errors = device.errors_since(0);
+        assert!(errors.len() == 1 && errors[0].starts_with("Embree error"), "{errors:?}");
+        assert!(device.errors_since(1).is_empty());
     }
 
     #[test]
