@@ -401,6 +401,22 @@ mod with_embree {
         std::thread::spawn(move || drop(e)).join().unwrap();
     }
 
+    /// Broken input meshes (non-finite or huge vertices, degenerate triangles) build, and the
+    /// good triangles still agree with the oracle (Embree drops invalid primitives).
+    #[test]
+    fn broken_triangles_are_ignored() {
+        let (mut p, mut t) = boxes();
+        let n = p.len() as u32;
+        p.extend([
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            Vec3::splat(1e30),
+            Vec3::ZERO,
+        ]);
+        t.extend([[n, n + 3, 0], [n + 1, n + 3, 1], [n + 2, n + 3, 2], [n + 3, n + 3, n + 3], [0, 0, 1]]);
+        compare_with_brute(&p, &t, &random_rays(8, 1000), "broken");
+    }
+
     #[test]
     fn empty_scenes_build_and_miss() {
         for (p, t) in [(vec![], vec![]), (vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![])] {
