@@ -6,13 +6,23 @@
 //! that into a shading point once, for every backend (`Scene::surface_at`).
 //!
 //! Backends: [`Bvh`] (pure Rust, binned SAH), [`BruteForce`] (the test oracle) and, when built
-//! with Embree, `Embree`.
+//! with Embree, `Embree` (see [`embree`]; [`embree_status`] says whether it is built in).
+//! [`Backend`] names them and [`build_accelerator`] builds one behind `Box<dyn Accelerator>`.
 
 mod brute;
 mod bvh;
+pub mod embree;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;
+#[cfg(pir_embree)]
+pub use embree::Embree;
+pub use embree::{embree_status, set_flush_denormals};
+
+use std::fmt;
+use std::str::FromStr;
+
+use glam::Vec3;
 
 use crate::geometry::Ray;
 
@@ -58,6 +68,105 @@ pub trait Accelerator: Send + Sync {
         assert_eq!(rays.len(), occluded.len());
         for (r, o) in rays.iter().zip(occluded.iter_mut()) {
             *o = self.occluded(r);
+        }
+    }
+}
+
+/// The backend choice of a render (the `--accel` option).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    /// Intel Embree through FFI; only when pir was built with it (see [`embree_status`]).
+    Embree,
+    /// The pure-Rust BVH.
+    Bvh,
+    /// Every ray against every triangle: the test oracle.
+    Brute,
+}
+
+impl Backend {
+    /// The fastest backend this build has: Embree when built in, else the BVH.
+    pub fn default_available() -> Backend {
+        if embree::AVAILABLE { Backend::Embree } else { Backend::Bvh }
+    }
+
+    /// Whether this build can construct the backend.
+    pub fn is_available(self) -> bool {
+        self != Backend::Embree || embree::AVAILABLE
+    }
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Backend::Embree => "embree",
+            Backend::Bvh => "bvh",
+            Backend::Brute => "brute",
+        })
+    }
+}
+
+impl FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "embree" => Ok(Backend::Embree),
+            "bvh" => Ok(Backend::Bvh),
+            "brute" | "bruteforce" | "brute-force" => Ok(Backend::Brute),
+            _ => Err(format!("unknown accelerator {s:?} (expected embree, bvh or brute)")),
+        }
+    }
+}
+
+/// The message when Embree is asked for but pir was built without it.
+pub const EMBREE_MISSING: &str =
+    "pir was built without Embree; install libembree-dev libclang-dev and rebuild";
+
+/// Builds the chosen backend over the triangles `indices` of `positions` (Embree with its
+/// default settings).
+pub fn build_accelerator(
+    backend: Backend,
+    positions: &[Vec3],
+    indices: &[[u32; 3]],
+) -> Result<Box<dyn Accelerator>, String> {
+    match backend {
+        Backend::Brute => Ok(Box::new(BruteForce::new(positions, indices))),
+        Backend::Bvh => Ok(Box::new(Bvh::new(positions, indices))),
+        #[cfg(pir_embree)]
+        Backend::Embree => Ok(Box::new(Embree::new(positions, indices)?)),
+        #[cfg(not(pir_embree))]
+        Backend::Embree => Err(format!("{EMBREE_MISSING} ({})", embree_status())),
+    }
+}
+
+#[cfg(test)]
+mod backend_tests {
+    use super::*;
+
+    #[test]
+    fn backend_names_round_trip() {
+        for b in [Backend::Embree, Backend::Bvh, Backend::Brute] {
+            assert_eq!(b.to_string().parse::<Backend>().unwrap(), b);
+        }
+        assert!("optix".parse::<Backend>().is_err());
+        assert!(Backend::default_available().is_available());
+    }
+
+    #[test]
+    fn build_accelerator_gives_each_backend_or_a_clear_error() {
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let t = [[0, 1, 2]];
+        for b in [Backend::Bvh, Backend::Brute, Backend::Embree] {
+            match build_accelerator(b, &p, &t) {
+                Ok(a) => {
+                    assert_eq!(a.name(), b.to_string());
+                    let ray = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z);
+                    assert_eq!(a.intersect(&ray).map(|h| h.prim), Some(0));
+                }
+                Err(e) => {
+                    assert!(b == Backend::Embree && !embree::AVAILABLE, "{b}: {e}");
+                    assert!(e.contains("install libembree-dev libclang-dev"), "{e}");
+                }
+            }
         }
     }
 }
