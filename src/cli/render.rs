@@ -3,9 +3,9 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use pir::accel::{Accelerator, BruteForce, Bvh};
+use pir::accel::{Backend, build_accelerator, embree_status, set_flush_denormals};
 use pir::image::{write_exr, write_preview};
 use pir::integrator::schedule::DEFAULT_ALPHA;
 use pir::integrator::{
@@ -33,15 +33,6 @@ pub enum Method {
     Vsl,
     /// Progressive VSLs, r_i = r_1 · i^((α−1)/2) (--radius r_1, --alpha α): consistent.
     PirVsl,
-}
-
-/// Ray-query backends.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum AccelChoice {
-    /// pir's own BVH (binned SAH).
-    Bvh,
-    /// Every ray against every triangle (for tests on tiny scenes).
-    Brute,
 }
 
 /// Render a scene progressively and write an EXR and a PNG preview.
@@ -102,9 +93,10 @@ pub struct RenderArgs {
     /// r_i = r_1 · i^((α−1)/2), in (0, 1).
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA)]
     pub alpha: f32,
-    /// Ray-query backend.
-    #[arg(long, value_enum, default_value_t = AccelChoice::Bvh)]
-    pub accel: AccelChoice,
+    /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own
+    /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].
+    #[arg(long, value_name = "BACKEND")]
+    pub accel: Option<Backend>,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -156,17 +148,16 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let emitters = Emitters::new(&scene)
         .with_context(|| format!("{}: the scene has no emitter with positive power", a.scene.display()))?;
 
+    // Embree asks for flush-to-zero on every thread that traces rays.
+    set_flush_denormals();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads.unwrap_or(0))
+        .start_handler(|_| set_flush_denormals())
         .build()
         .context("cannot start the worker threads")?;
 
-    let t_build = Instant::now();
-    let accel: Box<dyn Accelerator> = match a.accel {
-        AccelChoice::Bvh => Box::new(Bvh::new(&scene.positions, &scene.indices)),
-        AccelChoice::Brute => Box::new(BruteForce::new(&scene.positions, &scene.indices)),
-    };
-    let build_time = t_build.elapsed();
+    let backend = a.accel.unwrap_or_else(Backend::default_available);
+    let accel = build_accelerator(backend, &scene.positions, &scene.indices).map_err(anyhow::Error::msg)?;
 
     let bound = a.clamp.unwrap_or_else(|| Clamping::default_bound(scene.bounds.diagonal()));
     let mut integrator: Box<dyn Integrator> = match a.method {
@@ -202,7 +193,10 @@ pub fn run(a: RenderArgs) -> Result<()> {
         seed,
         pool.current_num_threads()
     );
-    eprintln!("pir: accelerator {} built in {:.1} ms", accel.describe(), build_time.as_secs_f64() * 1e3);
+    eprintln!("pir: accelerator {}", accel.describe());
+    if !Backend::Embree.is_available() {
+        eprintln!("pir: {}", embree_status());
+    }
 
     let (film, stats) =
         pool.install(|| render(&ctx, integrator.as_mut(), &settings, |_, _| Control::Continue));
