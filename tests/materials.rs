@@ -45,33 +45,43 @@ fn rel_close(a: Vec3, b: Vec3, tol: f32) -> bool {
 /// Samples `bsdf` CHI2_SAMPLES times, checks every sample's weight and pdf against eval / pdf,
 /// runs the χ² test and the normalisation check; returns a failure description.
 fn chi2_case(name: &str, bsdf: Bsdf, g: &LocalGeometry, wo: Vec3, k: f64, tag: u64) -> Option<String> {
+    let sample = |ul: f32, u: Vec2| {
+        let s = bsdf.sample(g, wo, ul, u, R)?;
+        assert!(!s.delta && s.eta == 1.0, "{name}: non-delta sample flagged delta");
+        assert!(s.weight.is_finite() && s.pdf.is_finite() && s.pdf > 0.0);
+        let pdf = bsdf.pdf(g, wo, s.wi, R);
+        let eval = bsdf.eval(g, wo, s.wi, R);
+        assert!((s.pdf - pdf).abs() <= 1e-5 * pdf, "{name}: pdf {} vs {pdf}", s.pdf);
+        assert!(rel_close(s.weight, eval / pdf, 1e-5), "{name}: weight {} vs {}", s.weight, eval / pdf);
+        Some(s.wi)
+    };
+    let pdf = |w: Vec3| bsdf.pdf(g, wo, w, R);
     let pole = (2.0 * wo.dot(g.frame.n) * g.frame.n - wo).normalize();
+    fit(name, &sample, &pdf, pole, k, tag)
+}
+
+/// The χ² fit of `sample` against `pdf` (directions binned about `pole`) and the check that
+/// 1 − ∫pdf equals the rate at which `sample` fails.
+fn fit(
+    name: &str,
+    sample: &dyn Fn(f32, Vec2) -> Option<Vec3>,
+    pdf: &dyn Fn(Vec3) -> f32,
+    pole: Vec3,
+    k: f64,
+    tag: u64,
+) -> Option<String> {
     let grid = chi2::Grid::new(pole, k, 20, 20);
     let mut counts = vec![0u64; grid.n_s * grid.n_phi + 1];
     let fail_cell = counts.len() - 1;
     let mut rng = sampler(tag);
     for _ in 0..CHI2_SAMPLES {
         let (ul, u) = (rng.next_f32(), rng.next_2d());
-        match bsdf.sample(g, wo, ul, u, R) {
+        match sample(ul, u) {
             None => counts[fail_cell] += 1,
-            Some(s) => {
-                assert!(!s.delta && s.eta == 1.0, "{name}: non-delta sample flagged delta");
-                assert!(s.weight.is_finite() && s.pdf.is_finite() && s.pdf > 0.0);
-                let pdf = bsdf.pdf(g, wo, s.wi, R);
-                let eval = bsdf.eval(g, wo, s.wi, R);
-                assert!((s.pdf - pdf).abs() <= 1e-5 * pdf, "{name}: pdf {} vs {pdf}", s.pdf);
-                assert!(
-                    rel_close(s.weight, eval / pdf, 1e-5),
-                    "{name}: weight {} vs {}",
-                    s.weight,
-                    eval / pdf
-                );
-                counts[grid.cell(s.wi)] += 1;
-            }
+            Some(wi) => counts[grid.cell(wi)] += 1,
         }
     }
-    let pdf = |w: Vec3| bsdf.pdf(g, wo, w, R);
-    let integrals = grid.integrate(&pdf, CHI2_SAMPLES as f64);
+    let integrals = grid.integrate(pdf, CHI2_SAMPLES as f64);
     let total: f64 = integrals.iter().sum();
     let n = CHI2_SAMPLES as f64;
     let mut expected: Vec<f64> = integrals.iter().map(|p| p * n).collect();
@@ -99,6 +109,78 @@ fn chi2_case(name: &str, bsdf: Bsdf, g: &LocalGeometry, wo: Vec3, k: f64, tag: u
         problems.push(format!("χ² p-value {} < {level}", r.p_value));
     }
     (!problems.is_empty()).then(|| format!("{name}: {}", problems.join("; ")))
+}
+
+/// The χ² test has power: small errors in the density (a slightly different roughness, a
+/// missing masking term) are rejected.
+#[test]
+fn chi2_rejects_wrong_densities() {
+    let n = normal();
+    let g = geometry(n, n);
+    let wo = dir_at(n, 45.0, 0.5);
+    let pole = 2.0 * wo.dot(n) * n - wo;
+    let truth = Bsdf::Glossy { albedo: Vec3::splat(0.3), specular: Vec3::splat(0.3), roughness: 0.15 };
+    let sample = |ul: f32, u: Vec2| truth.sample(&g, wo, ul, u, R).map(|s| s.wi);
+    let wrong = Bsdf::Glossy { albedo: Vec3::splat(0.3), specular: Vec3::splat(0.3), roughness: 0.16 };
+    let pdf = |w: Vec3| wrong.pdf(&g, wo, w, R);
+    assert!(fit("α 0.16 vs 0.15", &sample, &pdf, pole, 4.0, 900).is_some());
+    // Cosine sampling checked against a uniform-hemisphere density.
+    let diffuse = Bsdf::Diffuse { albedo: Vec3::ONE };
+    let sample = |ul: f32, u: Vec2| diffuse.sample(&g, wo, ul, u, R).map(|s| s.wi);
+    let uniform = |w: Vec3| if w.dot(n) > 0.0 { 0.5 * std::f32::consts::FRAC_1_PI } else { 0.0 };
+    assert!(fit("cosine vs uniform", &sample, &uniform, n, 1.0, 901).is_some());
+}
+
+/// eval against an independent f64 transcription of the contract's formula (θ-based D and
+/// G1), with a shading normal equal to the geometric one.
+#[test]
+fn glossy_eval_matches_the_contract_formula() {
+    let n = normal();
+    let g = geometry(n, n);
+    let frame = Frame::from_normal(n);
+    let mut rng = sampler(7);
+    let albedo = Vec3::new(0.2, 0.4, 0.6);
+    let specular = Vec3::new(0.7, 0.5, 0.3);
+    for roughness in [0.045f32, 0.15, 0.5, 1.0] {
+        let bsdf = Bsdf::Glossy { albedo, specular, roughness };
+        let a = roughness as f64;
+        let d = |cos_h: f64| {
+            let tan2 = (1.0 - cos_h * cos_h) / (cos_h * cos_h);
+            1.0 / (std::f64::consts::PI * a * a * cos_h.powi(4) * (1.0 + tan2 / (a * a)).powi(2))
+        };
+        let g1 = |cos_v: f64| {
+            let tan2 = (1.0 - cos_v * cos_v) / (cos_v * cos_v);
+            2.0 / (1.0 + (1.0 + a * a * tan2).sqrt())
+        };
+        for _ in 0..5000 {
+            let wo = dir_at(n, 89.0 * rng.next_f32(), std::f32::consts::TAU * rng.next_f32());
+            // Directions near the mirror direction too, where D is large.
+            let wi = if rng.next_f32() < 0.5 {
+                dir_at(n, 89.0 * rng.next_f32(), std::f32::consts::TAU * rng.next_f32())
+            } else {
+                let m = frame.to_world(
+                    Vec3::new(
+                        0.3 * a as f32 * (rng.next_f32() - 0.5),
+                        0.3 * a as f32 * (rng.next_f32() - 0.5),
+                        1.0,
+                    )
+                    .normalize(),
+                );
+                2.0 * wo.dot(m) * m - wo
+            };
+            let (co, ci) = (wo.dot(n) as f64, wi.dot(n) as f64);
+            if co < 1e-2 || ci < 1e-2 {
+                continue;
+            }
+            let h = (wo + wi).normalize();
+            let cos_h = h.dot(n) as f64;
+            let spec = d(cos_h) * g1(co) * g1(ci) / (4.0 * co * ci);
+            let f = albedo.as_dvec3() / std::f64::consts::PI + specular.as_dvec3() * spec;
+            let expect = (f * ci).as_vec3();
+            let got = bsdf.eval(&g, wo, wi, R);
+            assert!(rel_close(got, expect, 2e-3), "α={roughness}: {got} vs {expect}");
+        }
+    }
 }
 
 fn assert_no_failures(failures: Vec<Option<String>>) {
