@@ -13,7 +13,7 @@
 //!   In that mode `wo` is the direction towards the PREVIOUS vertex of the light path (towards
 //!   the light, where the particle came from) and `wi` the direction the path continues in
 //!   (sampled onward, or towards the camera-side vertex being connected to); ns is the shading
-//!   normal, ng the geometric one (Veach 1997, §5.3, eq. 5.17; pbrt-v3 `CorrectShadingNormal`).
+//!   normal, ng the geometric one (Veach 1997, thesis §5.3; pbrt-v3 `CorrectShadingNormal`).
 //!   The correction is applied to every lobe, delta ones included (it is 1 when ns = ng).
 //!
 //! One file per concept: [`diffuse`], [`glossy`] (with [`ggx`]), [`mirror`], [`glass`] (with
