@@ -10,10 +10,27 @@
 //!   `ng`); glass is two-sided.
 //! - [`TransportMode::Importance`] (tracing from the lights) applies the adjoint shading-normal
 //!   correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|) and, for refraction, no 1/η² radiance scaling.
+//!   In that mode `wo` is the direction towards the PREVIOUS vertex of the light path (towards
+//!   the light, where the particle came from) and `wi` the direction the path continues in
+//!   (sampled onward, or towards the camera-side vertex being connected to); ns is the shading
+//!   normal, ng the geometric one (Veach 1997, thesis §5.3; pbrt-v3 `CorrectShadingNormal`).
+//!   The correction is applied to every lobe, delta ones included (it is 1 when ns = ng).
+//!
+//! One file per concept: [`diffuse`], [`glossy`] (with [`ggx`]), [`mirror`], [`glass`] (with
+//! [`fresnel`]). This module checks the hemispheres, applies the transport-mode correction and
+//! dispatches on the [`Bsdf`] enum; the lobes work in the local shading frame.
+
+pub mod diffuse;
+pub mod fresnel;
+pub mod ggx;
+pub mod glass;
+pub mod glossy;
+pub mod mirror;
 
 use glam::{Vec2, Vec3};
 
 use crate::geometry::Frame;
+use glossy::Glossy;
 
 /// A named material: how it scatters and what it emits.
 #[derive(Clone, Debug, PartialEq)]
@@ -78,25 +95,147 @@ impl Bsdf {
         matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })
     }
 
+    /// A rough per-channel reflectance of the material (for Russian roulette, light-path
+    /// throughput heuristics and VPL culling; not an exact directional albedo).
+    pub fn albedo_hint(&self) -> Vec3 {
+        match *self {
+            Bsdf::Diffuse { albedo } => albedo,
+            Bsdf::Glossy { albedo, specular, .. } => (albedo + specular).min(Vec3::ONE),
+            Bsdf::Mirror { specular } => specular,
+            Bsdf::Glass { .. } => Vec3::ONE,
+        }
+    }
+
     /// f(wo, wi) · |cos θi| for the non-delta part; zero for delta materials.
-    pub fn eval(&self, _g: &LocalGeometry, _wo: Vec3, _wi: Vec3, _mode: TransportMode) -> Vec3 {
-        Vec3::ZERO
+    ///
+    /// Zero unless `wo` and `wi` are both in front of the geometric normal and above the
+    /// shading horizon. In [`TransportMode::Importance`] the shading-normal correction is
+    /// applied (see the module docs for which of `wo`/`wi` is which).
+    pub fn eval(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return Vec3::ZERO };
+        let value = match *self {
+            Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wi_l),
+            Bsdf::Glossy { albedo, specular, roughness } => {
+                Glossy::new(albedo, specular, roughness).eval(wo_l, wi_l)
+            }
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return Vec3::ZERO,
+        };
+        let value = value * mode_factor(g, wo, wi, mode);
+        if value.is_finite() { value.max(Vec3::ZERO) } else { Vec3::ZERO }
     }
 
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi`; zero for delta materials.
-    pub fn pdf(&self, _g: &LocalGeometry, _wo: Vec3, _wi: Vec3, _mode: TransportMode) -> f32 {
-        0.0
+    /// It does not depend on the transport mode.
+    pub fn pdf(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
+        let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return 0.0 };
+        let p = match *self {
+            Bsdf::Diffuse { albedo } if albedo.max_element() > 0.0 => diffuse::pdf(wi_l),
+            Bsdf::Glossy { albedo, specular, roughness } => {
+                let lobe = Glossy::new(albedo, specular, roughness);
+                if lobe.is_black() { 0.0 } else { lobe.pdf(wo_l, wi_l) }
+            }
+            _ => 0.0,
+        };
+        if p.is_finite() { p.max(0.0) } else { 0.0 }
     }
 
     /// Samples `wi` given `wo`; `u_lobe` chooses between lobes, `u` places the direction.
+    ///
+    /// `None` when `wo` is below the (geometric or shading) surface of a reflective material,
+    /// in the plane of a glass interface, when the sampled direction is rejected (below either
+    /// horizon), or when the weight would not be finite.
     pub fn sample(
         &self,
-        _g: &LocalGeometry,
-        _wo: Vec3,
-        _u_lobe: f32,
-        _u: Vec2,
-        _mode: TransportMode,
+        g: &LocalGeometry,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
     ) -> Option<BsdfSample> {
-        None
+        match *self {
+            Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
+            Bsdf::Mirror { specular } => {
+                let n = g.frame.n;
+                if !(wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0) {
+                    return None;
+                }
+                let wi = mirror::reflect(wo, n).try_normalize()?;
+                let cos_g = wi.dot(g.ng);
+                if cos_g.is_nan() || cos_g <= 0.0 {
+                    return None;
+                }
+                let weight = specular * mode_factor(g, wo, wi, mode);
+                finite_sample(wi, weight, 1.0, true, 1.0)
+            }
+            Bsdf::Glass { ior } => {
+                let s = glass::sample(g.frame.n, ior, wo, u_lobe, mode)?;
+                let weight = Vec3::splat(s.weight * mode_factor(g, wo, s.wi, mode));
+                finite_sample(s.wi, weight, s.prob, true, s.eta)
+            }
+        }
     }
+
+    fn sample_non_delta(
+        &self,
+        g: &LocalGeometry,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        let wo_l = g.frame.to_local(wo);
+        if !(wo.dot(g.ng) > 0.0 && wo_l.z > 0.0) {
+            return None;
+        }
+        let wi_l = match *self {
+            Bsdf::Diffuse { albedo } if albedo.max_element() > 0.0 => diffuse::sample(u),
+            Bsdf::Glossy { albedo, specular, roughness } => {
+                Glossy::new(albedo, specular, roughness).sample(wo_l, u_lobe, u)?
+            }
+            _ => return None,
+        };
+        let wi = g.frame.to_world(wi_l).try_normalize()?;
+        // Evaluate through the public functions so that weight == eval / pdf exactly.
+        let pdf = self.pdf(g, wo, wi, mode);
+        if pdf <= 0.0 {
+            return None;
+        }
+        let weight = self.eval(g, wo, wi, mode) / pdf;
+        finite_sample(wi, weight, pdf, false, 1.0)
+    }
+}
+
+/// The local (shading-frame) coordinates of `wo` and `wi` when both are in front of the
+/// geometric normal and above the shading horizon; `None` otherwise.
+fn reflection_pair(g: &LocalGeometry, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    if !(wo.dot(g.ng) > 0.0 && wi.dot(g.ng) > 0.0) {
+        return None;
+    }
+    let (wo_l, wi_l) = (g.frame.to_local(wo), g.frame.to_local(wi));
+    (wo_l.z > 0.0 && wi_l.z > 0.0).then_some((wo_l, wi_l))
+}
+
+/// 1 in radiance mode; the adjoint shading-normal correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|)
+/// in importance mode (0 when it is undefined).
+fn mode_factor(g: &LocalGeometry, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+    match mode {
+        TransportMode::Radiance => 1.0,
+        TransportMode::Importance => {
+            let ns = g.frame.n;
+            let num = wo.dot(ns).abs() * wi.dot(g.ng).abs();
+            let den = wo.dot(g.ng).abs() * wi.dot(ns).abs();
+            let f = num / den;
+            if den > 0.0 && f.is_finite() { f } else { 0.0 }
+        }
+    }
+}
+
+fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Option<BsdfSample> {
+    (weight.is_finite() && pdf.is_finite() && pdf > 0.0 && wi.is_finite()).then_some(BsdfSample {
+        wi,
+        weight: weight.max(Vec3::ZERO),
+        pdf,
+        delta,
+        eta,
+    })
 }
