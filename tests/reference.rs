@@ -22,7 +22,6 @@ mod common;
 use glam::DVec3;
 
 use common::{Job, shared_dir};
-use pir::accel::Bvh;
 use pir::image::{RgbImage, metrics, read_exr};
 use pir::integrator::PathTracer;
 
@@ -53,7 +52,6 @@ fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
     let scene = pir::scene::load(&shared.join(scene_rel)).unwrap();
     let (reference, _) = read_exr(&shared.join(reference_rel)).unwrap();
     let (w, h) = (reference.width, reference.height);
-    let accel = Bvh::new(&scene.positions, &scene.indices);
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     let quarter = spp / 4;
     let job = Job {
@@ -65,7 +63,7 @@ fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
         threads,
         snapshot_at: vec![quarter],
     };
-    let r = job.run_with(&scene, &accel, &mut PathTracer);
+    let r = job.run(&scene, &mut PathTracer);
     assert_eq!(r.stats.dropped, 0, "{scene_rel}: NaN/Inf samples");
 
     // ---- 1. Image means.

@@ -17,7 +17,6 @@
 mod common;
 
 use common::{Job, shared_dir};
-use pir::accel::Bvh;
 use pir::image::{RgbImage, metrics, read_exr};
 use pir::integrator::{Clamping, InstantRadiosity, Integrator, Radius, VirtualLights};
 use pir::scene::Scene;
@@ -57,7 +56,6 @@ struct Outcome {
 }
 
 fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
-    let accel = Bvh::new(&c.scene.positions, &c.scene.indices);
     let job = Job {
         width: c.reference.width,
         height: c.reference.height,
@@ -67,7 +65,7 @@ fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
         threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
         snapshot_at: vec![iterations / 4],
     };
-    let r = job.run_with(&c.scene, &accel, integrator);
+    let r = job.run(&c.scene, integrator);
     assert_eq!(r.stats.dropped, 0, "{}: NaN/Inf samples", c.name);
     let (mean, se) = r.mean_and_stderr();
     let ref_mean = c.reference.mean();

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use std::path::PathBuf;
 
-use pir::accel::{Accelerator, Bvh};
+use pir::accel::{Accelerator, Backend, build_accelerator};
 use pir::geometry::Aabb;
 use pir::image::RgbImage;
 use pir::integrator::{Integrator, RenderContext};
@@ -141,10 +141,11 @@ impl Default for Job {
 }
 
 impl Job {
-    /// Renders `scene` with pir's BVH.
+    /// Renders `scene` with the default backend (Embree when built in, else pir's BVH).
     pub fn run(&self, scene: &Scene, integrator: &mut dyn Integrator) -> Rendered {
-        let accel = Bvh::new(&scene.positions, &scene.indices);
-        self.run_with(scene, &accel, integrator)
+        let accel =
+            build_accelerator(Backend::default_available(), &scene.positions, &scene.indices).unwrap();
+        self.run_with(scene, accel.as_ref(), integrator)
     }
 
     pub fn run_with(
