@@ -86,7 +86,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "B")]
     pub clamp: Option<f32>,
     /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
-    /// [default: per light, 2 × the distance to its 10th nearest VPL].
+    /// [default: per light, the distance to its 10th nearest VPL].
     #[arg(long, value_name = "R")]
     pub radius: Option<f32>,
     /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
@@ -241,6 +241,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
         stats.counters.rays,
         stats.counters.shadow_rays
     );
+    let mean = image.mean();
+    eprintln!("pir: image mean RGB {:.5} {:.5} {:.5}", mean[0], mean[1], mean[2]);
     if stats.counters.vpls > 0 {
         eprintln!(
             "pir: {:.0} VPLs per iteration; light tracing {:.2} s, gathering {:.2} s at {:.2} M shadow rays/s",
