@@ -51,7 +51,7 @@ pub struct RenderArgs {
     #[arg(long, visible_alias = "iterations", value_name = "N")]
     pub spp: Option<u64>,
     /// Wall-clock budget in seconds (at least one iteration is always rendered).
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Output EXR; the PNG preview is written beside it [default: SCENE-METHOD.exr in the
     /// current directory].
@@ -83,15 +83,15 @@ pub struct RenderArgs {
     pub vpls: usize,
     /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length² [default:
     /// 100 / scene diagonal², the G of facing surfaces a tenth of the scene apart].
-    #[arg(long, value_name = "B")]
+    #[arg(long, value_name = "B", allow_negative_numbers = true)]
     pub clamp: Option<f32>,
     /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
     /// [default: per light, the distance to its 10th nearest VPL].
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
     /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
     /// r_i = r_1 · i^((α−1)/2), in (0, 1).
-    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA)]
+    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
     /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own
     /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].

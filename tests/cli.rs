@@ -1,0 +1,239 @@
+//! The `pir` binary end to end: a render writes its EXR (with metadata) and PNG and nothing
+//! else; bad input gives one clear message naming the problem, a non-zero exit, no panic and
+//! no backtrace (with RUST_BACKTRACE=1 set, as on the render nodes), and no file left behind.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn pir(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(args)
+        .current_dir(cwd)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("run pir")
+}
+
+fn scene() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A failed run: non-zero exit, the expected words in the message, no panic or backtrace.
+fn assert_clean_failure(o: &Output, expected: &[&str]) {
+    let err = stderr(o);
+    assert!(!o.status.success(), "expected failure, got success: {err}");
+    for e in expected {
+        assert!(err.contains(e), "message lacks {e:?}: {err}");
+    }
+    for bad in ["panicked", "stack backtrace", "RUST_BACKTRACE"] {
+        assert!(!err.contains(bad), "{bad:?} in: {err}");
+    }
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn render_writes_exr_with_metadata_and_png_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene();
+    let o = pir(
+        &[
+            "render",
+            s.to_str().unwrap(),
+            "--spp",
+            "2",
+            "--resolution",
+            "32",
+            "24",
+            "--seed",
+            "7",
+            "--out",
+            "img.exr",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files_in(dir.path()), vec!["img.exr", "img.png"]);
+    let (img, attrs) = pir::image::read_exr(&dir.path().join("img.exr")).unwrap();
+    assert_eq!((img.width, img.height), (32, 24));
+    let get = |k: &str| attrs.iter().find(|(a, _)| a == k).map(|(_, v)| v.clone()).unwrap_or_default();
+    assert_eq!(get("pir.method"), "pt");
+    assert_eq!(get("pir.seed"), "7");
+    assert_eq!(get("pir.iterations"), "2");
+    assert_eq!(get("pir.max_depth"), "8");
+    assert!(get("pir.scene").ends_with("scene.toml"));
+    assert!(!get("pir.accel").is_empty());
+    assert!(get("pir.render_time_s").parse::<f64>().is_ok());
+    assert!(img.mean()[0] > 0.0);
+}
+
+#[test]
+fn every_method_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene();
+    for m in ["pt", "ir", "ir-clamp", "pir-clamp", "vsl", "pir-vsl"] {
+        let out = format!("{m}.exr");
+        let o = pir(
+            &[
+                "render",
+                s.to_str().unwrap(),
+                "--method",
+                m,
+                "--spp",
+                "2",
+                "--vpls",
+                "8",
+                "--resolution",
+                "16",
+                "16",
+            ]
+            .into_iter()
+            .chain(["--out", &out, "--no-preview"])
+            .collect::<Vec<_>>(),
+            dir.path(),
+        );
+        assert!(o.status.success(), "{m}: {}", stderr(&o));
+        let (_, attrs) = pir::image::read_exr(&dir.path().join(&out)).unwrap();
+        assert!(attrs.contains(&("pir.method".to_string(), m.to_string())), "{m}: {attrs:?}");
+    }
+}
+
+#[test]
+fn bad_arguments_fail_cleanly_before_any_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene();
+    let s = s.to_str().unwrap();
+    let cases: &[(&[&str], &[&str])] = &[
+        (&["render", "missing.toml"], &["missing.toml"]),
+        (&["render", s, "--spp", "0"], &["--spp"]),
+        (&["render", s, "--time", "-1"], &["--time"]),
+        (&["render", s, "--time", "NaN"], &["--time"]),
+        (&["render", s, "--resolution", "0", "10"], &["resolution"]),
+        (&["render", s, "--resolution", "100000", "100000"], &["resolution"]),
+        (&["render", s, "--vpls", "0"], &["--vpls"]),
+        (&["render", s, "--alpha", "1.5"], &["--alpha"]),
+        (&["render", s, "--clamp", "-2"], &["--clamp"]),
+        (&["render", s, "--radius", "0"], &["--radius"]),
+        (&["render", s, "--threads", "0"], &["--threads"]),
+        (&["render", s, "--max-depth", "0"], &["--max-depth"]),
+        (&["render", s, "--out", "no/such/dir/x.exr"], &["no/such/dir", "does not exist"]),
+        (&["render", s, "--out", "x.png"], &["x.png", ".exr"]),
+        (&["render", s, "--accel", "optix"], &["optix"]),
+        (&["render", s, "--method", "photon"], &["photon"]),
+        (&["compare", "a.exr", "b.exr"], &["a.exr"]),
+    ];
+    for (args, expected) in cases {
+        let o = pir(args, dir.path());
+        assert_clean_failure(&o, expected);
+    }
+    assert!(files_in(dir.path()).is_empty(), "left behind: {:?}", files_in(dir.path()));
+}
+
+#[test]
+fn broken_scene_files_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+    let camera =
+        "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nup = [0, 1, 0]\nfov = 40\nresolution = [8, 8]\n";
+    write("syntax.toml", "[camera\n");
+    write("typo.toml", &format!("{camera}[render]\nmax_dept = 3\n"));
+    write("noobj.toml", &format!("{camera}[[mesh]]\nobj = \"none.obj\"\n"));
+    write("nan.obj", "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
+    write(
+        "nan.toml",
+        &format!(
+            "{camera}[[mesh]]\nobj = \"nan.obj\"\nmaterial = \"m\"\n[materials.m]\nkind = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\nemission = [1, 1, 1]\n"
+        ),
+    );
+    write("dark.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    write(
+        "dark.toml",
+        &format!(
+            "{camera}[[mesh]]\nobj = \"dark.obj\"\nmaterial = \"m\"\n[materials.m]\nkind = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n"
+        ),
+    );
+    for (file, expected) in [
+        ("syntax.toml", vec!["syntax.toml"]),
+        ("typo.toml", vec!["typo.toml", "max_dept"]),
+        ("noobj.toml", vec!["none.obj"]),
+        ("nan.toml", vec!["nan.obj", "line 2"]),
+        ("dark.toml", vec!["dark.toml", "emitter"]),
+    ] {
+        let o = pir(&["render", file, "--spp", "1"], dir.path());
+        assert_clean_failure(&o, &expected);
+    }
+    let left: Vec<String> =
+        files_in(dir.path()).into_iter().filter(|f| f.ends_with(".exr") || f.ends_with(".png")).collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
+fn compare_reports_metrics_and_writes_an_error_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene();
+    for (out, seed) in [("a.exr", "1"), ("b.exr", "2")] {
+        let o = pir(
+            &[
+                "render",
+                s.to_str().unwrap(),
+                "--spp",
+                "1",
+                "--resolution",
+                "16",
+                "16",
+                "--seed",
+                seed,
+                "--out",
+                out,
+            ],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = pir(&["compare", "a.exr", "a.exr"], dir.path());
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("RMSE          0.000000e0"), "{text}");
+    let o = pir(&["compare", "a.exr", "b.exr", "--error-map", "err.png"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("relative MSE"));
+    assert!(dir.path().join("err.png").exists());
+}
+
+#[test]
+fn help_documents_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = pir(&["render", "--help"], dir.path());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for flag in [
+        "--method",
+        "--spp",
+        "--time",
+        "--out",
+        "--seed",
+        "--threads",
+        "--max-depth",
+        "--resolution",
+        "--accel",
+        "--vpls",
+        "--clamp",
+        "--radius",
+        "--alpha",
+        "pir-vsl",
+    ] {
+        assert!(text.contains(flag), "render --help lacks {flag}");
+    }
+    let o = pir(&["compare", "--help"], dir.path());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("--error-map"));
+}
