@@ -10,6 +10,8 @@
 
 mod brute;
 mod bvh;
+#[doc(hidden)]
+pub mod testmesh;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;
