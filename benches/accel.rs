@@ -4,7 +4,7 @@
 //! (random segments between points of the scene's box) and `gather` (one point to 1,024
 //! scattered surface points, occlusion: the VPL gathering pattern). Scenes: a generated
 //! Cornell-like box, a generated ~1M-triangle closed scene and, when present, the Stanford bunny
-//! and dragon from `../shared/scenes`. Backends come from one list of `Box<dyn Accelerator>`;
+//! and dragon from `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
 //! brute force only runs on small meshes.
 //!
 //! Run: `cargo bench --bench accel` (add `-- --quick` for a fast pass; `RAYON_NUM_THREADS=1`
@@ -58,7 +58,12 @@ fn load_obj(path: &Path) -> Option<Mesh> {
 
 fn scenes() -> Vec<(&'static str, Mesh)> {
     let mut v = vec![("cornell", testmesh::cornell_like()), ("closed1m", testmesh::closed_scene(1_000_000))];
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    // `../shared` next to the main checkout, `../../shared` from a worktree in `wt/`.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shared = [root.join("../shared/scenes"), root.join("../../shared/scenes")]
+        .into_iter()
+        .find(|p| p.exists())
+        .unwrap_or_else(|| root.join("../shared/scenes"));
     for (name, file) in [("bunny", "bunny/bun_zipper.obj"), ("dragon", "dragon/dragon_vrip_res2.obj")] {
         if let Some(m) = load_obj(&shared.join(file)) {
             v.push((name, m));
