@@ -1,27 +1,35 @@
-//! Closest-hit and any-hit traversal of the BVH2.
+//! Closest-hit and any-hit traversal of the 4-wide tree.
 //!
-//! Both walk the tree with a fixed stack. At an interior node both children's boxes (one cache
-//! line) are tested; closest-hit continues with the nearer one and pushes the other with its
-//! entry distance, which is checked again when popped. The slab test is written so that the NaN
-//! of `0 · ∞` (a ray with a zero direction component lying in a box's plane) counts as "inside
-//! that slab", and the exit distance is widened by a few ulps (Ize 2013) so rounding cannot
-//! cull a box that the exact ray touches.
+//! At a node the ray is tested against all four child boxes at once (`Vec4` lanes). One hit
+//! child is entered directly; with several, they are sorted by entry distance, the nearest is
+//! entered and the others are pushed (farthest first) with their entry distance, which
+//! closest-hit checks again when it pops them: anything starting beyond the closest hit so far
+//! is skipped. Any-hit uses the same nearest-first order and stops at the first hit.
+//!
+//! The slab test picks each axis' near and far planes from the direction's sign, and is written
+//! so that the NaN of `0 · ∞` (a ray with a zero direction component lying in a box's plane)
+//! leaves the interval unchanged, i.e. counts as inside that slab: `t.max(acc)` returns `acc`
+//! when `t` is NaN both for SSE2 `maxps` and for the scalar `f32::max` fallback. The exit
+//! distance is widened by a few ulps (Ize 2013) so rounding cannot cull a box the exact ray
+//! touches.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
+use super::Bvh;
 use super::build::MAX_DEPTH;
-use super::{Bvh, Node};
+use super::wide::{ChildRef, Node4};
 use crate::accel::Hit;
 use crate::geometry::{Ray, intersect_triangle};
 
 /// Widening of the exit distance: 1 + 2γ₃ rounded up generously.
 const EXIT_SCALE: f32 = 1.0 + 1e-6;
-const STACK: usize = MAX_DEPTH + 4;
+/// Each level pushes at most three children; the binary depth bounds the wide depth.
+const STACK: usize = 3 * MAX_DEPTH + 4;
 
-/// A ray prepared for box tests.
+/// A ray prepared for box tests: origin and inverse direction splatted over four lanes.
 struct RayBoxes {
-    o: Vec3,
-    inv: Vec3,
+    o: [Vec4; 3],
+    inv: [Vec4; 3],
     neg: [bool; 3],
     tmin: f32,
 }
@@ -31,33 +39,63 @@ impl RayBoxes {
     fn new(ray: &Ray) -> Self {
         // 1 / ±0 = ±∞: the slab then spans everything or nothing, as it should.
         let inv = Vec3::ONE / ray.dir;
+        let o = ray.origin;
         RayBoxes {
-            o: ray.origin,
-            inv,
+            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
             neg: [ray.dir.x.is_sign_negative(), ray.dir.y.is_sign_negative(), ray.dir.z.is_sign_negative()],
             tmin: ray.tmin,
         }
     }
 
-    /// The entry distance into `n`'s box within `(tmin, tmax)`, or `None` for a miss.
+    /// Which of `n`'s four boxes the ray enters within `(tmin, tmax)` (bit per lane), and the
+    /// entry distances.
     #[inline(always)]
-    fn enter(&self, n: &Node, tmax: f32) -> Option<f32> {
-        let mut entry = self.tmin;
-        let mut exit = tmax;
+    fn enter(&self, n: &Node4, tmax: f32) -> (u32, [f32; 4]) {
+        let mut entry = Vec4::splat(self.tmin);
+        let mut exit = Vec4::splat(tmax);
         for a in 0..3 {
             let (near, far) = if self.neg[a] { (n.max[a], n.min[a]) } else { (n.min[a], n.max[a]) };
             let t0 = (near - self.o[a]) * self.inv[a];
             let t1 = (far - self.o[a]) * self.inv[a];
-            // A NaN comparison is false: NaN bounds leave the interval as it is.
-            if t0 > entry {
-                entry = t0;
-            }
-            if t1 < exit {
-                exit = t1;
-            }
+            // NaN in t0 / t1 keeps the accumulated value (see the module docs).
+            entry = t0.max(entry);
+            exit = t1.min(exit);
         }
-        (entry <= exit * EXIT_SCALE).then_some(entry)
+        (entry.cmple(exit * EXIT_SCALE).bitmask(), entry.to_array())
     }
+}
+
+/// Pushes all hit children of `n` (lanes in `mask`, at least two) on the stack, farthest first,
+/// and returns the nearest one, which is not pushed.
+#[inline(always)]
+fn push_sorted(
+    n: &Node4,
+    mut mask: u32,
+    entry: &[f32; 4],
+    stack: &mut [(ChildRef, f32); STACK],
+    sp: &mut usize,
+) -> ChildRef {
+    let mut hits = [(0.0f32, ChildRef::default()); 4];
+    let mut k = 0;
+    while mask != 0 {
+        let lane = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        // Insertion sort, farthest first.
+        let item = (entry[lane], n.child[lane]);
+        let mut j = k;
+        while j > 0 && hits[j - 1].0 < item.0 {
+            hits[j] = hits[j - 1];
+            j -= 1;
+        }
+        hits[j] = item;
+        k += 1;
+    }
+    for &(t, c) in &hits[..k - 1] {
+        stack[*sp] = (c, t);
+        *sp += 1;
+    }
+    hits[k - 1].1
 }
 
 impl Bvh {
@@ -66,15 +104,13 @@ impl Bvh {
         let rb = RayBoxes::new(ray);
         let mut best: Option<Hit> = None;
         let mut tmax = ray.tmax;
-        let root = &self.pairs[0].nodes[0];
-        rb.enter(root, tmax)?;
-        let mut stack = [(0u32, 0f32); STACK];
+        let mut stack = [(ChildRef::default(), 0f32); STACK];
         let mut sp = 0;
-        let mut node = root;
+        let mut cur = ChildRef { index: 0, count: 0 };
         loop {
-            if node.is_leaf() {
-                let first = node.index as usize;
-                let last = first + node.count as usize;
+            if cur.is_leaf() {
+                let first = cur.index as usize;
+                let last = first + cur.count as usize;
                 for (tri, &id) in self.tris[first..last].iter().zip(&self.prim_ids[first..last]) {
                     let [a, b, c] = *tri;
                     if let Some(h) = intersect_triangle(ray.origin, ray.dir, ray.tmin, tmax, a, b, c) {
@@ -83,35 +119,26 @@ impl Bvh {
                     }
                 }
             } else {
-                let [l, r] = &self.pairs[node.index as usize].nodes;
-                match (rb.enter(l, tmax), rb.enter(r, tmax)) {
-                    (Some(tl), Some(tr)) => {
-                        let (near, far_slot, tf) = if tl <= tr { (l, 1, tr) } else { (r, 0, tl) };
-                        stack[sp] = (node.index * 2 + far_slot, tf);
-                        sp += 1;
-                        node = near;
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        node = l;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = r;
-                        continue;
-                    }
-                    (None, None) => {}
+                let n = &self.nodes[cur.index as usize];
+                let (mask, entry) = rb.enter(n, tmax);
+                if mask != 0 {
+                    cur = if mask & (mask - 1) == 0 {
+                        n.child[mask.trailing_zeros() as usize]
+                    } else {
+                        push_sorted(n, mask, &entry, &mut stack, &mut sp)
+                    };
+                    continue;
                 }
             }
-            // Pop the next node that starts before the closest hit.
+            // Pop the next child that starts before the closest hit.
             loop {
                 if sp == 0 {
                     return best;
                 }
                 sp -= 1;
-                let (id, t) = stack[sp];
+                let (c, t) = stack[sp];
                 if t <= tmax * EXIT_SCALE {
-                    node = &self.pairs[(id >> 1) as usize].nodes[(id & 1) as usize];
+                    cur = c;
                     break;
                 }
             }
@@ -122,51 +149,35 @@ impl Bvh {
     pub(super) fn any_hit(&self, ray: &Ray) -> bool {
         let rb = RayBoxes::new(ray);
         let tmax = ray.tmax;
-        let root = &self.pairs[0].nodes[0];
-        if rb.enter(root, tmax).is_none() {
-            return false;
-        }
-        let mut stack = [0u32; STACK];
+        let mut stack = [(ChildRef::default(), 0f32); STACK];
         let mut sp = 0;
-        let mut node = root;
+        let mut cur = ChildRef { index: 0, count: 0 };
         loop {
-            if node.is_leaf() {
-                let first = node.index as usize;
-                let last = first + node.count as usize;
+            if cur.is_leaf() {
+                let first = cur.index as usize;
+                let last = first + cur.count as usize;
                 for &[a, b, c] in &self.tris[first..last] {
                     if intersect_triangle(ray.origin, ray.dir, ray.tmin, tmax, a, b, c).is_some() {
                         return true;
                     }
                 }
             } else {
-                let pair = node.index;
-                let [l, r] = &self.pairs[pair as usize].nodes;
-                match (rb.enter(l, tmax), rb.enter(r, tmax)) {
-                    (Some(tl), Some(tr)) => {
-                        // Nearer first: the first surface along the ray ends the search soonest.
-                        let (near, far_slot) = if tl <= tr { (l, 1) } else { (r, 0) };
-                        stack[sp] = pair * 2 + far_slot;
-                        sp += 1;
-                        node = near;
-                        continue;
-                    }
-                    (Some(_), None) => {
-                        node = l;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = r;
-                        continue;
-                    }
-                    (None, None) => {}
+                let n = &self.nodes[cur.index as usize];
+                let (mask, entry) = rb.enter(n, tmax);
+                if mask != 0 {
+                    cur = if mask & (mask - 1) == 0 {
+                        n.child[mask.trailing_zeros() as usize]
+                    } else {
+                        push_sorted(n, mask, &entry, &mut stack, &mut sp)
+                    };
+                    continue;
                 }
             }
             if sp == 0 {
                 return false;
             }
             sp -= 1;
-            let id = stack[sp];
-            node = &self.pairs[(id >> 1) as usize].nodes[(id & 1) as usize];
+            cur = stack[sp].0;
         }
     }
 }
