@@ -23,8 +23,16 @@ use crate::geometry::{Ray, intersect_triangle};
 
 /// Widening of the exit distance: 1 + 2γ₃ rounded up generously.
 const EXIT_SCALE: f32 = 1.0 + 1e-6;
-/// Each level pushes at most three children; the binary depth bounds the wide depth.
-const STACK: usize = 3 * MAX_DEPTH + 4;
+/// Stack entries of the fast path. Each wide level pushes at most three children, so a
+/// balanced tree over millions of triangles needs about 40 at worst and far fewer in practice;
+/// the stack is kept small because it is initialised for every ray.
+const STACK: usize = 32;
+/// Stack entries that no tree can exceed: the binary depth bounds the wide depth. A ray that
+/// would overflow the fast path's stack is traced again with this one.
+const STACK_MAX: usize = 3 * MAX_DEPTH + 4;
+
+/// The fast path's stack would overflow.
+struct Overflow;
 
 /// A ray prepared for box tests: origin and inverse direction splatted over four lanes.
 struct RayBoxes {
@@ -69,11 +77,11 @@ impl RayBoxes {
 /// Pushes all hit children of `n` (lanes in `mask`, at least two) on the stack, farthest first,
 /// and returns the nearest one, which is not pushed.
 #[inline(always)]
-fn push_sorted(
+fn push_sorted<const N: usize>(
     n: &Node4,
     mut mask: u32,
     entry: &[f32; 4],
-    stack: &mut [(ChildRef, f32); STACK],
+    stack: &mut [(ChildRef, f32); N],
     sp: &mut usize,
 ) -> ChildRef {
     let mut hits = [(0.0f32, ChildRef::default()); 4];
@@ -101,10 +109,27 @@ fn push_sorted(
 impl Bvh {
     /// The closest hit of a valid ray.
     pub(super) fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        match self.closest_hit_with::<STACK>(ray) {
+            Ok(hit) => hit,
+            Err(Overflow) => self.closest_hit_with::<STACK_MAX>(ray).ok().flatten(),
+        }
+    }
+
+    /// Whether a valid ray hits anything.
+    pub(super) fn any_hit(&self, ray: &Ray) -> bool {
+        match self.any_hit_with::<STACK>(ray) {
+            Ok(hit) => hit,
+            Err(Overflow) => self.any_hit_with::<STACK_MAX>(ray).unwrap_or(true),
+        }
+    }
+
+    /// Closest-hit traversal with an `N`-entry stack.
+    #[inline(always)]
+    fn closest_hit_with<const N: usize>(&self, ray: &Ray) -> Result<Option<Hit>, Overflow> {
         let rb = RayBoxes::new(ray);
         let mut best: Option<Hit> = None;
         let mut tmax = ray.tmax;
-        let mut stack = [(ChildRef::default(), 0f32); STACK];
+        let mut stack = [(ChildRef::default(), 0f32); N];
         let mut sp = 0;
         let mut cur = ChildRef { index: 0, count: 0 };
         loop {
@@ -124,6 +149,8 @@ impl Bvh {
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         n.child[mask.trailing_zeros() as usize]
+                    } else if sp + 3 > N {
+                        return Err(Overflow);
                     } else {
                         push_sorted(n, mask, &entry, &mut stack, &mut sp)
                     };
@@ -133,7 +160,7 @@ impl Bvh {
             // Pop the next child that starts before the closest hit.
             loop {
                 if sp == 0 {
-                    return best;
+                    return Ok(best);
                 }
                 sp -= 1;
                 let (c, t) = stack[sp];
@@ -145,11 +172,12 @@ impl Bvh {
         }
     }
 
-    /// Whether a valid ray hits anything.
-    pub(super) fn any_hit(&self, ray: &Ray) -> bool {
+    /// Any-hit traversal with an `N`-entry stack.
+    #[inline(always)]
+    fn any_hit_with<const N: usize>(&self, ray: &Ray) -> Result<bool, Overflow> {
         let rb = RayBoxes::new(ray);
         let tmax = ray.tmax;
-        let mut stack = [(ChildRef::default(), 0f32); STACK];
+        let mut stack = [(ChildRef::default(), 0f32); N];
         let mut sp = 0;
         let mut cur = ChildRef { index: 0, count: 0 };
         loop {
@@ -158,7 +186,7 @@ impl Bvh {
                 let last = first + cur.count as usize;
                 for &[a, b, c] in &self.tris[first..last] {
                     if intersect_triangle(ray.origin, ray.dir, ray.tmin, tmax, a, b, c).is_some() {
-                        return true;
+                        return Ok(true);
                     }
                 }
             } else {
@@ -167,6 +195,8 @@ impl Bvh {
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         n.child[mask.trailing_zeros() as usize]
+                    } else if sp + 3 > N {
+                        return Err(Overflow);
                     } else {
                         push_sorted(n, mask, &entry, &mut stack, &mut sp)
                     };
@@ -174,10 +204,41 @@ impl Bvh {
                 }
             }
             if sp == 0 {
-                return false;
+                return Ok(false);
             }
             sp -= 1;
             cur = stack[sp].0;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::testmesh;
+
+    /// A tiny stack overflows on a dense mesh; the overflow is reported, never a wrong answer,
+    /// and the large stack gives the same result as the fast path whenever both finish.
+    #[test]
+    fn small_stack_overflow_is_detected() {
+        let m = testmesh::sphere(60, 120);
+        let bvh = Bvh::new(&m.positions, &m.indices);
+        let b = m.bounds();
+        let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
+        let mut overflows = 0;
+        for r in testmesh::random_rays(&grown, 2_000, 9) {
+            let full = bvh.closest_hit_with::<STACK_MAX>(&r).ok().flatten();
+            assert_eq!(bvh.closest_hit_with::<STACK>(&r).ok(), Some(full));
+            match bvh.closest_hit_with::<4>(&r) {
+                Ok(h) => assert_eq!(h, full),
+                Err(Overflow) => overflows += 1,
+            }
+            let occ = bvh.any_hit_with::<STACK_MAX>(&r).ok();
+            assert_eq!(occ, Some(full.is_some()));
+            if let Ok(o) = bvh.any_hit_with::<4>(&r) {
+                assert_eq!(Some(o), occ);
+            }
+        }
+        assert!(overflows > 0);
     }
 }
