@@ -106,22 +106,17 @@ impl Bvh {
     pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
         let start = Instant::now();
         let verts = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
-        let mut bounds = Vec::with_capacity(indices.len());
-        let mut centroids = Vec::with_capacity(indices.len());
         let mut prims = Vec::with_capacity(indices.len());
         for (i, t) in indices.iter().enumerate() {
             let v = verts(t);
-            let b = Aabb::from_points(&v);
-            let finite = v.iter().all(|p| p.is_finite());
-            let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
-                + Vec3::splat(f32::MIN_POSITIVE);
-            bounds.push(Aabb { min: b.min - pad, max: b.max + pad });
-            centroids.push(b.center());
-            if finite {
-                prims.push(i as u32);
+            if v.iter().all(|p| p.is_finite()) {
+                let b = Aabb::from_points(&v);
+                let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
+                    + Vec3::splat(f32::MIN_POSITIVE);
+                prims.push(build::Prim::new(Aabb { min: b.min - pad, max: b.max + pad }, i as u32));
             }
         }
-        let built = build::build(&bounds, &centroids, prims);
+        let built = build::build(prims);
         let tris = built.order.iter().map(|&p| verts(&indices[p as usize])).collect();
         let nodes = wide::collapse(&built.pairs);
         Bvh {
