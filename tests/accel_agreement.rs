@@ -292,3 +292,24 @@ fn hits_report_original_triangle_indices() {
         assert!((h.t - 1.0).abs() < 1e-4);
     }
 }
+
+#[test]
+fn scenes_far_from_the_origin_agree() {
+    // Large coordinates make float spacing coarse relative to the scene: the box test's
+    // padding must still never cull a triangle that the triangle test hits.
+    let mut m = testmesh::cornell_like();
+    for p in &mut m.positions {
+        *p = *p * 100.0 + Vec3::new(1.0e4, -5.0e3, 2.0e3);
+    }
+    let b = m.bounds();
+    let mut rays = testmesh::random_rays(&b, 5_000, 10);
+    for k in 0..5_000u64 {
+        let mut s = sampler(k);
+        let tri = m.triangle(k as usize % m.indices.len());
+        let target = if k % 2 == 0 { tri[(k / 2) as usize % 3] } else { tri[0].lerp(tri[2], s.next_f32()) };
+        let o = testmesh::point_in(&b, &mut s);
+        rays.push(Ray::new(o, target - o));
+        rays.push(Ray::segment(o, target - o, 1.0));
+    }
+    check_all(&m, &rays, "far from origin");
+}
