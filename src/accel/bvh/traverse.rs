@@ -4,12 +4,15 @@
 //! child is entered directly; with several, they are sorted by entry distance, the nearest is
 //! entered and the others are pushed (farthest first) with their entry distance, which
 //! closest-hit checks again when it pops them: anything starting beyond the closest hit so far
-//! is skipped. Any-hit uses the same nearest-first order and stops at the first hit.
+//! is skipped. Any-hit uses the same nearest-first order and stops at the first hit: visiting
+//! children unordered was about 1.3× faster for random segments but 2.3× slower for the gather
+//! pattern (one point to many surface points), which is the renderer's hot loop.
 //!
 //! The slab test picks each axis' near and far planes from the direction's sign, and is written
 //! so that the NaN of `0 · ∞` (a ray with a zero direction component lying in a box's plane)
 //! leaves the interval unchanged, i.e. counts as inside that slab: `t.max(acc)` returns `acc`
-//! when `t` is NaN both for SSE2 `maxps` and for the scalar `f32::max` fallback. The exit
+//! when `t` is NaN with glam's SSE2 (`maxps`), NEON (compare-and-select) and scalar
+//! (`f32::max`) backends. (An explicit `select(t > acc, t, acc)` measured slower.) The exit
 //! distance is widened by a few ulps (Ize 2013) so rounding cannot cull a box the exact ray
 //! touches.
 
@@ -216,6 +219,27 @@ impl Bvh {
 mod tests {
     use super::*;
     use crate::accel::testmesh;
+
+    /// Rays lying in a box's face plane (`0 · ∞ = NaN` in the slab test) enter the box; rays
+    /// parallel to a slab and outside it do not; empty lanes are never entered.
+    #[test]
+    fn slab_test_handles_zero_direction_components() {
+        let mut n =
+            Node4 { min: [Vec4::INFINITY; 3], max: [Vec4::NEG_INFINITY; 3], child: [ChildRef::default(); 4] };
+        for a in 0..3 {
+            n.min[a][0] = 0.0;
+            n.max[a][0] = 1.0;
+        }
+        let enters = |o: Vec3, d: Vec3| RayBoxes::new(&Ray::new(o, d)).enter(&n, f32::INFINITY).0;
+        for d in [Vec3::Z, -Vec3::Z, Vec3::new(-0.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)] {
+            assert_eq!(enters(Vec3::new(0.0, 0.5, -1.0), d.with_y(0.0).with_z(1.0)), 1, "{d}");
+            assert_eq!(enters(Vec3::new(1.0, 0.0, 0.5), d.with_z(0.0).with_y(1.0)), 1, "{d}");
+        }
+        assert_eq!(enters(Vec3::new(0.0, 0.0, -1.0), Vec3::Z), 1, "along an edge");
+        assert_eq!(enters(Vec3::new(1.0, 1.0, 2.0), -Vec3::Z), 1, "along an edge, backwards");
+        assert_eq!(enters(Vec3::new(1.0 + 1e-6, 0.5, -1.0), Vec3::Z), 0, "outside the x slab");
+        assert_eq!(enters(Vec3::new(0.5, 0.5, 2.0), Vec3::Z), 0, "box behind the ray");
+    }
 
     /// A tiny stack overflows on a dense mesh; the overflow is reported, never a wrong answer,
     /// and the large stack gives the same result as the fast path whenever both finish.
