@@ -12,6 +12,8 @@
 mod brute;
 mod bvh;
 pub mod embree;
+#[doc(hidden)]
+pub mod testmesh;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;

@@ -1,0 +1,122 @@
+//! Ray-query throughput of the backends (rays per second, one thread) and BVH build time.
+//!
+//! Cases, per scene and backend: `closest` (incoherent random rays, closest hit), `occluded`
+//! (random segments between points of the scene's box) and `gather` (one point to 1,024
+//! scattered surface points, occlusion: the VPL gathering pattern). Scenes: a generated
+//! Cornell-like box, a generated ~1M-triangle closed scene and, when present, the Stanford bunny
+//! and dragon from `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
+//! brute force only runs on small meshes.
+//!
+//! Run: `cargo bench --bench accel` (add `-- --quick` for a fast pass; `RAYON_NUM_THREADS=1`
+//! makes the build single-threaded too).
+
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use pir::accel::testmesh::{self, Mesh};
+use pir::accel::{Accelerator, BruteForce, Bvh};
+use pir::geometry::Ray;
+
+/// Brute force only below this many triangles.
+const BRUTE_MAX: usize = 2_000;
+const RAYS: usize = 65_536;
+
+fn backends(m: &Mesh) -> Vec<Box<dyn Accelerator>> {
+    let mut v: Vec<Box<dyn Accelerator>> = vec![Box::new(Bvh::new(&m.positions, &m.indices))];
+    if m.indices.len() <= BRUTE_MAX {
+        v.push(Box::new(BruteForce::new(&m.positions, &m.indices)));
+    }
+    v
+}
+
+fn load_obj(path: &Path) -> Option<Mesh> {
+    if !path.exists() {
+        println!("skipping {}: not found", path.display());
+        return None;
+    }
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, _) = match tobj::load_obj(path, &opts) {
+        Ok(x) => x,
+        Err(e) => {
+            println!("skipping {}: {e}", path.display());
+            return None;
+        }
+    };
+    let mut m = Mesh::default();
+    for model in models {
+        let part = Mesh {
+            positions: model.mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect(),
+            indices: model.mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        };
+        m.append(&part);
+    }
+    Some(m)
+}
+
+fn scenes() -> Vec<(&'static str, Mesh)> {
+    let mut v = vec![("cornell", testmesh::cornell_like()), ("closed1m", testmesh::closed_scene(1_000_000))];
+    // `../shared` next to the main checkout, `../../shared` from a worktree in `wt/`.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shared = [root.join("../shared/scenes"), root.join("../../shared/scenes")]
+        .into_iter()
+        .find(|p| p.exists())
+        .unwrap_or_else(|| root.join("../shared/scenes"));
+    for (name, file) in [("bunny", "bunny/bun_zipper.obj"), ("dragon", "dragon/dragon_vrip_res2.obj")] {
+        if let Some(m) = load_obj(&shared.join(file)) {
+            v.push((name, m));
+        }
+    }
+    v
+}
+
+fn bench_queries(c: &mut Criterion) {
+    for (scene, m) in scenes() {
+        let b = m.bounds();
+        let rays = testmesh::random_rays(&b, RAYS, 11);
+        let segs = testmesh::random_segments(&b, RAYS, 12);
+        // One point in open space (inside the closed scenes' outer box, outside their contents).
+        let from = b.min.lerp(b.max, 0.85);
+        let gather = testmesh::gather_rays(&m, from, 1_024, 13);
+        for acc in backends(&m) {
+            println!("{scene}: {}", acc.describe());
+            let mut g = c.benchmark_group(format!("{scene}/{}", acc.name()));
+            g.throughput(Throughput::Elements(rays.len() as u64));
+            g.bench_function("closest", |bch| {
+                bch.iter(|| rays.iter().filter(|r| acc.intersect(black_box(r)).is_some()).count())
+            });
+            g.bench_function("occluded", |bch| bch.iter(|| count_occluded(acc.as_ref(), &segs)));
+            g.throughput(Throughput::Elements(gather.len() as u64));
+            g.bench_function("gather", |bch| bch.iter(|| count_occluded(acc.as_ref(), &gather)));
+            g.finish();
+        }
+    }
+}
+
+fn count_occluded(acc: &dyn Accelerator, rays: &[Ray]) -> usize {
+    rays.iter().filter(|r| acc.occluded(black_box(r))).count()
+}
+
+fn bench_build(c: &mut Criterion) {
+    let mut g = c.benchmark_group("build/bvh");
+    g.sample_size(10);
+    for (scene, m) in scenes() {
+        g.throughput(Throughput::Elements(m.indices.len() as u64));
+        g.bench_function(BenchmarkId::from_parameter(scene), |bch| {
+            bch.iter(|| Bvh::new(black_box(&m.positions), black_box(&m.indices)))
+        });
+    }
+    g.finish();
+}
+
+fn config() -> Criterion {
+    Criterion::default()
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sample_size(20)
+}
+
+criterion_group! { name = benches; config = config(); targets = bench_queries, bench_build }
+criterion_main!(benches);

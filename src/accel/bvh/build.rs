@@ -1,0 +1,306 @@
+//! Binned-SAH construction of the BVH2 and its flattening into sibling pairs.
+//!
+//! Each node's primitives are binned on their centroids into [`BINS`] bins along all three axes
+//! in one pass; the split with the lowest surface-area-heuristic cost
+//! (`C_TRAV + Σ area·count / area`) wins, or a leaf is made when that is cheaper than
+//! intersecting every triangle (up to [`MAX_LEAF`]). Nodes whose centroids all coincide are
+//! split in the middle of their range so that leaves stay small, and the depth is capped at
+//! [`MAX_DEPTH`]. Primitive records (box and id, SIMD-aligned `Vec3A`) are partitioned in
+//! place, so every pass reads memory sequentially. Subtrees with many primitives are built in
+//! parallel with rayon and stitched together afterwards.
+
+use glam::Vec3A;
+
+use super::{Node, NodePair};
+use crate::geometry::Aabb;
+
+/// Centroid bins per axis for large nodes; small nodes use fewer (see [`bins_for`]).
+const BINS: usize = 32;
+/// Most triangles in a leaf (unless the depth cap or coincident centroids force more).
+pub(super) const MAX_LEAF: usize = 8;
+/// Cost of a box test relative to one triangle test, for the SAH.
+const C_TRAV: f32 = 1.0;
+/// Deepest node of the binary tree; it bounds the traversal stack.
+pub(super) const MAX_DEPTH: usize = 60;
+/// Ranges at least this large are built on two rayon tasks.
+const PARALLEL_MIN: usize = 16 * 1024;
+
+/// A box in SIMD-friendly form.
+#[derive(Clone, Copy, Debug)]
+struct Box3 {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Box3 {
+    const EMPTY: Box3 = Box3 { min: Vec3A::INFINITY, max: Vec3A::NEG_INFINITY };
+
+    #[inline]
+    fn union(self, o: Box3) -> Box3 {
+        Box3 { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    #[inline]
+    fn grow(self, p: Vec3A) -> Box3 {
+        Box3 { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    /// Half the surface area; 0 for an empty box.
+    #[inline]
+    fn half_area(self) -> f32 {
+        let e = (self.max - self.min).max(Vec3A::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+
+    fn aabb(self) -> Aabb {
+        Aabb { min: self.min.into(), max: self.max.into() }
+    }
+}
+
+/// One primitive as the builder sees it: its (padded) box and its index.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Prim {
+    bounds: Box3,
+    id: u32,
+}
+
+impl Prim {
+    pub fn new(bounds: Aabb, id: u32) -> Self {
+        Prim { bounds: Box3 { min: bounds.min.into(), max: bounds.max.into() }, id }
+    }
+
+    /// Twice the centroid (the factor does not matter for binning).
+    #[inline]
+    fn centroid2(&self) -> Vec3A {
+        self.bounds.min + self.bounds.max
+    }
+}
+
+/// The product of a build: sibling pairs (pair 0 holds the root in slot 0) and the order of the
+/// primitives in the leaves.
+pub(super) struct Built {
+    pub pairs: Vec<NodePair>,
+    pub order: Vec<u32>,
+    pub leaves: usize,
+    pub depth: usize,
+}
+
+/// Builds over `prims` (callers leave out triangles with non-finite vertices).
+pub(super) fn build(mut prims: Vec<Prim>) -> Built {
+    let mut root_pair = NodePair::default();
+    if prims.is_empty() {
+        // An empty leaf whose box no ray enters.
+        root_pair.nodes[0] = Node::leaf(Aabb::EMPTY, 0, 0);
+        return Built { pairs: vec![root_pair], order: Vec::new(), leaves: 1, depth: 0 };
+    }
+    let root_bounds = range_bounds(&prims);
+    let sub = subtree(&mut prims, 0, root_bounds, 0);
+    root_pair.nodes[0] = sub.root.shifted(1);
+    let mut pairs = Vec::with_capacity(sub.pairs.len() + 1);
+    pairs.push(root_pair);
+    append_shifted(&mut pairs, sub.pairs);
+    let order = prims.iter().map(|p| p.id).collect();
+    Built { pairs, order, leaves: sub.leaves, depth: sub.depth }
+}
+
+/// A subtree built on its own: its root node and its pairs, with child links (the root's too)
+/// relative to the start of `pairs`; leaf ranges are final.
+struct Subtree {
+    root: Node,
+    pairs: Vec<NodePair>,
+    leaves: usize,
+    depth: usize,
+}
+
+/// Appends `sub` to `pairs`, shifting its relative child links by the insertion point.
+fn append_shifted(pairs: &mut Vec<NodePair>, sub: Vec<NodePair>) {
+    let base = pairs.len() as u32;
+    pairs.extend(sub.into_iter().map(|mut p| {
+        p.nodes = p.nodes.map(|n| n.shifted(base));
+        p
+    }));
+}
+
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Box3,
+    count: u32,
+}
+
+/// A chosen split: the axis, the first bin on the right, and the two children's bounds.
+struct Split {
+    axis: usize,
+    bin: usize,
+    left: Box3,
+    right: Box3,
+    cost: f32,
+    /// Binning parameters: doubled-centroid minimum on `axis`, bins per unit length, bins.
+    min: f32,
+    scale: f32,
+    bins: usize,
+}
+
+fn range_bounds(prims: &[Prim]) -> Box3 {
+    prims.iter().fold(Box3::EMPTY, |b, p| b.union(p.bounds))
+}
+
+/// Where to split the node over `prims`: the size of the left part and both children's
+/// bounds, or `None` for a leaf.
+fn choose_split(prims: &mut [Prim], bounds: Box3, depth: usize) -> Option<(usize, Box3, Box3)> {
+    let n = prims.len();
+    if n <= 2 || depth >= MAX_DEPTH {
+        return None;
+    }
+    match best_split(prims, bounds) {
+        Some(s) if s.cost < n as f32 || n > MAX_LEAF => Some((partition(prims, &s), s.left, s.right)),
+        // The SAH prefers a leaf and the leaf is small enough.
+        Some(_) => None,
+        None if n <= MAX_LEAF => None,
+        // Coincident centroids: split the range in the middle.
+        None => {
+            let mid = n / 2;
+            Some((mid, range_bounds(&prims[..mid]), range_bounds(&prims[mid..])))
+        }
+    }
+}
+
+/// Builds the subtree over `prims`, whose first element sits at `offset` in the final order:
+/// large ranges as two rayon tasks whose pair lists are stitched together, small ones
+/// sequentially into one list.
+fn subtree(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize) -> Subtree {
+    let n = prims.len();
+    if n < PARALLEL_MIN {
+        let mut sub = Subtree { root: Node::default(), pairs: Vec::new(), leaves: 0, depth };
+        sub.root = build_into(prims, offset, bounds, depth, &mut sub);
+        return sub;
+    }
+    let Some((mid, lb, rb)) = choose_split(prims, bounds, depth) else {
+        let root = Node::leaf(bounds.aabb(), offset as u32, n as u32);
+        return Subtree { root, pairs: Vec::new(), leaves: 1, depth };
+    };
+    let (lp, rp) = prims.split_at_mut(mid);
+    let (l, r) =
+        rayon::join(|| subtree(lp, offset, lb, depth + 1), || subtree(rp, offset + mid, rb, depth + 1));
+    // Layout (depth-first over pairs): [children pair][left subtree][right subtree].
+    // Child links are relative to the start of each subtree's own pairs.
+    let mut pairs = Vec::with_capacity(1 + l.pairs.len() + r.pairs.len());
+    pairs.push(NodePair { nodes: [l.root.shifted(1), r.root.shifted(1 + l.pairs.len() as u32)] });
+    append_shifted(&mut pairs, l.pairs);
+    append_shifted(&mut pairs, r.pairs);
+    Subtree {
+        root: Node::interior(bounds.aabb(), 0),
+        pairs,
+        leaves: l.leaves + r.leaves,
+        depth: l.depth.max(r.depth),
+    }
+}
+
+/// Builds sequentially, appending pairs depth-first to `out.pairs`; returns the node.
+fn build_into(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize, out: &mut Subtree) -> Node {
+    let Some((mid, lb, rb)) = choose_split(prims, bounds, depth) else {
+        out.leaves += 1;
+        out.depth = out.depth.max(depth);
+        return Node::leaf(bounds.aabb(), offset as u32, prims.len() as u32);
+    };
+    let at = out.pairs.len();
+    out.pairs.push(NodePair::default());
+    let (lp, rp) = prims.split_at_mut(mid);
+    let l = build_into(lp, offset, lb, depth + 1, out);
+    let r = build_into(rp, offset + mid, rb, depth + 1, out);
+    out.pairs[at].nodes = [l, r];
+    Node::interior(bounds.aabb(), at as u32)
+}
+
+/// The best binned-SAH split, in units of triangle tests, or `None` when all centroids
+/// coincide.
+fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
+    let cb = prims.iter().fold(Box3::EMPTY, |b, p| b.grow(p.centroid2()));
+    let ext = cb.max - cb.min;
+    // Axes without extent get scale 0: everything lands in bin 0 and no split is proposed.
+    let nb = bins_for(prims.len());
+    let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(nb as f32) / ext, Vec3A::ZERO);
+    let mut bins = [[Bin { bounds: Box3::EMPTY, count: 0 }; BINS]; 3];
+    for p in prims {
+        let idx = bin_index(p.centroid2(), cb.min, scale, nb);
+        for (axis, axis_bins) in bins.iter_mut().enumerate() {
+            let b = &mut axis_bins[idx[axis]];
+            b.bounds = b.bounds.union(p.bounds);
+            b.count += 1;
+        }
+    }
+    let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
+    let mut best: Option<Split> = None;
+    for (axis, bins) in bins.iter().enumerate() {
+        // Sweep from the right: bounds and cost of the right side for each split position.
+        let mut right_cost = [0.0f32; BINS];
+        let mut right_bounds = [Box3::EMPTY; BINS];
+        let (mut acc, mut cnt) = (Box3::EMPTY, 0u32);
+        for i in (1..nb).rev() {
+            acc = acc.union(bins[i].bounds);
+            cnt += bins[i].count;
+            right_bounds[i] = acc;
+            right_cost[i] = acc.half_area() * cnt as f32;
+        }
+        let (mut acc, mut cnt) = (Box3::EMPTY, 0u32);
+        for i in 1..nb {
+            acc = acc.union(bins[i - 1].bounds);
+            cnt += bins[i - 1].count;
+            if cnt == 0 || cnt as usize == prims.len() {
+                continue;
+            }
+            let cost = C_TRAV + (acc.half_area() * cnt as f32 + right_cost[i]) / parent_area;
+            if best.as_ref().is_none_or(|b| cost < b.cost) {
+                best = Some(Split {
+                    axis,
+                    bin: i,
+                    left: acc,
+                    right: right_bounds[i],
+                    cost,
+                    min: cb.min[axis],
+                    scale: scale[axis],
+                    bins: nb,
+                });
+            }
+        }
+    }
+    best
+}
+
+/// Moves the primitives left of the split to the front; returns how many there are.
+fn partition(prims: &mut [Prim], s: &Split) -> usize {
+    let goes_left = |p: &Prim| bin_of(p.centroid2()[s.axis], s.min, s.scale, s.bins) < s.bin;
+    let mut i = 0;
+    let mut j = prims.len();
+    while i < j {
+        if goes_left(&prims[i]) {
+            i += 1;
+        } else {
+            j -= 1;
+            prims.swap(i, j);
+        }
+    }
+    i
+}
+
+/// The bins of doubled centroid `c` on all three axes.
+#[inline]
+fn bin_index(c: Vec3A, min: Vec3A, scale: Vec3A, bins: usize) -> [usize; 3] {
+    [bin_of(c.x, min.x, scale.x, bins), bin_of(c.y, min.y, scale.y, bins), bin_of(c.z, min.z, scale.z, bins)]
+}
+
+/// Bins per axis for a node of `n` primitives: the sweep over bins costs as much as binning
+/// a small node, and a few bins already find its good splits.
+#[inline]
+fn bins_for(n: usize) -> usize {
+    match n {
+        0..64 => 8,
+        64..1024 => 16,
+        _ => BINS,
+    }
+}
+
+/// The bin of coordinate `c`; the same function decides binning and partitioning.
+#[inline]
+fn bin_of(c: f32, min: f32, scale: f32, bins: usize) -> usize {
+    (((c - min) * scale) as usize).min(bins - 1)
+}

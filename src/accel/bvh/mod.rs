@@ -1,0 +1,254 @@
+//! The pure-Rust ray-query backend: a bounding volume hierarchy over the scene's triangles.
+//!
+//! **Build** ([`build`]): binned surface-area heuristic on triangle centroids (32 bins per
+//! axis, fewer for small nodes), leaves of at most 8 triangles (about 2 on average), large
+//! subtrees built in parallel with rayon. Triangle
+//! boxes are padded by a tiny relative margin so that rounding in the box test can never cull a
+//! triangle that the exact triangle test would hit.
+//!
+//! **Layout**: the binary tree is built as 64-byte-aligned sibling pairs of compact 32-byte
+//! nodes ([`build`]), then collapsed ([`wide`]) into 4-wide nodes that store their children's
+//! boxes in structure-of-arrays form (128 bytes), depth-first; leaves are references inside
+//! their parent. Triangles are copied into leaf order (`[Vec3; 3]` each, in their own array) so
+//! a leaf's triangles are contiguous; a parallel array maps them back to the caller's triangle
+//! indices, which [`Hit::prim`] reports.
+//!
+//! **Traversal** ([`traverse`]): per ray, the inverse direction and direction signs are
+//! precomputed; one ray is tested against a node's four boxes at once with glam's SIMD `Vec4`
+//! (safe code). The slab test picks each axis' near and far planes from the sign and ignores
+//! the NaN that `0 · ∞` gives for a ray in a box's plane. Closest-hit visits children nearest
+//! first, keeps the others on a stack with their entry distances and drops any that starts
+//! beyond the closest hit so far. `occluded` stops at the first hit. Triangles are tested with
+//! the same [`intersect_triangle`](crate::geometry::intersect_triangle) as the brute-force
+//! oracle, on the same open interval `(tmin, tmax)`, so both agree hit for hit.
+//!
+//! Why this shape: ray queries are dominated by cache misses, so the design keeps boxes that
+//! are tested together in the same cache lines, the tree shallow and leaves contiguous; the
+//! ordered traversal with early-out keeps closest hits from visiting what lies behind the first
+//! surface. On a 1M-triangle closed scene the 4-wide tree traces about 1.4× as many rays per
+//! second as the binary one it comes from.
+
+mod build;
+mod traverse;
+mod wide;
+
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+
+use super::{Accelerator, Hit};
+use crate::geometry::{Aabb, Ray};
+use wide::Node4;
+
+/// One node: its box and two indices. For a leaf, `index` is the first triangle (in leaf order)
+/// and `count > 0`; for an interior node, `index` is the pair holding its children and
+/// `count == 0`.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
+struct Node {
+    min: [f32; 3],
+    max: [f32; 3],
+    index: u32,
+    count: u32,
+}
+
+impl Node {
+    fn leaf(b: Aabb, first: u32, count: u32) -> Self {
+        Node { min: b.min.to_array(), max: b.max.to_array(), index: first, count }
+    }
+
+    fn interior(b: Aabb, pair: u32) -> Self {
+        Node { min: b.min.to_array(), max: b.max.to_array(), index: pair, count: 0 }
+    }
+
+    /// The node with its child link moved by `by` pairs (leaves are unchanged).
+    fn shifted(mut self, by: u32) -> Self {
+        if !self.is_leaf() {
+            self.index += by;
+        }
+        self
+    }
+
+    #[inline]
+    fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+/// Two siblings sharing a 64-byte cache line.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+struct NodePair {
+    nodes: [Node; 2],
+}
+
+/// Relative padding of triangle boxes (see the module docs).
+const BOX_PAD: f32 = 1e-5;
+
+/// A binned-SAH BVH over triangles (see the module docs).
+pub struct Bvh {
+    /// The 4-wide tree; `nodes[0]` is the root.
+    nodes: Vec<Node4>,
+    /// Nodes of the binary tree it was collapsed from.
+    binary_nodes: usize,
+    /// Triangle vertices in leaf order.
+    tris: Vec<[Vec3; 3]>,
+    /// Original triangle index of each entry of `tris`.
+    prim_ids: Vec<u32>,
+    leaves: usize,
+    depth: usize,
+    build_time: Duration,
+}
+
+impl Bvh {
+    /// Builds the hierarchy over the triangles `indices` of `positions`. Accepts an empty list
+    /// and degenerate triangles; triangles with non-finite vertices are left out (they can never
+    /// be hit). Panics if an index is out of range, like the other backends.
+    pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
+        let start = Instant::now();
+        let verts = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
+        let mut prims = Vec::with_capacity(indices.len());
+        for (i, t) in indices.iter().enumerate() {
+            let v = verts(t);
+            if v.iter().all(|p| p.is_finite()) {
+                let b = Aabb::from_points(&v);
+                let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
+                    + Vec3::splat(f32::MIN_POSITIVE);
+                prims.push(build::Prim::new(Aabb { min: b.min - pad, max: b.max + pad }, i as u32));
+            }
+        }
+        let built = build::build(prims);
+        let tris = built.order.iter().map(|&p| verts(&indices[p as usize])).collect();
+        let nodes = wide::collapse(&built.pairs);
+        Bvh {
+            nodes,
+            // Every pair but the root's holds two nodes.
+            binary_nodes: 2 * built.pairs.len() - 1,
+            tris,
+            prim_ids: built.order,
+            leaves: built.leaves,
+            depth: built.depth,
+            build_time: start.elapsed(),
+        }
+    }
+
+    /// Number of 4-wide nodes (leaves are references inside them, not nodes).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Number of leaves.
+    pub fn leaf_count(&self) -> usize {
+        self.leaves
+    }
+
+    /// Time spent in [`Bvh::new`].
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+}
+
+impl Accelerator for Bvh {
+    fn name(&self) -> &str {
+        "bvh"
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "bvh (binned SAH, collapsed to 4-wide: {} triangles, {} wide nodes from {} binary, \
+             {} leaves, binary depth {}, built in {:.1} ms)",
+            self.tris.len(),
+            self.node_count(),
+            self.binary_nodes,
+            self.leaves,
+            self.depth,
+            self.build_time.as_secs_f64() * 1e3
+        )
+    }
+
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !ray.is_valid() || self.tris.is_empty() {
+            return None;
+        }
+        self.closest_hit(ray)
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        ray.is_valid() && !self.tris.is_empty() && self.any_hit(ray)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::testmesh;
+
+    /// Walks the tree checking that child boxes lie inside their parents' lanes, every triangle
+    /// is in exactly one leaf and the leaf count matches.
+    fn validate(bvh: &Bvh, n_tris: usize) {
+        let mut seen = vec![0u32; n_tris];
+        let mut leaves = 0;
+        let inside = |lo: [f32; 3], hi: [f32; 3], n: &Node4, lane: usize| {
+            (0..3).all(|a| n.min[a][lane] <= lo[a] && hi[a] <= n.max[a][lane])
+        };
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let n = &bvh.nodes[i];
+            for lane in 0..4 {
+                let c = n.child[lane];
+                if c.is_leaf() {
+                    leaves += 1;
+                    let range = c.index as usize..(c.index + c.count) as usize;
+                    for (tri, &id) in bvh.tris[range.clone()].iter().zip(&bvh.prim_ids[range]) {
+                        seen[id as usize] += 1;
+                        for p in tri {
+                            assert!(inside(p.to_array(), p.to_array(), n, lane));
+                        }
+                    }
+                } else if n.min[0][lane] <= n.max[0][lane] {
+                    let child = &bvh.nodes[c.index as usize];
+                    for l in 0..4 {
+                        if child.min[0][l] <= child.max[0][l] {
+                            let lo = [child.min[0][l], child.min[1][l], child.min[2][l]];
+                            let hi = [child.max[0][l], child.max[1][l], child.max[2][l]];
+                            assert!(inside(lo, hi, n, lane));
+                        }
+                    }
+                    stack.push(c.index as usize);
+                }
+            }
+        }
+        assert_eq!(leaves, bvh.leaf_count());
+        assert_eq!(bvh.binary_nodes, 2 * leaves - 1);
+        assert!(seen.iter().all(|&k| k == 1), "every triangle in exactly one leaf");
+    }
+
+    #[test]
+    fn tree_is_well_formed() {
+        for m in [testmesh::cornell_like(), testmesh::sphere(100, 200), testmesh::heightfield(30)] {
+            let bvh = Bvh::new(&m.positions, &m.indices);
+            validate(&bvh, m.indices.len());
+            let mean = m.indices.len() as f32 / bvh.leaf_count() as f32;
+            assert!(mean <= build::MAX_LEAF as f32, "mean leaf size {mean}");
+        }
+    }
+
+    #[test]
+    fn coincident_centroids_make_small_leaves() {
+        // 1,000 copies of one triangle: no SAH split exists; the range is halved instead.
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let indices = vec![[0, 1, 2]; 1000];
+        let bvh = Bvh::new(&positions, &indices);
+        validate(&bvh, indices.len());
+        assert!(bvh.leaf_count() >= 1000 / build::MAX_LEAF);
+    }
+
+    #[test]
+    fn pairs_are_cache_line_sized() {
+        assert_eq!(std::mem::size_of::<Node>(), 32);
+        assert_eq!(std::mem::size_of::<NodePair>(), 64);
+        assert_eq!(std::mem::align_of::<NodePair>(), 64);
+        assert_eq!(std::mem::size_of::<Node4>(), 128);
+        assert_eq!(std::mem::align_of::<Node4>(), 64);
+    }
+}
