@@ -5,7 +5,8 @@ use glam::Vec3;
 
 use super::{Counters, RenderContext};
 use crate::geometry::{Ray, offset_origin};
-use crate::material::{Bsdf, LocalGeometry, TransportMode};
+use crate::light::emitted;
+use crate::material::{Bsdf, LocalGeometry, Material, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
 
@@ -72,17 +73,49 @@ pub fn sample_emitters(
     f * es.radiance * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light)
 }
 
+/// How the ray that reached a surface was sampled: what the MIS weight of the emission it
+/// finds depends on.
+#[derive(Clone, Copy, Debug)]
+pub struct Sampled {
+    /// The point the ray left.
+    pub from: Vec3,
+    /// Solid-angle density of its direction (for BSDF samples).
+    pub pdf: f32,
+    /// From the camera or a delta lobe: light sampling cannot find this path, full weight.
+    pub delta: bool,
+}
+
+impl Sampled {
+    pub fn camera(origin: Vec3) -> Self {
+        Sampled { from: origin, pdf: 0.0, delta: true }
+    }
+}
+
+/// Emission of `material` at `sp` towards `wo` (pointing back along the ray), weighted by MIS
+/// against light sampling unless the ray came from the camera or a delta lobe.
+#[inline]
+pub fn emission(
+    ctx: &RenderContext,
+    material: &Material,
+    sp: &SurfacePoint,
+    wo: Vec3,
+    how: &Sampled,
+) -> Vec3 {
+    if !material.is_emitter() {
+        return Vec3::ZERO;
+    }
+    let le = emitted(material.emission, sp.ng, wo);
+    if le == Vec3::ZERO || how.delta {
+        return le;
+    }
+    le * emission_weight(ctx, how.from, how.pdf, sp, wo)
+}
+
 /// The MIS weight of emission found by BSDF sampling: the BSDF sampled the direction from
 /// `prev_p` with solid-angle density `pdf_bsdf` and hit emitter point `hit` seen from
 /// direction `wo` (pointing back to `prev_p`).
 #[inline]
-pub fn emission_weight(
-    ctx: &RenderContext,
-    prev_p: Vec3,
-    pdf_bsdf: f32,
-    hit: &SurfacePoint,
-    wo: Vec3,
-) -> f32 {
+fn emission_weight(ctx: &RenderContext, prev_p: Vec3, pdf_bsdf: f32, hit: &SurfacePoint, wo: Vec3) -> f32 {
     let cos = hit.ng.dot(wo).abs();
     if cos <= 0.0 {
         return 0.0;

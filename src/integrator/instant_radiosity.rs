@@ -41,14 +41,13 @@
 
 use glam::Vec3;
 
-use super::direct::{emission_weight, sample_emitters, shadow_ray};
+use super::direct::{Sampled, emission, sample_emitters, shadow_ray};
 use super::knn::KdTree;
 use super::schedule::{DEFAULT_ALPHA, clamp_bound, radius};
 use super::vpl::{Vpl, trace_vpls};
 use super::vsl::{self, KNN_K, KNN_SCALE};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::{Ray, offset_origin};
-use crate::light::emitted;
 use crate::material::{Bsdf, LocalGeometry, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
@@ -173,6 +172,41 @@ impl InstantRadiosity {
     }
 
     /// Indirect light at x from every VPL of at most `max_vpl_depth` segments.
+    /// Φ f_p cos_p f_x cos_x / d² of one VPL at x, with G clamped at this iteration's bound;
+    /// zero when either BSDF is.
+    fn point_contribution(
+        &self,
+        gx: &LocalGeometry,
+        sp: &SurfacePoint,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        vpl: &Vpl,
+        bsdf_p: &Bsdf,
+    ) -> Vec3 {
+        let d = vpl.p - sp.p;
+        let dist2 = d.length_squared();
+        if dist2 <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let w = d / dist2.sqrt();
+        let fx = bsdf.eval(gx, wo, w, TransportMode::Radiance);
+        if fx == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let fp = bsdf_p.eval(&vpl.geometry(), vpl.w_in, -w, TransportMode::Importance);
+        if fp == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let c = vpl.flux * fx * fp / dist2;
+        if self.bound.is_finite() {
+            let g = sp.frame.n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
+            if g > self.bound {
+                return c * (self.bound / g);
+            }
+        }
+        c
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
@@ -207,40 +241,13 @@ impl InstantRadiosity {
                 continue;
             }
             let bsdf_p = &ctx.scene.materials[vpl.material as usize].bsdf;
-            if spheres {
-                let c = vsl::contribution(&gx, sp.p, bsdf, wo, vpl, bsdf_p, self.radii[j], sampler);
-                if c == Vec3::ZERO {
-                    continue;
-                }
-                rays[n] = shadow_ray(sp.p, sp.ng, vpl.p, vpl.ng);
-                contrib[n] = c;
-                n += 1;
-                if n == BATCH {
-                    total += flush(n, &rays, &contrib, counters);
-                    n = 0;
-                }
+            let c = if spheres {
+                vsl::contribution(&gx, sp.p, bsdf, wo, vpl, bsdf_p, self.radii[j], sampler)
+            } else {
+                self.point_contribution(&gx, sp, bsdf, wo, vpl, bsdf_p)
+            };
+            if c == Vec3::ZERO {
                 continue;
-            }
-            let d = vpl.p - sp.p;
-            let dist2 = d.length_squared();
-            if dist2 <= 0.0 {
-                continue;
-            }
-            let w = d / dist2.sqrt();
-            let fx = bsdf.eval(&gx, wo, w, TransportMode::Radiance);
-            if fx == Vec3::ZERO {
-                continue;
-            }
-            let fy = bsdf_p.eval(&vpl.geometry(), vpl.w_in, -w, TransportMode::Importance);
-            if fy == Vec3::ZERO {
-                continue;
-            }
-            let mut c = vpl.flux * fx * fy / dist2;
-            if self.bound.is_finite() {
-                let g = sp.frame.n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
-                if g > self.bound {
-                    c *= self.bound / g;
-                }
             }
             rays[n] = shadow_ray(sp.p, sp.ng, vpl.p, vpl.ng);
             contrib[n] = c;
@@ -315,9 +322,7 @@ impl Integrator for InstantRadiosity {
     ) -> Vec3 {
         let mut radiance = Vec3::ZERO;
         let mut beta = Vec3::ONE;
-        let mut prev_delta = true;
-        let mut prev_pdf = 0.0f32;
-        let mut prev_p = ray.origin;
+        let mut how = Sampled::camera(ray.origin);
         let mut ray = ray;
         let mut depth = 0u32;
         counters.rays += 1;
@@ -327,13 +332,7 @@ impl Integrator for InstantRadiosity {
             let sp = ctx.scene.surface_of_hit(&ray, &hit);
             let wo = -ray.dir.normalize();
             let material = &ctx.scene.materials[sp.material as usize];
-            if material.is_emitter() {
-                let le = emitted(material.emission, sp.ng, wo);
-                if le != Vec3::ZERO {
-                    let w = if prev_delta { 1.0 } else { emission_weight(ctx, prev_p, prev_pdf, &sp, wo) };
-                    radiance += beta * le * w;
-                }
-            }
+            radiance += beta * emission(ctx, material, &sp, wo, &how);
             if depth >= ctx.max_depth {
                 break;
             }
@@ -354,9 +353,7 @@ impl Integrator for InstantRadiosity {
                 break;
             }
             let from_delta = bsdf.is_delta();
-            prev_delta = s.delta;
-            prev_pdf = s.pdf;
-            prev_p = sp.p;
+            how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
             ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
             counters.rays += 1;
             let Some(next) = ctx.accel.intersect(&ray) else { break };
@@ -369,16 +366,7 @@ impl Integrator for InstantRadiosity {
                 if !next_material.bsdf.is_delta() {
                     if next_material.is_emitter() {
                         let np = ctx.scene.surface_of_hit(&ray, &hit);
-                        let nwo = -ray.dir.normalize();
-                        let le = emitted(next_material.emission, np.ng, nwo);
-                        if le != Vec3::ZERO {
-                            let w = if prev_delta {
-                                1.0
-                            } else {
-                                emission_weight(ctx, prev_p, prev_pdf, &np, nwo)
-                            };
-                            radiance += beta * le * w;
-                        }
+                        radiance += beta * emission(ctx, next_material, &np, -ray.dir.normalize(), &how);
                     }
                     break;
                 }

@@ -13,7 +13,7 @@ pub mod schedule;
 pub mod vpl;
 pub mod vsl;
 
-pub use direct::{occluded, power_heuristic, sample_emitters, shadow_ray};
+pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights};
 pub use path::PathTracer;
 

@@ -11,10 +11,9 @@
 
 use glam::Vec3;
 
-use super::direct::{emission_weight, sample_emitters};
+use super::direct::{Sampled, emission, sample_emitters};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::{Ray, offset_origin};
-use crate::light::emitted;
 use crate::material::{LocalGeometry, TransportMode};
 use crate::sampling::Sampler;
 
@@ -40,9 +39,7 @@ impl Integrator for PathTracer {
         let mut beta = Vec3::ONE;
         let mut eta_scale = 1.0f32;
         // How the current ray was sampled: delta lobes (and the camera) get full emission.
-        let mut prev_delta = true;
-        let mut prev_pdf = 0.0f32;
-        let mut prev_p = ray.origin;
+        let mut how = Sampled::camera(ray.origin);
         let mut depth = 0u32;
         loop {
             counters.rays += 1;
@@ -53,13 +50,7 @@ impl Integrator for PathTracer {
             let material = &ctx.scene.materials[sp.material as usize];
 
             // ---- Emission found by the camera ray or the BSDF sample.
-            if material.is_emitter() {
-                let le = emitted(material.emission, sp.ng, wo);
-                if le != Vec3::ZERO {
-                    let w = if prev_delta { 1.0 } else { emission_weight(ctx, prev_p, prev_pdf, &sp, wo) };
-                    radiance += beta * le * w;
-                }
-            }
+            radiance += beta * emission(ctx, material, &sp, wo, &how);
             if depth >= ctx.max_depth {
                 break;
             }
@@ -80,9 +71,7 @@ impl Integrator for PathTracer {
                 break;
             }
             eta_scale *= s.eta * s.eta;
-            prev_delta = s.delta;
-            prev_pdf = s.pdf;
-            prev_p = sp.p;
+            how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
 
             // ---- Russian roulette (unbiased: survivors are divided by the survival probability).
             if depth >= RR_DEPTH {
