@@ -2,13 +2,17 @@
 //!
 //! Cases, per scene and backend: `closest` (incoherent random rays, closest hit), `occluded`
 //! (random segments between points of the scene's box) and `gather` (one point to 1,024
-//! scattered surface points, occlusion: the VPL gathering pattern). Scenes: a generated
+//! scattered surface points, occlusion: the VPL gathering pattern), each with single-ray calls
+//! and with the batched calls (`*-batch`: Embree's 16-wide packets; the BVH's batch is a loop
+//! of single rays). Backends: Embree when pir is built with it, the BVH, and brute force on
+//! small meshes. Build times for the BVH and Embree. Scenes: a generated
 //! Cornell-like box, a generated ~1M-triangle closed scene and, when present, the Stanford bunny
 //! and dragon from `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
 //! brute force only runs on small meshes.
 //!
-//! Run: `cargo bench --bench accel` (add `-- --quick` for a fast pass; `RAYON_NUM_THREADS=1`
-//! makes the build single-threaded too).
+//! Run: `RAYON_NUM_THREADS=1 cargo bench --bench accel -- --noplot` (add `--quick` for a fast
+//! pass; `RAYON_NUM_THREADS=1` makes the BVH build single-threaded too; Embree builds with its
+//! own TBB threads).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -17,7 +21,7 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use pir::accel::testmesh::{self, Mesh};
-use pir::accel::{Accelerator, BruteForce, Bvh};
+use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};
 use pir::geometry::Ray;
 
 /// Brute force only below this many triangles.
@@ -25,7 +29,11 @@ const BRUTE_MAX: usize = 2_000;
 const RAYS: usize = 65_536;
 
 fn backends(m: &Mesh) -> Vec<Box<dyn Accelerator>> {
-    let mut v: Vec<Box<dyn Accelerator>> = vec![Box::new(Bvh::new(&m.positions, &m.indices))];
+    let mut v: Vec<Box<dyn Accelerator>> = Vec::new();
+    if Backend::Embree.is_available() {
+        v.push(build_accelerator(Backend::Embree, &m.positions, &m.indices).expect("Embree builds"));
+    }
+    v.push(Box::new(Bvh::new(&m.positions, &m.indices)));
     if m.indices.len() <= BRUTE_MAX {
         v.push(Box::new(BruteForce::new(&m.positions, &m.indices)));
     }
@@ -88,8 +96,23 @@ fn bench_queries(c: &mut Criterion) {
                 bch.iter(|| rays.iter().filter(|r| acc.intersect(black_box(r)).is_some()).count())
             });
             g.bench_function("occluded", |bch| bch.iter(|| count_occluded(acc.as_ref(), &segs)));
+            let mut hits = vec![None; rays.len()];
+            g.bench_function("closest-batch", |bch| {
+                bch.iter(|| {
+                    acc.intersect_batch(black_box(&rays), &mut hits);
+                    hits.iter().filter(|h| h.is_some()).count()
+                })
+            });
+            let mut occ = vec![false; rays.len()];
+            g.bench_function("occluded-batch", |bch| {
+                bch.iter(|| count_occluded_batch(acc.as_ref(), &segs, &mut occ))
+            });
             g.throughput(Throughput::Elements(gather.len() as u64));
             g.bench_function("gather", |bch| bch.iter(|| count_occluded(acc.as_ref(), &gather)));
+            let mut occ = vec![false; gather.len()];
+            g.bench_function("gather-batch", |bch| {
+                bch.iter(|| count_occluded_batch(acc.as_ref(), &gather, &mut occ))
+            });
             g.finish();
         }
     }
@@ -99,16 +122,26 @@ fn count_occluded(acc: &dyn Accelerator, rays: &[Ray]) -> usize {
     rays.iter().filter(|r| acc.occluded(black_box(r))).count()
 }
 
+fn count_occluded_batch(acc: &dyn Accelerator, rays: &[Ray], occ: &mut [bool]) -> usize {
+    acc.occluded_batch(black_box(rays), occ);
+    occ.iter().filter(|&&o| o).count()
+}
+
 fn bench_build(c: &mut Criterion) {
-    let mut g = c.benchmark_group("build/bvh");
-    g.sample_size(10);
-    for (scene, m) in scenes() {
-        g.throughput(Throughput::Elements(m.indices.len() as u64));
-        g.bench_function(BenchmarkId::from_parameter(scene), |bch| {
-            bch.iter(|| Bvh::new(black_box(&m.positions), black_box(&m.indices)))
-        });
+    let scenes = scenes();
+    for backend in [Backend::Bvh, Backend::Embree].into_iter().filter(|b| b.is_available()) {
+        let mut g = c.benchmark_group(format!("build/{backend}"));
+        g.sample_size(10);
+        for (scene, m) in &scenes {
+            g.throughput(Throughput::Elements(m.indices.len() as u64));
+            g.bench_function(BenchmarkId::from_parameter(scene), |bch| {
+                bch.iter(|| {
+                    build_accelerator(backend, black_box(&m.positions), black_box(&m.indices)).unwrap()
+                })
+            });
+        }
+        g.finish();
     }
-    g.finish();
 }
 
 fn config() -> Criterion {
