@@ -237,3 +237,32 @@ fn help_documents_every_command() {
     let o = pir(&["compare", "--help"], dir.path());
     assert!(String::from_utf8_lossy(&o.stdout).contains("--error-map"));
 }
+
+#[test]
+fn time_budget_stops_the_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene();
+    let start = std::time::Instant::now();
+    let o = pir(
+        &[
+            "render",
+            s.to_str().unwrap(),
+            "--time",
+            "0.5",
+            "--resolution",
+            "32",
+            "32",
+            "--out",
+            "t.exr",
+            "--no-preview",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Generous: the budget is checked between iterations of a few milliseconds each.
+    assert!(start.elapsed().as_secs_f64() < 30.0);
+    let (_, attrs) = pir::image::read_exr(&dir.path().join("t.exr")).unwrap();
+    let it: u64 = attrs.iter().find(|(k, _)| k == "pir.iterations").unwrap().1.parse().unwrap();
+    assert!(it >= 1);
+    assert_eq!(files_in(dir.path()), vec!["t.exr"]);
+}
