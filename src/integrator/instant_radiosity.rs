@@ -52,8 +52,12 @@ use crate::material::{Bsdf, LocalGeometry, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
 
-/// Light paths per iteration when `--vpls` is not given.
-pub const DEFAULT_PATHS: usize = 256;
+/// Light paths per iteration when `--vpls` is not given. An iteration costs pixels × VPLs
+/// shadow rays and the progressive schedules advance once per iteration, so many cheap
+/// iterations beat few rich ones: on the 256×256 Cornell box, 20 s of `pir-clamp` on 2 cores
+/// reached a relative MSE of 5.0e-4 with 16 paths, 5.1e-4 with 32, 6.3e-4 with 64 and 1.2e-3
+/// with 256. 32 keeps a few VPLs per iteration for glossy and spherical lights too.
+pub const DEFAULT_PATHS: usize = 32;
 
 /// Shadow rays per batch handed to the accelerator.
 const BATCH: usize = 64;
