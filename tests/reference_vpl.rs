@@ -114,7 +114,7 @@ fn assert_within_half_percent(c: &Case, o: &Outcome) {
 
 const PATHS: usize = 64;
 const QUICK: u64 = 400;
-const LONG: u64 = 20_000;
+const LONG: u64 = 8_000;
 
 fn pir_clamp(c: &Case) -> InstantRadiosity {
     InstantRadiosity::points(Clamping::progressive(Clamping::default_bound(c.scene.bounds.diagonal())), PATHS)
@@ -160,7 +160,7 @@ fn constant_clamp_stays_too_dark_on_the_cornell_box() {
 }
 
 #[test]
-#[ignore = "long: about three minutes per case"]
+#[ignore = "long: one to five minutes per case"]
 fn long_progressive_methods_within_half_a_percent() {
     for c in [cornell(), spheres()].into_iter().flatten() {
         assert_within_half_percent(&c, &run(&c, &mut pir_clamp(&c), LONG));
@@ -169,7 +169,7 @@ fn long_progressive_methods_within_half_a_percent() {
 }
 
 #[test]
-#[ignore = "long: about three minutes"]
+#[ignore = "long: about a minute"]
 fn long_default_constant_clamp_keeps_its_bias() {
     let Some(c) = cornell() else { return };
     let b = Clamping::default_bound(c.scene.bounds.diagonal());
