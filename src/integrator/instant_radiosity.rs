@@ -48,7 +48,7 @@ use super::vpl::{Vpl, trace_vpls};
 use super::vsl::{self, KNN_K, KNN_SCALE};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::{Ray, offset_origin};
-use crate::material::{Bsdf, LocalGeometry, TransportMode};
+use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
 
@@ -118,8 +118,10 @@ pub struct InstantRadiosity {
     paths: usize,
     /// Fallback radius when the density radius cannot be computed.
     fallback_radius: f32,
-    /// This iteration's VPLs, geometry-term bound and (for spheres) radii.
+    /// This iteration's VPLs, each VPL's BSDF prepared for its incoming direction, the
+    /// geometry-term bound and (for spheres) radii.
     vpls: Vec<Vpl>,
+    emitting: Vec<PreparedBsdf>,
     bound: f32,
     radii: Vec<f32>,
 }
@@ -131,6 +133,7 @@ impl InstantRadiosity {
             paths,
             fallback_radius: 0.0,
             vpls: Vec::new(),
+            emitting: Vec::new(),
             bound: f32::INFINITY,
             radii: Vec::new(),
         }
@@ -178,26 +181,18 @@ impl InstantRadiosity {
     /// Indirect light at x from every VPL of at most `max_vpl_depth` segments.
     /// Φ f_p cos_p f_x cos_x / d² of one VPL at x, with G clamped at this iteration's bound;
     /// zero when either BSDF is.
-    fn point_contribution(
-        &self,
-        gx: &LocalGeometry,
-        sp: &SurfacePoint,
-        bsdf: &Bsdf,
-        wo: Vec3,
-        vpl: &Vpl,
-        bsdf_p: &Bsdf,
-    ) -> Vec3 {
+    fn point_contribution(&self, sp: &SurfacePoint, fx: &PreparedBsdf, vpl: &Vpl, fp: &PreparedBsdf) -> Vec3 {
         let d = vpl.p - sp.p;
         let dist2 = d.length_squared();
         if dist2 <= 0.0 {
             return Vec3::ZERO;
         }
         let w = d / dist2.sqrt();
-        let fx = bsdf.eval(gx, wo, w, TransportMode::Radiance);
+        let fx = fx.eval(w);
         if fx == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let fp = bsdf_p.eval(&vpl.geometry(), vpl.w_in, -w, TransportMode::Importance);
+        let fp = fp.eval(-w);
         if fp == Vec3::ZERO {
             return Vec3::ZERO;
         }
@@ -240,6 +235,7 @@ impl InstantRadiosity {
             sum
         };
         let spheres = matches!(self.lights, VirtualLights::Spheres { .. });
+        let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
         for (j, vpl) in self.vpls.iter().enumerate() {
             if vpl.depth > max_vpl_depth {
                 continue;
@@ -248,7 +244,7 @@ impl InstantRadiosity {
             let c = if spheres {
                 vsl::contribution(&gx, sp.p, bsdf, wo, vpl, bsdf_p, self.radii[j], sampler)
             } else {
-                self.point_contribution(&gx, sp, bsdf, wo, vpl, bsdf_p)
+                self.point_contribution(sp, &fx, vpl, &self.emitting[j])
             };
             if c == Vec3::ZERO {
                 continue;
@@ -308,6 +304,13 @@ impl Integrator for InstantRadiosity {
         let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, max_vpl_depth);
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
+        self.emitting = vpls
+            .iter()
+            .map(|v| {
+                let bsdf = ctx.scene.materials[v.material as usize].bsdf;
+                PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance)
+            })
+            .collect();
         self.vpls = vpls;
         self.bound = match self.lights {
             VirtualLights::Points(c) => c.bound(iteration),

@@ -26,6 +26,9 @@ pub mod ggx;
 pub mod glass;
 pub mod glossy;
 pub mod mirror;
+mod prepared;
+
+pub use prepared::PreparedBsdf;
 
 use glam::{Vec2, Vec3};
 
@@ -112,16 +115,7 @@ impl Bsdf {
     /// shading horizon. In [`TransportMode::Importance`] the shading-normal correction is
     /// applied (see the module docs for which of `wo`/`wi` is which).
     pub fn eval(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
-        let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return Vec3::ZERO };
-        let value = match *self {
-            Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wi_l),
-            Bsdf::Glossy { albedo, specular, roughness } => {
-                Glossy::new(albedo, specular, roughness).eval(wo_l, wi_l)
-            }
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return Vec3::ZERO,
-        };
-        let value = value * mode_factor(g, wo, wi, mode);
-        if value.is_finite() { value.max(Vec3::ZERO) } else { Vec3::ZERO }
+        PreparedBsdf::new(*self, *g, wo, mode).eval(wi)
     }
 
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi`; zero for delta materials.

@@ -1,0 +1,69 @@
+//! A BSDF with its outgoing direction fixed, for evaluating many incident directions: the
+//! VPL gather evaluates the receiver's BSDF for one `wo` against every VPL, and every VPL's
+//! BSDF for its one incoming direction against every receiver. The checks and shading-frame
+//! coordinates of the fixed direction are computed once. [`Bsdf::eval`] is defined through
+//! this type, so both give the same values.
+
+use glam::Vec3;
+
+use super::glossy::Glossy;
+use super::{Bsdf, LocalGeometry, TransportMode, diffuse};
+
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedBsdf {
+    bsdf: Bsdf,
+    g: LocalGeometry,
+    mode: TransportMode,
+    /// The fixed direction in the shading frame, and its cosine with the geometric normal.
+    wo_l: Vec3,
+    wo_ng: f32,
+    /// Whether anything can be reflected: `wo` in front of both normals, a non-delta BSDF.
+    active: bool,
+}
+
+impl PreparedBsdf {
+    /// `wo` is the fixed direction (away from the surface); see [`Bsdf::eval`] for the
+    /// conventions.
+    #[inline]
+    pub fn new(bsdf: Bsdf, g: LocalGeometry, wo: Vec3, mode: TransportMode) -> Self {
+        let wo_ng = wo.dot(g.ng);
+        let wo_l = g.frame.to_local(wo);
+        let active = wo_ng > 0.0 && wo_l.z > 0.0 && !bsdf.is_delta();
+        PreparedBsdf { bsdf, g, mode, wo_l, wo_ng, active }
+    }
+
+    /// f(wo, wi) · |cos θi|, exactly [`Bsdf::eval`] for the fixed `wo`.
+    #[inline]
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        if !self.active {
+            return Vec3::ZERO;
+        }
+        let wi_ng = wi.dot(self.g.ng);
+        if wi_ng.is_nan() || wi_ng <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let wi_l = self.g.frame.to_local(wi);
+        if wi_l.z.is_nan() || wi_l.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let value = match self.bsdf {
+            Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wi_l),
+            Bsdf::Glossy { albedo, specular, roughness } => {
+                Glossy::new(albedo, specular, roughness).eval(self.wo_l, wi_l)
+            }
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return Vec3::ZERO,
+        };
+        let factor = match self.mode {
+            TransportMode::Radiance => 1.0,
+            // The adjoint shading-normal correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|).
+            TransportMode::Importance => {
+                let num = self.wo_l.z.abs() * wi_ng.abs();
+                let den = self.wo_ng.abs() * wi_l.z.abs();
+                let f = num / den;
+                if den > 0.0 && f.is_finite() { f } else { 0.0 }
+            }
+        };
+        let value = value * factor;
+        if value.is_finite() { value.max(Vec3::ZERO) } else { Vec3::ZERO }
+    }
+}
