@@ -168,13 +168,19 @@ fn long_progressive_methods_within_half_a_percent() {
     }
 }
 
+/// The default constant clamp's bias is small (about −0.6 % on the Cornell box), so it shows
+/// best as a floor under the relative MSE: over a 4× longer run a consistent method's error
+/// falls about 3–4× (pir-clamp: 2.75× measured), a biased one's hardly at all (ir-clamp: 1.02×
+/// measured). Asserted: it falls by less than 2×, and every channel mean is below the
+/// reference.
 #[test]
 #[ignore = "long: about a minute"]
 fn long_default_constant_clamp_keeps_its_bias() {
     let Some(c) = cornell() else { return };
     let b = Clamping::default_bound(c.scene.bounds.diagonal());
     let o = run(&c, &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), LONG);
-    for k in 0..2 {
-        assert!(o.z[k] < -Z, "ir-clamp must stay darker than the reference: channel {k} z = {:.2}", o.z[k]);
+    assert!(o.rel_mse > 0.5 * o.rel_mse_quarter, "ir-clamp's error must stop falling");
+    for k in 0..3 {
+        assert!(o.rel[k] < 0.0, "ir-clamp must be darker than the reference: channel {k}");
     }
 }
