@@ -266,3 +266,42 @@ fn time_budget_stops_the_render() {
     assert!(it >= 1);
     assert_eq!(files_in(dir.path()), vec!["t.exr"]);
 }
+
+/// SIGINT and SIGTERM finish the running iteration, write a valid image and exit 0.
+#[test]
+fn interrupt_writes_the_image_and_exits_zero() {
+    for signal in ["-INT", "-TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let s = scene();
+        let child = Command::new(env!("CARGO_BIN_EXE_pir"))
+            .args([
+                "render",
+                s.to_str().unwrap(),
+                "--time",
+                "600",
+                "--resolution",
+                "64",
+                "64",
+                "--out",
+                "i.exr",
+            ])
+            .current_dir(dir.path())
+            .env("RUST_BACKTRACE", "1")
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Let it start rendering, then interrupt it.
+        std::thread::sleep(std::time::Duration::from_millis(1500));
+        let kill = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
+        assert!(kill.success());
+        let o = child.wait_with_output().unwrap();
+        let err = stderr(&o);
+        assert!(o.status.success(), "{signal}: {err}");
+        assert!(err.contains("interrupted"), "{err}");
+        let (img, attrs) = pir::image::read_exr(&dir.path().join("i.exr")).unwrap();
+        assert_eq!((img.width, img.height), (64, 64));
+        let it: u64 = attrs.iter().find(|(k, _)| k == "pir.iterations").unwrap().1.parse().unwrap();
+        assert!(it >= 1);
+        assert_eq!(files_in(dir.path()), vec!["i.exr", "i.png"]);
+    }
+}

@@ -3,6 +3,8 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use pir::accel::{Backend, build_accelerator, embree_status, set_flush_denormals};
@@ -198,8 +200,21 @@ pub fn run(a: RenderArgs) -> Result<()> {
         eprintln!("pir: {}", embree_status());
     }
 
-    let (film, stats) =
-        pool.install(|| render(&ctx, integrator.as_mut(), &settings, |_, _| Control::Continue));
+    // Ctrl-C or SIGTERM: finish the running iteration, write the image, exit 0.
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = Arc::clone(&interrupted);
+        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+            .context("cannot install the interrupt handler")?;
+    }
+    let (film, stats) = pool.install(|| {
+        render(&ctx, integrator.as_mut(), &settings, |_, _| {
+            if interrupted.load(Ordering::SeqCst) { Control::Stop } else { Control::Continue }
+        })
+    });
+    if interrupted.load(Ordering::SeqCst) {
+        eprintln!("pir: interrupted: writing the {} iterations rendered so far", stats.iterations);
+    }
 
     // ---- Output.
     let image = film.image();
