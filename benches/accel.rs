@@ -22,16 +22,16 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use glam::Vec3;
 use pir::accel::testmesh::{self, Mesh};
 use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};
-use pir::geometry::Ray;
+use pir::geometry::{Ray, VertexBuffer};
 
 /// Brute force only below this many triangles.
 const BRUTE_MAX: usize = 2_000;
 const RAYS: usize = 65_536;
 
-fn backends(m: &Mesh) -> Vec<Box<dyn Accelerator>> {
-    let mut v: Vec<Box<dyn Accelerator>> = Vec::new();
+fn backends<'a>(m: &'a Mesh, vertices: &'a VertexBuffer) -> Vec<Box<dyn Accelerator + 'a>> {
+    let mut v: Vec<Box<dyn Accelerator + 'a>> = Vec::new();
     if Backend::Embree.is_available() {
-        v.push(build_accelerator(Backend::Embree, &m.positions, &m.indices).expect("Embree builds"));
+        v.push(build_accelerator(Backend::Embree, vertices, &m.indices).expect("Embree builds"));
     }
     v.push(Box::new(Bvh::new(&m.positions, &m.indices)));
     if m.indices.len() <= BRUTE_MAX {
@@ -88,7 +88,8 @@ fn bench_queries(c: &mut Criterion) {
         // One point in open space (inside the closed scenes' outer box, outside their contents).
         let from = b.min.lerp(b.max, 0.85);
         let gather = testmesh::gather_rays(&m, from, 1_024, 13);
-        for acc in backends(&m) {
+        let vertices = VertexBuffer::from(m.positions.clone());
+        for acc in backends(&m, &vertices) {
             println!("{scene}: {}", acc.describe());
             let mut g = c.benchmark_group(format!("{scene}/{}", acc.name()));
             g.throughput(Throughput::Elements(rays.len() as u64));
@@ -133,11 +134,10 @@ fn bench_build(c: &mut Criterion) {
         let mut g = c.benchmark_group(format!("build/{backend}"));
         g.sample_size(10);
         for (scene, m) in &scenes {
+            let vertices = VertexBuffer::from(m.positions.clone());
             g.throughput(Throughput::Elements(m.indices.len() as u64));
             g.bench_function(BenchmarkId::from_parameter(scene), |bch| {
-                bch.iter(|| {
-                    build_accelerator(backend, black_box(&m.positions), black_box(&m.indices)).unwrap()
-                })
+                bch.iter(|| build_accelerator(backend, black_box(&vertices), black_box(&m.indices)).unwrap())
             });
         }
         g.finish();

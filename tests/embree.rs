@@ -25,7 +25,7 @@ mod with_embree {
     use pir::accel::{
         Accelerator, Backend, BruteForce, Hit, build_accelerator, embree_status, set_flush_denormals,
     };
-    use pir::geometry::Ray;
+    use pir::geometry::{Ray, VertexBuffer};
     use pir::sampling::{Domain, Sampler};
     use rayon::prelude::*;
 
@@ -203,10 +203,25 @@ mod with_embree {
         assert!(embree_status().starts_with("embree "), "{}", embree_status());
         assert_eq!(Backend::default_available(), Backend::Embree);
         let (p, t) = boxes();
+        let p = VertexBuffer::from(p);
         let a = build_accelerator(Backend::Embree, &p, &t).unwrap();
         assert_eq!(a.name(), "embree");
         let d = a.describe();
         assert!(d.starts_with("embree ") && d.contains("triangles") && d.contains("built in"), "{d}");
+        assert!(d.contains("shared buffers"), "the renderer's Embree scene must not copy the mesh: {d}");
+    }
+
+    /// The zero-copy scene (what the renderer builds) answers exactly as the copying one.
+    #[test]
+    fn shared_and_copied_buffers_agree() {
+        let (p, t) = boxes();
+        let copied = Embree::new(&p, &t).unwrap();
+        let vertices = VertexBuffer::from(p);
+        let shared = Embree::shared(&vertices, &t).unwrap();
+        for r in random_rays(7, 2000) {
+            assert_eq!(shared.intersect(&r), copied.intersect(&r));
+            assert_eq!(shared.occluded(&r), copied.occluded(&r));
+        }
     }
 
     #[test]
@@ -434,7 +449,8 @@ mod with_embree {
             assert!(e.describe().contains(" 0 triangles"), "{}", e.describe());
             assert_eq!(e.device().error_count(), 0);
         }
-        let a = build_accelerator(Backend::Embree, &[], &[]).unwrap();
+        let empty = VertexBuffer::default();
+        let a = build_accelerator(Backend::Embree, &empty, &[]).unwrap();
         assert_eq!(a.intersect(&Ray::new(Vec3::ZERO, Vec3::X)), None);
     }
 

@@ -24,9 +24,7 @@ pub use embree::{embree_status, set_flush_denormals};
 use std::fmt;
 use std::str::FromStr;
 
-use glam::Vec3;
-
-use crate::geometry::Ray;
+use crate::geometry::{Ray, VertexBuffer};
 
 /// The closest intersection of a ray: distance `t` along the ray (in units of its direction),
 /// primitive (triangle) index and barycentrics of the triangle's second and third vertex.
@@ -124,17 +122,17 @@ pub const EMBREE_MISSING: &str =
     "pir was built without Embree; install libembree-dev libclang-dev and rebuild";
 
 /// Builds the chosen backend over the triangles `indices` of `positions` (Embree with its
-/// default settings).
-pub fn build_accelerator(
+/// default settings, reading both arrays in place: they stay borrowed as long as the backend).
+pub fn build_accelerator<'a>(
     backend: Backend,
-    positions: &[Vec3],
-    indices: &[[u32; 3]],
-) -> Result<Box<dyn Accelerator>, String> {
+    positions: &'a VertexBuffer,
+    indices: &'a [[u32; 3]],
+) -> Result<Box<dyn Accelerator + 'a>, String> {
     match backend {
         Backend::Brute => Ok(Box::new(BruteForce::new(positions, indices))),
         Backend::Bvh => Ok(Box::new(Bvh::new(positions, indices))),
         #[cfg(pir_embree)]
-        Backend::Embree => Ok(Box::new(Embree::new(positions, indices)?)),
+        Backend::Embree => Ok(Box::new(Embree::shared(positions, indices)?)),
         #[cfg(not(pir_embree))]
         Backend::Embree => Err(format!("{EMBREE_MISSING} ({})", embree_status())),
     }
@@ -143,6 +141,7 @@ pub fn build_accelerator(
 #[cfg(test)]
 mod backend_tests {
     use super::*;
+    use glam::Vec3;
 
     #[test]
     fn backend_names_round_trip() {
@@ -155,7 +154,7 @@ mod backend_tests {
 
     #[test]
     fn build_accelerator_gives_each_backend_or_a_clear_error() {
-        let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let p = VertexBuffer::from(vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
         let t = [[0, 1, 2]];
         for b in [Backend::Bvh, Backend::Brute, Backend::Embree] {
             match build_accelerator(b, &p, &t) {

@@ -5,8 +5,10 @@ mod aabb;
 mod frame;
 mod ray;
 mod triangle;
+mod vertex_buffer;
 
 pub use aabb::Aabb;
 pub use frame::Frame;
 pub use ray::{Ray, offset_origin};
 pub use triangle::{TriangleHit, intersect_triangle};
+pub use vertex_buffer::VertexBuffer;

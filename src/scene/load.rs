@@ -143,7 +143,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
         path: path.to_path_buf(),
         camera,
         render,
-        positions: b.positions,
+        positions: b.positions.into(),
         normals: b.normals,
         indices: b.indices,
         tri_material: b.tri_material,

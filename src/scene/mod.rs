@@ -16,7 +16,7 @@ use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 use crate::accel::Hit;
-use crate::geometry::{Aabb, Frame, Ray};
+use crate::geometry::{Aabb, Frame, Ray, VertexBuffer};
 use crate::material::Material;
 
 /// Rendering defaults from the scene's `[render]` table (command-line flags override them).
@@ -40,8 +40,8 @@ pub struct Scene {
     pub path: PathBuf,
     pub camera: Camera,
     pub render: RenderDefaults,
-    /// World-space vertex positions.
-    pub positions: Vec<Vec3>,
+    /// World-space vertex positions (padded so that Embree can share them without a copy).
+    pub positions: VertexBuffer,
     /// World-space unit shading normals aligned with `positions`; `Vec3::ZERO` where a vertex
     /// has none. A triangle is smooth-shaded only when all three of its vertices have one.
     pub normals: Vec<Vec3>,

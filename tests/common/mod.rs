@@ -68,7 +68,7 @@ pub fn closed_cube(material: Material) -> Scene {
         render: RenderDefaults::default(),
         normals: vec![Vec3::ZERO; positions.len()],
         bounds: Aabb::from_points(&positions),
-        positions,
+        positions: positions.into(),
         indices,
         tri_material: vec![0; n],
         materials: vec![material],

@@ -7,10 +7,14 @@
 //! | `packet_width` | [`PacketWidth`] | `Auto` | width of the packets used by the batch queries (`Auto`: widest native) |
 //!
 //! ## Geometry
-//! One triangle geometry whose vertex and index buffers are allocated by Embree
-//! (`rtcSetNewGeometryBuffer`), so Embree pads the vertex buffer for its 16-byte loads itself;
-//! pir copies the positions in. Indices are checked against the vertex count before Embree
-//! sees them (Embree does not check). An empty mesh gives an empty committed scene.
+//! One triangle geometry. [`Embree::shared`] (what the renderer uses) hands Embree the scene's
+//! own vertex and index arrays without a copy (`rtcSetSharedGeometryBuffer`): the vertices come
+//! as a [`VertexBuffer`], which keeps a padding vertex after the last one for Embree's 16-byte
+//! loads, and both arrays stay borrowed, so unchanged and alive, for the lifetime `'a` of the
+//! [`Embree`] value. [`Embree::new`] takes any slices and copies them into buffers that Embree
+//! allocates and pads (`rtcSetNewGeometryBuffer`). Indices are checked against the vertex
+//! count before Embree sees them (Embree does not check). An empty mesh gives an empty
+//! committed scene.
 //!
 //! ## Ray conventions and differences from the trait's open interval
 //! - Rays failing [`Ray::is_valid`], with an empty interval (`tmin >= tmax`) or with a
@@ -38,6 +42,7 @@
 //! [`set_flush_denormals`](super::set_flush_denormals) on each tracing thread.
 
 use std::fmt;
+use std::marker::PhantomData;
 use std::str::FromStr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -47,7 +52,7 @@ use glam::Vec3;
 use super::device::Device;
 use super::sys;
 use crate::accel::{Accelerator, Hit};
-use crate::geometry::Ray;
+use crate::geometry::{Ray, VertexBuffer};
 
 /// `RTC_INVALID_GEOMETRY_ID`, a macro bindgen cannot translate.
 const INVALID_ID: u32 = u32::MAX;
@@ -156,18 +161,24 @@ impl Drop for GeometryHandle {
     }
 }
 
-/// The Embree backend: a committed triangle scene.
-pub struct Embree {
+/// The Embree backend: a committed triangle scene, borrowing its vertex and index arrays for
+/// `'a` when built with [`Embree::shared`] (`'static` when built with copies).
+pub struct Embree<'a> {
     scene: SceneHandle,
     settings: EmbreeSettings,
     width: usize,
     triangles: usize,
     build_time: Duration,
+    /// Whether the scene reads the caller's arrays (zero-copy) rather than its own copies.
+    shared: bool,
+    _borrow: PhantomData<&'a [Vec3]>,
 }
 
 // SAFETY: the scene handle points to a heap object not tied to any thread; it is released
-// under the device's build lock, and `Device` is itself `Send + Sync`.
-unsafe impl Send for Embree {}
+// under the device's build lock, and `Device` is itself `Send + Sync`. Shared arrays are
+// borrowed immutably (`&'a [Vec3]`, which is `Send`), so moving the scene to another thread
+// moves only a reader of data that cannot change while the borrow lasts.
+unsafe impl Send for Embree<'_> {}
 // SAFETY: Embree's rule (rtcCommitScene(3)): "The modification of a geometry, committing the
 // scene, and tracing of rays must always happen sequentially, and never at the same time."
 // The scene is modified and committed only inside `Embree::build`, before any `Embree` value
@@ -175,13 +186,13 @@ unsafe impl Send for Embree {}
 // the committed scene (which Embree allows from any number of threads at once, see
 // RenderKit/embree#207) and to read-only fields. There is no `&mut self` method that touches
 // the scene, so no modification can race with tracing.
-unsafe impl Sync for Embree {}
+unsafe impl Sync for Embree<'_> {}
 
 const _: () = {
     const fn assert_send<T: Send>() {}
     const fn assert_sync<T: Sync>() {}
-    assert_send::<Embree>();
-    assert_sync::<Embree>();
+    assert_send::<Embree<'static>>();
+    assert_sync::<Embree<'static>>();
     assert_send::<Device>();
     assert_sync::<Device>();
     assert_send::<Arc<Device>>();
@@ -218,10 +229,25 @@ fn tfar_of(tmax: f32) -> f32 {
     if tmax.is_finite() { f32::from_bits(tmax.to_bits() - 1) } else { tmax }
 }
 
-impl Embree {
+impl<'a> Embree<'a> {
+    /// Builds a scene that reads `positions` and `indices` where they are, without copying
+    /// them (default settings, the process-wide [`Device::shared`] device). They stay borrowed
+    /// for as long as the scene exists.
+    pub fn shared(positions: &'a VertexBuffer, indices: &'a [[u32; 3]]) -> Result<Embree<'a>, String> {
+        Embree::create(
+            Device::shared()?,
+            positions,
+            indices,
+            Some((positions.padded(), indices)),
+            EmbreeSettings::default(),
+        )
+    }
+}
+
+impl Embree<'static> {
     /// Builds a scene of the triangles `indices` over `positions` with default settings on the
-    /// process-wide [`Device::shared`] device.
-    pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Embree, String> {
+    /// process-wide [`Device::shared`] device, copying both into Embree's own buffers.
+    pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Result<Embree<'static>, String> {
         Embree::with_settings(positions, indices, EmbreeSettings::default())
     }
 
@@ -230,7 +256,7 @@ impl Embree {
         positions: &[Vec3],
         indices: &[[u32; 3]],
         settings: EmbreeSettings,
-    ) -> Result<Embree, String> {
+    ) -> Result<Embree<'static>, String> {
         Embree::with_device(Device::shared()?, positions, indices, settings)
     }
 
@@ -240,7 +266,22 @@ impl Embree {
         positions: &[Vec3],
         indices: &[[u32; 3]],
         settings: EmbreeSettings,
-    ) -> Result<Embree, String> {
+    ) -> Result<Embree<'static>, String> {
+        Embree::create(device, positions, indices, None, settings)
+    }
+}
+
+impl<'a> Embree<'a> {
+    /// Checks the mesh and builds the scene: from `share` (the vertices followed by at least
+    /// one more vertex, and the indices, borrowed for `'a`) without copies when given, else
+    /// from copies of `positions` and `indices`.
+    fn create(
+        device: Arc<Device>,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        share: Option<(&'a [Vec3], &'a [[u32; 3]])>,
+        settings: EmbreeSettings,
+    ) -> Result<Embree<'a>, String> {
         if let Some((i, t)) =
             indices.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v as usize >= positions.len()))
         {
@@ -260,14 +301,23 @@ impl Embree {
             PacketWidth::W16 => 16,
         };
         let start = Instant::now();
-        let scene = Embree::build(device, positions, indices, settings.quality)?;
-        Ok(Embree { scene, settings, width, triangles: indices.len(), build_time: start.elapsed() })
+        let scene = Embree::build(device, positions, indices, share, settings.quality)?;
+        Ok(Embree {
+            scene,
+            settings,
+            width,
+            triangles: indices.len(),
+            build_time: start.elapsed(),
+            shared: share.is_some(),
+            _borrow: PhantomData,
+        })
     }
 
     fn build(
         device: Arc<Device>,
         positions: &[Vec3],
         indices: &[[u32; 3]],
+        share: Option<(&'a [Vec3], &'a [[u32; 3]])>,
         quality: BuildQuality,
     ) -> Result<SceneHandle, String> {
         let guard = device.build_guard();
@@ -294,46 +344,11 @@ impl Embree {
             let geom = GeometryHandle(geom);
             // SAFETY: live geometry not yet attached to anything.
             unsafe { sys::rtcSetGeometryBuildQuality(geom.0, quality.raw()) };
-            // SAFETY: live geometry; FLOAT3 with a 12-byte stride and `positions.len()` items.
-            // Embree allocates (and pads) the buffer and returns its address, or null on error.
-            let vb = unsafe {
-                sys::rtcSetNewGeometryBuffer(
-                    geom.0,
-                    sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
-                    0,
-                    sys::RTCFormat::RTC_FORMAT_FLOAT3,
-                    12,
-                    positions.len(),
-                )
-            } as *mut f32;
-            // SAFETY: as above, UINT3 with a 12-byte stride and `indices.len()` items.
-            let ib = unsafe {
-                sys::rtcSetNewGeometryBuffer(
-                    geom.0,
-                    sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
-                    0,
-                    sys::RTCFormat::RTC_FORMAT_UINT3,
-                    12,
-                    indices.len(),
-                )
-            } as *mut u32;
-            if vb.is_null() || ib.is_null() {
-                return Err(format!(
-                    "rtcSetNewGeometryBuffer failed: {:?}",
-                    device.errors_since(errors_before)
-                ));
-            }
-            // SAFETY: Embree returned a buffer of at least `3 * positions.len()` f32s (12-byte
-            // stride), aligned to at least 16 bytes, owned by the geometry, which is alive and
-            // not accessed by Embree until commit. No other reference to it exists.
-            let verts = unsafe { std::slice::from_raw_parts_mut(vb, 3 * positions.len()) };
-            for (dst, p) in verts.chunks_exact_mut(3).zip(positions) {
-                dst.copy_from_slice(&p.to_array());
-            }
-            // SAFETY: same for the index buffer, `3 * indices.len()` u32s.
-            let idx = unsafe { std::slice::from_raw_parts_mut(ib, 3 * indices.len()) };
-            for (dst, t) in idx.chunks_exact_mut(3).zip(indices) {
-                dst.copy_from_slice(t);
+            match share {
+                Some((padded, indices)) => {
+                    Embree::share_buffers(&device, &geom, positions.len(), padded, indices)?
+                }
+                None => Embree::copy_buffers(&device, &geom, positions, indices)?,
             }
             // SAFETY: live geometry with both buffers filled; all indices were checked to be in
             // range above. Attaching gives the scene its own reference; ours is released when
@@ -353,6 +368,98 @@ impl Embree {
         std::mem::forget(scene);
         drop(guard);
         Ok(SceneHandle { raw, device })
+    }
+
+    /// Binds the caller's arrays as the geometry's vertex and index buffers (no copy).
+    fn share_buffers(
+        device: &Device,
+        geom: &GeometryHandle,
+        vertices: usize,
+        padded: &'a [Vec3],
+        indices: &'a [[u32; 3]],
+    ) -> Result<(), String> {
+        assert!(padded.len() > vertices, "the shared vertex array must be padded");
+        let errors_before = device.error_count();
+        // SAFETY: live geometry, under the build lock. `padded` holds `vertices` FLOAT3 items at
+        // a 12-byte stride (`Vec3` is three packed f32s, 4-byte aligned) followed by at least one
+        // more vertex, so the 16-byte load of the last item stays inside the slice, as
+        // rtcSetSharedGeometryBuffer(3) requires of vertex buffers. `indices` holds
+        // `indices.len()` UINT3 items at a 12-byte stride. Both are borrowed for `'a`, which
+        // the returned `Embree<'a>` carries: they are neither freed nor changed while Embree can
+        // read them (the scene is released when the `Embree` drops, before the borrow ends).
+        unsafe {
+            sys::rtcSetSharedGeometryBuffer(
+                geom.0,
+                sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_FLOAT3,
+                padded.as_ptr().cast(),
+                0,
+                12,
+                vertices,
+            );
+            sys::rtcSetSharedGeometryBuffer(
+                geom.0,
+                sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_UINT3,
+                indices.as_ptr().cast(),
+                0,
+                12,
+                indices.len(),
+            );
+        }
+        let errors = device.errors_since(errors_before);
+        if errors.is_empty() { Ok(()) } else { Err(format!("rtcSetSharedGeometryBuffer failed: {errors:?}")) }
+    }
+
+    /// Copies the arrays into buffers that Embree allocates (and pads) for the geometry.
+    fn copy_buffers(
+        device: &Device,
+        geom: &GeometryHandle,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+    ) -> Result<(), String> {
+        let errors_before = device.error_count();
+        // SAFETY: live geometry; FLOAT3 with a 12-byte stride and `positions.len()` items.
+        // Embree allocates (and pads) the buffer and returns its address, or null on error.
+        let vb = unsafe {
+            sys::rtcSetNewGeometryBuffer(
+                geom.0,
+                sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_FLOAT3,
+                12,
+                positions.len(),
+            )
+        } as *mut f32;
+        // SAFETY: as above, UINT3 with a 12-byte stride and `indices.len()` items.
+        let ib = unsafe {
+            sys::rtcSetNewGeometryBuffer(
+                geom.0,
+                sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTCFormat::RTC_FORMAT_UINT3,
+                12,
+                indices.len(),
+            )
+        } as *mut u32;
+        if vb.is_null() || ib.is_null() {
+            return Err(format!("rtcSetNewGeometryBuffer failed: {:?}", device.errors_since(errors_before)));
+        }
+        // SAFETY: Embree returned a buffer of at least `3 * positions.len()` f32s (12-byte
+        // stride), aligned to at least 16 bytes, owned by the geometry, which is alive and
+        // not accessed by Embree until commit. No other reference to it exists.
+        let verts = unsafe { std::slice::from_raw_parts_mut(vb, 3 * positions.len()) };
+        for (dst, p) in verts.chunks_exact_mut(3).zip(positions) {
+            dst.copy_from_slice(&p.to_array());
+        }
+        // SAFETY: same for the index buffer, `3 * indices.len()` u32s.
+        let idx = unsafe { std::slice::from_raw_parts_mut(ib, 3 * indices.len()) };
+        for (dst, t) in idx.chunks_exact_mut(3).zip(indices) {
+            dst.copy_from_slice(t);
+        }
+        Ok(())
     }
 
     /// The settings the scene was built with.
@@ -431,7 +538,7 @@ macro_rules! set_lane {
 /// lanes, one Embree call per chunk that has an active lane.
 macro_rules! packet_queries {
     ($n:literal, $intersect_fn:ident, $occluded_fn:ident, $rayhit:ty, $rayty:ty, $c_intersect:ident, $c_occluded:ident) => {
-        impl Embree {
+        impl Embree<'_> {
             fn $intersect_fn(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
                 let mut valid = ValidMask::<$n>([0; $n]);
                 let mut rh = <$rayhit>::default();
@@ -530,7 +637,7 @@ fn cpu_isa() -> &'static str {
     }
 }
 
-impl Accelerator for Embree {
+impl Accelerator for Embree<'_> {
     fn name(&self) -> &str {
         "embree"
     }
@@ -540,7 +647,7 @@ impl Accelerator for Embree {
         let natives: Vec<String> = d.native_packet_widths().iter().map(|w| w.to_string()).collect();
         format!(
             "embree {} (API {}, CPU ISA {}, native packets {}, tasking {}): {} triangles, {} quality, \
-             built in {:.1} ms, {}-wide batches",
+             built in {:.1} ms, {} buffers, {}-wide batches",
             d.version(),
             // SAFETY: a pure function of the shim returning a constant.
             unsafe { sys::pir_embree_major() },
@@ -550,6 +657,7 @@ impl Accelerator for Embree {
             self.triangles,
             self.settings.quality,
             self.build_time.as_secs_f64() * 1e3,
+            if self.shared { "shared" } else { "copied" },
             self.width,
         )
     }
@@ -683,6 +791,27 @@ mod tests {
         let errors = device.errors_since(0);
         assert!(errors.len() == 1 && errors[0].starts_with("Embree error"), "{errors:?}");
         assert!(device.errors_since(1).is_empty());
+    }
+
+    #[test]
+    fn shared_scene_reads_the_callers_arrays_in_place() {
+        let (p, i) = quad();
+        let vertices = VertexBuffer::from(p.to_vec());
+        let e = Embree::shared(&vertices, &i).unwrap();
+        // SAFETY: the scene is committed and alive (borrowed from `e`); geometry 0 is the mesh,
+        // and asking for its buffers' addresses reads no buffer data.
+        let (vb, ib) = unsafe {
+            let geom = sys::rtcGetGeometry(e.scene.raw, 0);
+            (
+                sys::rtcGetGeometryBufferData(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_VERTEX, 0),
+                sys::rtcGetGeometryBufferData(geom, sys::RTCBufferType::RTC_BUFFER_TYPE_INDEX, 0),
+            )
+        };
+        assert_eq!(vb as *const Vec3, vertices.padded().as_ptr());
+        assert_eq!(ib as *const [u32; 3], i.as_ptr());
+        assert!(e.intersect(&Ray::new(Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z)).is_some());
+        assert!(e.describe().contains("shared buffers"), "{}", e.describe());
+        assert!(Embree::new(&p, &i).unwrap().describe().contains("copied buffers"));
     }
 
     #[test]
