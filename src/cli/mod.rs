@@ -1,6 +1,7 @@
 //! Command-line interface: argument definitions and dispatch.
 
 mod compare;
+mod merge;
 mod render;
 
 use clap::{Parser, Subcommand};
@@ -20,11 +21,13 @@ pub struct Cli {
 pub enum Command {
     Render(render::RenderArgs),
     Compare(compare::CompareArgs),
+    Merge(merge::MergeArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Merge(a) => merge::run(a),
     }
 }

@@ -5,16 +5,17 @@ use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use pir::accel::{Backend, build_accelerator, embree_status, set_flush_denormals};
-use pir::image::{write_exr, write_preview};
+use pir::image::{RgbImage, write_exr, write_preview};
 use pir::integrator::schedule::DEFAULT_ALPHA;
 use pir::integrator::{
     Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, Radius, RenderContext, VirtualLights,
 };
 use pir::light::Emitters;
-use pir::render::{Budget, Control, RenderSettings, render};
+use pir::render::state::{Job, Shard, read_state, write_state};
+use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
 
 /// Largest accepted image side, and pixel count (refused before anything is allocated).
 const MAX_SIDE: u32 = 65_536;
@@ -95,6 +96,19 @@ pub struct RenderArgs {
     /// r_i = r_1 · i^((α−1)/2), in (0, 1).
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
+    /// Write the image (with the state needed to resume it) every SECONDS, atomically, so that
+    /// a killed render loses at most one interval. Makes the output resumable.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub checkpoint: Option<f64>,
+    /// Continue a resumable render (written with --checkpoint, --shard or --resume) with the
+    /// same random numbers, up to --spp iterations in all or for --time seconds; the scene and
+    /// every parameter must be the same. Writes back to FILE.exr unless --out is given.
+    #[arg(long, value_name = "FILE.exr")]
+    pub resume: Option<PathBuf>,
+    /// Render only shard K of N: global iterations K+1, K+1+N, … of --spp in all (merge the
+    /// shards with `pir merge`). Makes the output resumable.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
     /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own
     /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].
     #[arg(long, value_name = "BACKEND")]
@@ -132,8 +146,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
     if !(a.alpha > 0.0 && a.alpha < 1.0) {
         bail!("--alpha {}: must lie strictly between 0 and 1", a.alpha);
     }
+    let checkpoint = match a.checkpoint {
+        None => None,
+        Some(t) if t.is_finite() && t > 0.0 && t < 1e9 => Some(Duration::from_secs_f64(t)),
+        Some(t) => bail!("--checkpoint {t}: must be a positive number of seconds"),
+    };
     let method_name = a.method.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
-    let out = a.out.clone().unwrap_or_else(|| default_output(&a.scene, &method_name));
+    let out =
+        a.out.clone().or_else(|| a.resume.clone()).unwrap_or_else(|| default_output(&a.scene, &method_name));
     if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
         bail!("{}: the output must be an .exr file", out.display());
     }
@@ -176,13 +196,38 @@ pub fn run(a: RenderArgs) -> Result<()> {
         }
     };
     let ctx = RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth, seed };
-    let settings = RenderSettings {
-        width: width as usize,
-        height: height as usize,
-        budget,
-        tile_size: 16,
-        progress: !a.quiet,
+    let (w, h) = (width as usize, height as usize);
+
+    // ---- What this render is, and where it starts (a resumed film or an empty one).
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    let job = Job {
+        scene_fingerprint: scene.fingerprint(),
+        method: integrator.name().to_string(),
+        parameters: integrator.parameters(),
+        max_depth,
+        seed,
+        width: w,
+        height: h,
     };
+    let film = match &a.resume {
+        None => Film::new(w, h),
+        Some(path) => {
+            let saved = read_state(path)?;
+            let mut differences = job.differences(&saved.job);
+            if saved.shard != shard {
+                differences.push(format!("shard: {shard} here, {} in the file", saved.shard));
+            }
+            if !differences.is_empty() {
+                bail!("{}: cannot resume a different render: {}", path.display(), differences.join("; "));
+            }
+            eprintln!("pir: resuming {} at iteration {}", path.display(), saved.film.iterations());
+            saved.film
+        }
+    };
+    let resumable =
+        (checkpoint.is_some() || a.resume.is_some() || a.shard.is_some()).then_some((&job, shard));
+    let budget = Budget { iterations: budget.iterations.map(|n| shard.iterations_of(n)), ..budget };
+    let settings = RenderSettings { width: w, height: h, budget, tile_size: 16, progress: !a.quiet };
     eprintln!(
         "pir: {} ({} triangles, {} emitting), {}×{}, method {}, max_depth {}, seed {}, {} threads",
         a.scene.display(),
@@ -200,6 +245,40 @@ pub fn run(a: RenderArgs) -> Result<()> {
         eprintln!("pir: {}", embree_status());
     }
 
+    // ---- Output, written at checkpoints, on interruption and at the end.
+    let preview = (!a.no_preview).then(|| out.with_extension("png"));
+    let parameters = integrator.parameters();
+    let describe = accel.describe();
+    let threads = pool.current_num_threads();
+    let write = |film: &Film, stats: &RenderStats| -> Result<RgbImage> {
+        let image = film.image();
+        let mut attrs: Vec<(String, String)> = vec![
+            ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
+            ("pir.scene".into(), a.scene.display().to_string()),
+            ("pir.method".into(), job.method.clone()),
+            ("pir.max_depth".into(), max_depth.to_string()),
+            ("pir.seed".into(), seed.to_string()),
+            ("pir.iterations".into(), film.iterations().to_string()),
+            ("pir.spp".into(), film.iterations().to_string()),
+            ("pir.resolution".into(), format!("{width} {height}")),
+            ("pir.render_time_s".into(), format!("{:.3}", stats.elapsed.as_secs_f64())),
+            ("pir.accel".into(), describe.clone()),
+            ("pir.threads".into(), threads.to_string()),
+            ("pir.dropped_samples".into(), stats.dropped.to_string()),
+        ];
+        for (k, v) in &parameters {
+            attrs.push((format!("pir.param.{k}"), v.clone()));
+        }
+        match resumable {
+            Some((job, shard)) => write_state(&out, &image, &attrs, job, shard, film)?,
+            None => write_exr(&out, &image, &attrs)?,
+        }
+        if let Some(p) = &preview {
+            write_preview(p, &image, a.exposure)?;
+        }
+        Ok(image)
+    };
+
     // Ctrl-C or SIGTERM: finish the running iteration, write the image, exit 0.
     let interrupted = Arc::new(AtomicBool::new(false));
     {
@@ -207,51 +286,42 @@ pub fn run(a: RenderArgs) -> Result<()> {
         ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
             .context("cannot install the interrupt handler")?;
     }
+    let mut last_checkpoint = Instant::now();
+    let mut checkpoint_error = None;
     let (film, stats) = pool.install(|| {
-        render(&ctx, integrator.as_mut(), &settings, |_, _| {
-            if interrupted.load(Ordering::SeqCst) { Control::Stop } else { Control::Continue }
+        render_from(&ctx, integrator.as_mut(), &settings, film, shard, |film, stats| {
+            if interrupted.load(Ordering::SeqCst) {
+                return Control::Stop;
+            }
+            if checkpoint.is_some_and(|c| last_checkpoint.elapsed() >= c) {
+                if let Err(e) = write(film, stats) {
+                    checkpoint_error = Some(e);
+                    return Control::Stop;
+                }
+                last_checkpoint = Instant::now();
+            }
+            Control::Continue
         })
     });
+    if let Some(e) = checkpoint_error {
+        return Err(e.context("writing a checkpoint failed"));
+    }
     if interrupted.load(Ordering::SeqCst) {
         eprintln!("pir: interrupted: writing the {} iterations rendered so far", stats.iterations);
     }
-
-    // ---- Output.
-    let image = film.image();
-    let mut attrs: Vec<(String, String)> = vec![
-        ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
-        ("pir.scene".into(), a.scene.display().to_string()),
-        ("pir.method".into(), integrator.name().into()),
-        ("pir.max_depth".into(), max_depth.to_string()),
-        ("pir.seed".into(), seed.to_string()),
-        ("pir.iterations".into(), stats.iterations.to_string()),
-        ("pir.spp".into(), stats.iterations.to_string()),
-        ("pir.resolution".into(), format!("{width} {height}")),
-        ("pir.render_time_s".into(), format!("{:.3}", stats.elapsed.as_secs_f64())),
-        ("pir.accel".into(), accel.describe()),
-        ("pir.threads".into(), pool.current_num_threads().to_string()),
-        ("pir.dropped_samples".into(), stats.dropped.to_string()),
-    ];
-    for (k, v) in integrator.parameters() {
-        attrs.push((format!("pir.param.{k}"), v));
-    }
-    write_exr(&out, &image, &attrs)?;
-    let preview = (!a.no_preview).then(|| out.with_extension("png"));
-    if let Some(p) = &preview {
-        write_preview(p, &image, a.exposure)?;
-    }
+    let image = write(&film, &stats)?;
 
     // ---- Summary.
     let secs = stats.elapsed.as_secs_f64();
     let pixels = (width as u64 * height as u64) as f64;
     eprintln!(
-        "pir: {} iterations ({} spp) in {:.2} s ({:.2} s pixels, {:.2} s preparation): {:.2} Msamples/s, {:.2} Mrays/s ({} closest-hit, {} shadow)",
-        stats.iterations,
+        "pir: {} iterations ({} spp in the image) in {:.2} s ({:.2} s pixels, {:.2} s preparation): {:.2} Msamples/s, {:.2} Mrays/s ({} closest-hit, {} shadow)",
+        stats.rendered,
         stats.iterations,
         secs,
         stats.pixel_time.as_secs_f64(),
         stats.prepare_time.as_secs_f64(),
-        pixels * stats.iterations as f64 / secs.max(1e-9) / 1e6,
+        pixels * stats.rendered as f64 / secs.max(1e-9) / 1e6,
         stats.rays_per_second() / 1e6,
         stats.counters.rays,
         stats.counters.shadow_rays
@@ -261,7 +331,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     if stats.counters.vpls > 0 {
         eprintln!(
             "pir: {:.0} VPLs per iteration; light tracing {:.2} s, gathering {:.2} s at {:.2} M shadow rays/s",
-            stats.counters.vpls as f64 / stats.iterations.max(1) as f64,
+            stats.counters.vpls as f64 / stats.rendered.max(1) as f64,
             stats.prepare_time.as_secs_f64(),
             stats.pixel_time.as_secs_f64(),
             stats.shadow_rays_per_second() / 1e6

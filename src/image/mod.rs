@@ -7,7 +7,7 @@ mod metrics;
 mod png_io;
 
 pub use atomic::write_atomically;
-pub use exr_io::{read_exr, write_exr};
+pub use exr_io::{ReadExr, read_exr, read_exr_with_channels, write_exr, write_exr_with_channels};
 pub use metrics::{Metrics, error_map, metrics};
 pub use png_io::{write_png, write_preview};
 

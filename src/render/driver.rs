@@ -7,6 +7,9 @@
 //!
 //! Samples that are NaN or infinite never reach the film: they are counted, dropped and
 //! reported (with the first pixel) so that a bug shows instead of hiding.
+//!
+//! [`render_from`] continues a film (a resumed render) and renders a shard's share of the
+//! global iterations (see [`super::state`]); [`render`] is the plain case.
 
 use glam::Vec2;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -14,10 +17,12 @@ use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 use super::Film;
+use super::state::Shard;
 use crate::integrator::{Counters, Integrator, RenderContext};
 use crate::sampling::{Domain, Sampler};
 
-/// When to stop: after `iterations`, after `time`, or whichever comes first.
+/// When to stop: after `iterations` (in the film, counting any it started with), after `time`
+/// (of this run), or whichever comes first.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Budget {
     pub iterations: Option<u64>,
@@ -45,7 +50,10 @@ pub enum Control {
 /// Statistics of a finished render.
 #[derive(Clone, Debug, Default)]
 pub struct RenderStats {
+    /// Iterations in the film (those it started with included).
     pub iterations: u64,
+    /// Iterations rendered by this run.
+    pub rendered: u64,
     pub elapsed: Duration,
     /// Time in `begin_iteration` (e.g. light tracing).
     pub prepare_time: Duration,
@@ -94,23 +102,41 @@ pub fn render(
     ctx: &RenderContext,
     integrator: &mut dyn Integrator,
     settings: &RenderSettings,
+    on_iteration: impl FnMut(&Film, &RenderStats) -> Control,
+) -> (Film, RenderStats) {
+    let film = Film::new(settings.width, settings.height);
+    render_from(ctx, integrator, settings, film, Shard::ALL, on_iteration)
+}
+
+/// As [`render`], continuing `film` (whose size must be the settings') with the shard's next
+/// global iterations: the film's m-th iteration is the shard's global iteration
+/// `shard.global_iteration(m)`, so a continued render draws the same random numbers as an
+/// uninterrupted one.
+pub fn render_from(
+    ctx: &RenderContext,
+    integrator: &mut dyn Integrator,
+    settings: &RenderSettings,
+    mut film: Film,
+    shard: Shard,
     mut on_iteration: impl FnMut(&Film, &RenderStats) -> Control,
 ) -> (Film, RenderStats) {
     let (w, h) = (settings.width, settings.height);
+    assert_eq!((film.width, film.height), (w, h), "the film must have the render's size");
     let camera = ctx.scene.camera.with_resolution(w as u32, h as u32);
     let tiles = tiles(w, h, settings.tile_size);
-    let mut film = Film::new(w, h);
-    let mut stats = RenderStats::default();
+    let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
     let bar = progress_bar(settings);
     let start = Instant::now();
 
-    for iteration in 1.. {
-        if settings.budget.iterations.is_some_and(|n| iteration > n) {
+    loop {
+        let done = film.iterations();
+        if settings.budget.iterations.is_some_and(|n| done >= n) {
             break;
         }
-        if settings.budget.time.is_some_and(|t| iteration > 1 && start.elapsed() >= t) {
+        if settings.budget.time.is_some_and(|t| stats.rendered > 0 && start.elapsed() >= t) {
             break;
         }
+        let iteration = shard.global_iteration(done);
         let t0 = Instant::now();
         integrator.begin_iteration(ctx, iteration, &mut stats.counters);
         let t1 = Instant::now();
@@ -149,7 +175,8 @@ pub fn render(
             }
         }
         film.end_iteration();
-        stats.iterations = iteration;
+        stats.iterations = film.iterations();
+        stats.rendered += 1;
         stats.prepare_time += t1 - t0;
         stats.pixel_time += t1.elapsed();
         stats.elapsed = start.elapsed();
@@ -189,7 +216,7 @@ fn update_progress(bar: &ProgressBar, settings: &RenderSettings, stats: &RenderS
     bar.set_message(format!(
         "{} it, {:.2} it/s, {:.1} Mrays/s",
         stats.iterations,
-        stats.iterations as f64 / secs,
+        stats.rendered as f64 / secs,
         stats.rays_per_second() / 1e6
     ));
 }

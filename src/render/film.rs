@@ -59,6 +59,39 @@ impl Film {
         &self.sum
     }
 
+    /// Per-pixel sums of the squared samples, row-major.
+    pub fn sums_of_squares(&self) -> &[DVec3] {
+        &self.sum_sq
+    }
+
+    /// A film from its parts (a resumed or merged render). `None` if the sizes disagree.
+    pub fn from_parts(
+        width: usize,
+        height: usize,
+        sum: Vec<DVec3>,
+        sum_sq: Vec<DVec3>,
+        iterations: u64,
+    ) -> Option<Film> {
+        let n = width.checked_mul(height)?;
+        (sum.len() == n && sum_sq.len() == n).then_some(Film { width, height, sum, sum_sq, iterations })
+    }
+
+    /// Adds another film of the same size (other iterations of the same render): sums and
+    /// iteration counts add up. `false` (and no change) if the sizes differ.
+    pub fn merge(&mut self, other: &Film) -> bool {
+        if (self.width, self.height) != (other.width, other.height) {
+            return false;
+        }
+        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
+            *a += *b;
+        }
+        for (a, b) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
+            *a += *b;
+        }
+        self.iterations += other.iterations;
+        true
+    }
+
     /// Per-channel unbiased sample variance of one sample of each pixel (zero before two
     /// iterations). The variance of the pixel's mean is this divided by the iterations.
     pub fn sample_variance(&self) -> Vec<DVec3> {

@@ -3,6 +3,7 @@
 
 mod driver;
 mod film;
+pub mod state;
 
-pub use driver::{Budget, Control, RenderSettings, RenderStats, render};
+pub use driver::{Budget, Control, RenderSettings, RenderStats, render, render_from};
 pub use film::Film;

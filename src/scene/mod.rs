@@ -3,6 +3,7 @@
 
 mod camera;
 mod error;
+mod fingerprint;
 mod format;
 mod load;
 mod mtl;

@@ -1,0 +1,51 @@
+//! A fingerprint of a loaded scene's contents, so that a render is only resumed or merged
+//! with renders of the same scene. It hashes what the image depends on (geometry, normals,
+//! materials, camera placement), not the file names or the resolution (which is part of the
+//! render job and checked separately).
+
+use super::Scene;
+
+/// FNV-1a, 64 bits: stable across runs, platforms and Rust versions (unlike `std`'s hasher).
+struct Fnv(u64);
+
+impl Fnv {
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 ^= u64::from(x);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
+        }
+    }
+    fn f32s(&mut self, v: &[f32]) {
+        for x in v {
+            self.bytes(&x.to_bits().to_le_bytes());
+        }
+    }
+    fn u32s(&mut self, v: &[u32]) {
+        for x in v {
+            self.bytes(&x.to_le_bytes());
+        }
+    }
+}
+
+impl Scene {
+    /// A 16-hex-digit fingerprint of the scene's contents.
+    pub fn fingerprint(&self) -> String {
+        let mut h = Fnv(0xCBF2_9CE4_8422_2325);
+        for p in self.positions.iter().chain(self.normals.iter()) {
+            h.f32s(&p.to_array());
+        }
+        for t in &self.indices {
+            h.u32s(t);
+        }
+        h.u32s(&self.tri_material);
+        for m in &self.materials {
+            // The Debug form spells out every field of the BSDF and its emission exactly.
+            h.bytes(format!("{:?}", m).as_bytes());
+        }
+        let c = &self.camera;
+        h.f32s(&[
+            c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,
+        ]);
+        format!("{:016x}", h.0)
+    }
+}

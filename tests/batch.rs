@@ -1,0 +1,201 @@
+//! Unattended batch rendering, end to end through the binary: checkpoints, resume (also after
+//! SIGKILL), shards and merge, and the refusals that keep incompatible renders apart.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn pir(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(args)
+        .current_dir(cwd)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .unwrap()
+}
+
+fn scene() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/cornell-box/scene.toml")
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// A small pir-clamp render (its clamp schedule uses the global iteration number).
+fn render(dir: &Path, extra: &[&str]) -> Output {
+    let s = scene();
+    let mut args =
+        vec!["render", &s, "--method", "pir-clamp", "--vpls", "8", "--resolution", "40", "32", "-q"];
+    args.extend_from_slice(extra);
+    let o = pir(&args, dir);
+    assert!(o.status.success(), "{:?}: {}", extra, String::from_utf8_lossy(&o.stderr));
+    o
+}
+
+fn pixels(path: &Path) -> Vec<glam::Vec3> {
+    pir::image::read_exr(path).unwrap().0.pixels
+}
+
+fn iterations(path: &Path) -> u64 {
+    let (_, attrs) = pir::image::read_exr(path).unwrap();
+    attrs.iter().find(|(k, _)| k == "pir.iterations").unwrap().1.parse().unwrap()
+}
+
+fn failure(o: &Output) -> String {
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!e.contains("panicked") && !e.contains("backtrace"), "{e}");
+    e
+}
+
+#[test]
+fn resumed_render_equals_uninterrupted_render_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    render(d, &["--spp", "7", "--checkpoint", "1000", "--out", "full.exr"]);
+    render(d, &["--spp", "3", "--checkpoint", "1000", "--out", "part.exr"]);
+    render(d, &["--spp", "7", "--resume", "part.exr"]);
+    assert_eq!(iterations(&d.join("part.exr")), 7);
+    assert_eq!(pixels(&d.join("part.exr")), pixels(&d.join("full.exr")));
+    let (a, b) = (
+        pir::render::state::read_state(&d.join("part.exr")).unwrap(),
+        pir::render::state::read_state(&d.join("full.exr")).unwrap(),
+    );
+    assert_eq!(a.film.sums(), b.film.sums());
+    assert_eq!(a.film.sums_of_squares(), b.film.sums_of_squares());
+}
+
+#[test]
+fn killed_render_resumes_from_its_last_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = scene();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(["render", &s, "--method", "pt", "--resolution", "40", "32", "-q", "--spp", "1000000"])
+        .args(["--checkpoint", "0.2", "--out", "k.exr", "--no-preview"])
+        .current_dir(d)
+        .spawn()
+        .unwrap();
+    // Wait for a checkpoint with some iterations in it, then kill without warning.
+    let path = d.join("k.exr");
+    let start = std::time::Instant::now();
+    while !(path.exists() && iterations(&path) >= 2) {
+        assert!(start.elapsed().as_secs() < 60, "no checkpoint written");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let done = iterations(&path);
+    let target = (done + 5).to_string();
+    let common = ["render", &s, "--method", "pt", "--resolution", "40", "32", "-q", "--no-preview"];
+    let o = pir(&[&common[..], &["--spp", &target, "--resume", "k.exr"]].concat(), d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = pir(&[&common[..], &["--spp", &target, "--out", "straight.exr"]].concat(), d);
+    assert!(o.status.success());
+    assert_eq!(pixels(&path), pixels(&d.join("straight.exr")));
+    // Only the final files: no temporary file of the killed run is left behind.
+    let mut names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["k.exr", "straight.exr"]);
+}
+
+#[test]
+fn merged_shards_equal_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    render(d, &["--spp", "7", "--out", "one.exr", "--checkpoint", "1000"]);
+    for k in 0..3 {
+        render(d, &["--spp", "7", "--shard", &format!("{k}/3"), "--out", &format!("s{k}.exr")]);
+    }
+    assert_eq!([0, 1, 2].map(|k| iterations(&d.join(format!("s{k}.exr")))), [3, 2, 2]);
+    let o = pir(&["merge", "s2.exr", "s0.exr", "s1.exr", "-o", "merged.exr"], d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(iterations(&d.join("merged.exr")), 7);
+    // Sums of the same samples in another order: equal to float rounding.
+    for (a, b) in pixels(&d.join("merged.exr")).iter().zip(pixels(&d.join("one.exr"))) {
+        assert!((*a - b).abs().max_element() <= 1e-6 * b.abs().max_element().max(1.0), "{a} vs {b}");
+    }
+    // A complete set of shards merges into a resumable render of all iterations.
+    render(d, &["--spp", "9", "--resume", "merged.exr"]);
+    assert_eq!(iterations(&d.join("merged.exr")), 9);
+}
+
+#[test]
+fn incompatible_renders_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    render(d, &["--spp", "2", "--shard", "0/2", "--out", "a.exr"]);
+    render(d, &["--spp", "2", "--shard", "1/2", "--seed", "5", "--out", "b.exr"]);
+    render(d, &["--spp", "2", "--out", "plain.exr"]);
+    let s = scene();
+    // Resume with another seed, method or shard.
+    let e = failure(&pir(
+        &[
+            "render",
+            &s,
+            "--method",
+            "pir-clamp",
+            "--vpls",
+            "8",
+            "--resolution",
+            "40",
+            "32",
+            "--seed",
+            "3",
+            "--shard",
+            "0/2",
+            "--resume",
+            "a.exr",
+        ],
+        d,
+    ));
+    assert!(e.contains("a.exr") && e.contains("seed: 3 here, 0 in the file"), "{e}");
+    let e =
+        failure(&pir(&["render", &s, "--resolution", "40", "32", "--shard", "0/2", "--resume", "a.exr"], d));
+    assert!(e.contains("method: pt here, pir-clamp in the file"), "{e}");
+    let e = failure(&pir(
+        &[
+            "render",
+            &s,
+            "--method",
+            "pir-clamp",
+            "--vpls",
+            "8",
+            "--resolution",
+            "40",
+            "32",
+            "--resume",
+            "a.exr",
+        ],
+        d,
+    ));
+    assert!(e.contains("shard: 0/1 here, 0/2 in the file"), "{e}");
+    // A plain EXR cannot be resumed.
+    let e = failure(&pir(
+        &[
+            "render",
+            &s,
+            "--method",
+            "pir-clamp",
+            "--vpls",
+            "8",
+            "--resolution",
+            "40",
+            "32",
+            "--resume",
+            "plain.exr",
+        ],
+        d,
+    ));
+    assert!(e.contains("plain.exr") && e.contains("not a resumable pir render"), "{e}");
+    // Merge: other seed, the same shard twice.
+    let e = failure(&pir(&["merge", "a.exr", "b.exr", "-o", "m.exr"], d));
+    assert!(e.contains("b.exr") && e.contains("seed"), "{e}");
+    let e = failure(&pir(&["merge", "a.exr", "a.exr", "-o", "m.exr"], d));
+    assert!(e.contains("overlap"), "{e}");
+    assert!(!d.join("m.exr").exists());
+    let e = failure(&pir(&["render", &s, "--shard", "2/2"], d));
+    assert!(e.contains("K/N"), "{e}");
+}
