@@ -240,6 +240,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
         seed,
         pool.current_num_threads()
     );
+    if scene.degenerate_dropped > 0 {
+        eprintln!(
+            "pir: warning: {} zero-area triangles were dropped (common in scanned meshes)",
+            scene.degenerate_dropped
+        );
+    }
     eprintln!("pir: accelerator {}", accel.describe());
     if !Backend::Embree.is_available() {
         eprintln!("pir: {}", embree_status());
