@@ -130,6 +130,15 @@ fn bad_arguments_fail_cleanly_before_any_output() {
         (&["render", s, "--out", "no/such/dir/x.exr"], &["no/such/dir", "does not exist"]),
         (&["render", s, "--out", "x.png"], &["x.png", ".exr"]),
         (&["render", s, "--accel", "optix"], &["optix"]),
+        (
+            &["render", s, "--resolution", "8192", "8192", "--max-memory", "1"],
+            &["would need about", "--max-memory"],
+        ),
+        (
+            &["render", s, "--method", "ir", "--vpls", "16000000", "--max-memory", "1"],
+            &["VPLs", "--max-memory"],
+        ),
+        (&["render", s, "--max-memory", "-1"], &["--max-memory"]),
         (&["render", s, "--method", "photon"], &["photon"]),
         (&["compare", "a.exr", "b.exr"], &["a.exr"]),
     ];

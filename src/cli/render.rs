@@ -14,6 +14,7 @@ use pir::integrator::{
     Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, Radius, RenderContext, VirtualLights,
 };
 use pir::light::Emitters;
+use pir::render::memory;
 use pir::render::state::{Job, Shard, read_state, write_state};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
 
@@ -109,6 +110,10 @@ pub struct RenderArgs {
     /// shards with `pir merge`). Makes the output resumable.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<Shard>,
+    /// Refuse a render whose estimated memory exceeds this many GiB [default: 80 % of this
+    /// machine's memory].
+    #[arg(long, value_name = "GIB", allow_negative_numbers = true)]
+    pub max_memory: Option<f64>,
     /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own
     /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].
     #[arg(long, value_name = "BACKEND")]
@@ -166,6 +171,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     };
     check_resolution(width, height)?;
     let max_depth = a.max_depth.unwrap_or(scene.render.max_depth);
+    check_memory(&a, width, height, scene.indices.len(), max_depth)?;
     let seed = a.seed.unwrap_or(scene.render.seed);
     let emitters = Emitters::new(&scene)
         .with_context(|| format!("{}: the scene has no emitter with positive power", a.scene.display()))?;
@@ -371,6 +377,28 @@ fn budget(a: &RenderArgs) -> Result<Budget> {
         (n, _) => n,
     };
     Ok(Budget { iterations, time })
+}
+
+/// Refuses, before anything large is allocated, a render that would need more memory than
+/// --max-memory (default 80 % of the machine's).
+fn check_memory(a: &RenderArgs, width: u32, height: u32, triangles: usize, max_depth: u32) -> Result<()> {
+    let limit = match a.max_memory {
+        Some(g) if g.is_finite() && g > 0.0 => Some((g * (1u64 << 30) as f64) as u64),
+        Some(g) => bail!("--max-memory {g}: must be a positive number of GiB"),
+        None => memory::total_memory().map(|m| m / 10 * 8),
+    };
+    let paths = if a.method == Method::Pt { 0 } else { a.vpls as u64 };
+    let need = memory::Estimate::new(width as u64, height as u64, triangles as u64, paths, max_depth as u64);
+    if let Some(limit) = limit
+        && need.total() > limit
+    {
+        bail!(
+            "this render would need about {need}, more than the limit of {:.2} GiB (--max-memory; by \
+             default 80 % of this machine's memory)",
+            limit as f64 / (1u64 << 30) as f64
+        );
+    }
+    Ok(())
 }
 
 fn check_resolution(w: u32, h: u32) -> Result<()> {

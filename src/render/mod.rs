@@ -3,6 +3,7 @@
 
 mod driver;
 mod film;
+pub mod memory;
 pub mod state;
 
 pub use driver::{Budget, Control, RenderSettings, RenderStats, render, render_from};
