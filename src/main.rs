@@ -6,6 +6,11 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // Bad input is reported as an error, never by a panic. Should a bug panic anyway, say so in
+    // one line, without a backtrace (whatever RUST_BACKTRACE says), and exit non-zero.
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("pir: internal error (a bug in pir, please report it): {info}");
+    }));
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

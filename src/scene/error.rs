@@ -9,13 +9,10 @@ use std::path::{Path, PathBuf};
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// A file could not be read (missing, unreadable, not UTF-8).
-    #[error("{}: cannot read: {source}", .path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be read (missing, unreadable, not UTF-8). The I/O error is part of the
+    /// message and deliberately not a `source`, so that a printed error chain names it once.
+    #[error("{}: cannot read: {error}", .path.display())]
+    Io { path: PathBuf, error: std::io::Error },
     /// The scene TOML is malformed, has a wrong type or an unknown key (the message, from
     /// `toml`, gives line and column).
     #[error("{}: {message}", .path.display())]
@@ -50,8 +47,8 @@ impl fmt::Display for LineNo {
 }
 
 impl SceneError {
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
-        SceneError::Io { path: path.to_path_buf(), source }
+    pub(crate) fn io(path: &Path, error: std::io::Error) -> Self {
+        SceneError::Io { path: path.to_path_buf(), error }
     }
 
     pub(crate) fn syntax(path: &Path, line: Option<usize>, problem: impl Into<String>) -> Self {

@@ -58,7 +58,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let material = m.material.as_ref().map(|s| s.get_ref().as_str());
         let obj_path = base.join(m.obj.get_ref());
         let obj = obj::read(&obj_path).map_err(|e| match e {
-            SceneError::Io { path: p, source } => mesh_err(format!("cannot read {}: {source}", p.display())),
+            SceneError::Io { path: p, error } => mesh_err(format!("cannot read {}: {error}", p.display())),
             other => other,
         })?;
         if material.is_none() && !obj.has_mtl {
@@ -131,7 +131,10 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
             }
         }
         if b.indices.len() == before {
-            return Err(mesh_err(format!("all {} faces are degenerate (zero area)", obj.faces)));
+            return Err(mesh_err(format!(
+                "all {} faces are degenerate (zero area, or coordinates too large for their area in single precision)",
+                obj.faces
+            )));
         }
     }
 

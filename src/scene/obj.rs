@@ -167,10 +167,10 @@ pub fn read(path: &Path) -> Result<Obj, SceneError> {
                 let mtl_path = dir.join(&name);
                 let entries = match mtl::read(&mtl_path) {
                     Ok(m) => m,
-                    Err(SceneError::Io { path: p, source }) => {
+                    Err(SceneError::Io { path: p, error }) => {
                         return Err(err(
                             line,
-                            format!("mtllib {name}: cannot read {}: {source}", p.display()),
+                            format!("mtllib {name}: cannot read {}: {error}", p.display()),
                         ));
                     }
                     Err(e) => return Err(e),
