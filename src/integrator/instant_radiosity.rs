@@ -16,7 +16,7 @@
 //!   100 / diagonal², the G of two facing surfaces a tenth of the scene's diagonal apart, so
 //!   the default needs no tuning whatever the scene's units.
 //! - `--radius R` the radius r (`vsl`) or r_1 (`pir-vsl`), one for all lights. Default: per
-//!   light from the VPL density, the distance to its 10th nearest VPL of the iteration
+//!   light from the VPL density, the distance to its 4th nearest VPL of the iteration
 //!   (see [`super::vsl`]); a scene too small for 10 neighbours falls back to 2 % of the
 //!   diagonal.
 //! - `--alpha A` the schedule exponent of `pir-clamp` and `pir-vsl` (default 0.6, the
@@ -98,7 +98,7 @@ impl Clamping {
 pub enum Radius {
     /// One radius for every light.
     Global(f32),
-    /// Per light, the distance to its 10th nearest VPL.
+    /// Per light, the distance to its 4th nearest VPL (see [`super::vsl`]).
     Density,
 }
 
@@ -160,7 +160,7 @@ impl InstantRadiosity {
             Radius::Density => {
                 let points: Vec<Vec3> = self.vpls.iter().map(|v| v.p).collect();
                 let tree = KdTree::new(&points);
-                // The light itself is its own nearest point: the 10th neighbour is the 11th.
+                // The light itself is its own nearest point: the k-th neighbour is the (k+1)-th.
                 points
                     .iter()
                     .map(|&p| {
