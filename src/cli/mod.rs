@@ -1,7 +1,10 @@
 //! Command-line interface: argument definitions and dispatch.
 
 mod compare;
+mod reference;
 mod render;
+mod setup;
+mod study;
 
 use clap::{Parser, Subcommand};
 
@@ -20,11 +23,15 @@ pub struct Cli {
 pub enum Command {
     Render(render::RenderArgs),
     Compare(compare::CompareArgs),
+    Study(study::StudyArgs),
+    Reference(reference::ReferenceArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Study(a) => study::run(a),
+        Command::Reference(a) => reference::run(a),
     }
 }

@@ -1,0 +1,211 @@
+//! Studies: error-against-time races of rendering methods against a reference image.
+//!
+//! Each run renders one method (with one set of parameters) for a wall-clock budget on all
+//! threads, and keeps a snapshot of the running image at log-spaced times (`base` · 2^(k/2)
+//! seconds, k = 0, 1, …) and at the end. The time of a snapshot is the render's own time:
+//! copying the image out is not counted, and metrics are computed after the render, so that
+//! measuring never slows the race. Every snapshot gets RMSE, relative MSE and HDR-FLIP (see
+//! [`flip`]) against the reference; [`output`] writes the CSV, JSON, charts, image sheet and
+//! report.
+
+pub mod chart;
+pub mod flip;
+pub mod output;
+pub mod sheet;
+
+use anyhow::{Result, bail};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::{Duration, Instant};
+
+use crate::image::{RgbImage, metrics};
+use crate::integrator::{
+    Clamping, InstantRadiosity, Integrator, PathTracer, Radius, RenderContext, VirtualLights,
+};
+use crate::render::{Budget, Control, RenderSettings, render};
+
+/// The rendering methods a study can race.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    Pt,
+    Ir,
+    IrClamp,
+    PirClamp,
+    Vsl,
+    PirVsl,
+}
+
+impl Method {
+    pub const ALL: [Method; 6] =
+        [Method::Pt, Method::Ir, Method::IrClamp, Method::PirClamp, Method::Vsl, Method::PirVsl];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Pt => "pt",
+            Method::Ir => "ir",
+            Method::IrClamp => "ir-clamp",
+            Method::PirClamp => "pir-clamp",
+            Method::Vsl => "vsl",
+            Method::PirVsl => "pir-vsl",
+        }
+    }
+
+    pub fn parse(s: &str) -> Result<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == s.trim()).ok_or_else(|| {
+            let names: Vec<_> = Method::ALL.iter().map(|m| m.name()).collect();
+            anyhow::anyhow!("unknown method {s:?}: expected one of {}", names.join(", "))
+        })
+    }
+
+    /// Whether the method uses α (the progressive schedules).
+    pub fn uses_alpha(self) -> bool {
+        matches!(self, Method::PirClamp | Method::PirVsl)
+    }
+    pub fn uses_clamp(self) -> bool {
+        matches!(self, Method::IrClamp | Method::PirClamp)
+    }
+    pub fn uses_radius(self) -> bool {
+        matches!(self, Method::Vsl | Method::PirVsl)
+    }
+}
+
+/// One line of a study: a method with its parameters.
+#[derive(Clone, Debug, Serialize)]
+pub struct Run {
+    pub method: Method,
+    /// The line's name in charts and tables, e.g. "pir-clamp α=0.3".
+    pub label: String,
+    pub alpha: f32,
+    /// ir-clamp, pir-clamp: the bound b (b_1); `None` = the default for the scene.
+    pub clamp: Option<f32>,
+    /// vsl, pir-vsl: the radius r (r_1); `None` = per light, by density.
+    pub radius: Option<f32>,
+    pub vpls: usize,
+}
+
+impl Run {
+    pub fn integrator(&self, scene_diagonal: f32) -> Box<dyn Integrator> {
+        let bound = self.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal));
+        match self.method {
+            Method::Pt => Box::new(PathTracer),
+            Method::Ir => Box::new(InstantRadiosity::points(Clamping::None, self.vpls)),
+            Method::IrClamp => Box::new(InstantRadiosity::points(Clamping::Constant { b: bound }, self.vpls)),
+            Method::PirClamp => Box::new(InstantRadiosity::points(
+                Clamping::Progressive { b1: bound, alpha: self.alpha },
+                self.vpls,
+            )),
+            Method::Vsl | Method::PirVsl => {
+                let radius = self.radius.map_or(Radius::Density, Radius::Global);
+                let alpha = (self.method == Method::PirVsl).then_some(self.alpha);
+                Box::new(InstantRadiosity::new(VirtualLights::Spheres { radius, alpha }, self.vpls))
+            }
+        }
+    }
+}
+
+/// The metrics of one snapshot.
+#[derive(Clone, Debug, Serialize)]
+pub struct Snapshot {
+    pub label: String,
+    pub method: Method,
+    /// The integrator's parameters as it reports them (e.g. clamp bound, α), "k=v" joined by ";".
+    pub parameters: String,
+    /// Render time in seconds (snapshot copies excluded).
+    pub time_s: f64,
+    pub iterations: u64,
+    pub rmse: f64,
+    pub rel_mse: f64,
+    pub hdr_flip: f64,
+}
+
+/// The outcome of one run: its snapshots (in time order) and final image.
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    pub run: Run,
+    pub snapshots: Vec<Snapshot>,
+    pub image: RgbImage,
+}
+
+/// When snapshots are taken.
+#[derive(Clone, Copy, Debug)]
+pub struct Schedule {
+    pub budget: Duration,
+    /// The first snapshot time in seconds; later ones follow at factors of √2.
+    pub base: f64,
+}
+
+impl Schedule {
+    /// The snapshot times strictly before the budget, in seconds.
+    pub fn times(&self) -> Vec<f64> {
+        let b = self.budget.as_secs_f64();
+        (0..).map(|k| self.base * 2f64.powf(k as f64 / 2.0)).take_while(|t| *t < b).collect()
+    }
+}
+
+/// Renders one run against `reference` (whose size the render takes) and measures it.
+/// Runs on the current rayon pool.
+pub fn run_one(
+    ctx: &RenderContext,
+    run: &Run,
+    schedule: &Schedule,
+    reference: &RgbImage,
+) -> Result<RunResult> {
+    if schedule.base <= 0.0 {
+        bail!("the first snapshot time must be positive");
+    }
+    let mut integrator = run.integrator(ctx.scene.bounds.diagonal());
+    let parameters: Vec<String> =
+        integrator.parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
+    let parameters = parameters.join(";");
+    let settings = RenderSettings {
+        width: reference.width,
+        height: reference.height,
+        budget: Budget { iterations: None, time: None },
+        tile_size: 16,
+        progress: false,
+    };
+    let times = schedule.times();
+    let budget = schedule.budget.as_secs_f64();
+    let mut next = 0usize;
+    let mut overhead = Duration::ZERO;
+    let mut taken: Vec<(f64, u64, RgbImage)> = Vec::new();
+    let (film, _) = render(ctx, integrator.as_mut(), &settings, |film, stats| {
+        let t = (stats.elapsed.saturating_sub(overhead)).as_secs_f64();
+        let done = t >= budget;
+        let due = next < times.len() && t >= times[next];
+        if due && !done {
+            let c0 = Instant::now();
+            taken.push((t, stats.iterations, film.image()));
+            while next < times.len() && times[next] <= t {
+                next += 1;
+            }
+            overhead += c0.elapsed();
+        }
+        if done {
+            taken.push((t, stats.iterations, film.image()));
+            Control::Stop
+        } else {
+            Control::Continue
+        }
+    });
+    let exposures = flip::exposures(reference);
+    let measured: Vec<Result<Snapshot>> = taken
+        .par_iter()
+        .map(|(t, it, img)| {
+            let m = metrics(img, reference)?;
+            Ok(Snapshot {
+                label: run.label.clone(),
+                method: run.method,
+                parameters: parameters.clone(),
+                time_s: *t,
+                iterations: *it,
+                rmse: m.rmse,
+                rel_mse: m.rel_mse,
+                hdr_flip: flip::hdr_flip(img, reference, &exposures),
+            })
+        })
+        .collect();
+    let snapshots = measured.into_iter().collect::<Result<Vec<_>>>()?;
+    Ok(RunResult { run: run.clone(), snapshots, image: film.image() })
+}
