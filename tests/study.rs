@@ -176,6 +176,12 @@ fn sweep_runs_one_line_per_value() {
     let mut labels: Vec<&str> = rows.iter().map(|r| r.label.as_str()).collect();
     labels.dedup();
     assert_eq!(labels, ["pir-clamp α=0.3", "pir-clamp α=0.7"]);
+    for f in ["sweep-rel_mse.png", "sweep-rel_mse.svg", "sweep-hdr_flip.png", "final-pir-clamp_alpha-0.3.exr"]
+    {
+        assert!(dir.path().join("sw").join(f).is_file(), "{f} missing");
+    }
+    let report = std::fs::read_to_string(dir.path().join("sw/report.md")).unwrap();
+    assert!(report.contains("## Parameter sweep: alpha"));
 }
 
 #[test]

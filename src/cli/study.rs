@@ -146,6 +146,7 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
         clamp: a.clamp,
         radius: a.radius,
         vpls: a.vpls,
+        sweep: None,
     };
     let mut out = Vec::new();
     for m in methods {
@@ -160,6 +161,12 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
                     };
                     *value = v;
                     r.label = format!("{} {name}={v}", m.name());
+                    let key = match key {
+                        Key::Alpha => "alpha",
+                        Key::Clamp => "clamp",
+                        Key::Radius => "radius",
+                    };
+                    r.sweep = Some((key.to_string(), v));
                     out.push(r);
                 }
             }
@@ -266,6 +273,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
         width: reference.width,
         height: reference.height,
         budget_s: a.time,
+        first_snapshot_s: a.first_snapshot,
         seed,
         max_depth,
         threads,

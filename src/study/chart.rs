@@ -56,6 +56,15 @@ impl Metric {
         }
     }
 
+    /// Short name, for titles.
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::Rmse => "RMSE",
+            Metric::RelMse => "relative MSE",
+            Metric::HdrFlip => "HDR-FLIP",
+        }
+    }
+
     pub fn title(self) -> &'static str {
         match self {
             Metric::Rmse => "RMSE against time",
@@ -194,20 +203,13 @@ fn plot<DB: DrawingBackend>(
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(200, 200, 200))
         .draw()?;
-    for (i, (label, points)) in data.iter().enumerate() {
+    for (i, (_, points)) in data.iter().enumerate() {
         let colour = PALETTE[i % PALETTE.len()];
         let style = ShapeStyle::from(&colour).stroke_width(3);
         chart.draw_series(LineSeries::new(points.iter().copied(), style))?;
         chart.draw_series(points.iter().map(|p| Circle::new(*p, 4, colour.filled())))?;
-        let y = 90 + 30 * i as i32;
-        legend.draw(&PathElement::new(vec![(8, y), (40, y)], colour.stroke_width(3)))?;
-        legend.draw(&Circle::new((24, y), 4, colour.filled()))?;
-        legend.draw(&Text::new(label.clone(), (48, y - 9), ("sans-serif", 17).into_font()))?;
     }
-    if !data.is_empty() {
-        legend.draw(&Text::new("lines", (8, 50), ("sans-serif", 19).into_font()))?;
-    }
-    Ok(())
+    draw_legend(&legend, data)
 }
 
 /// Tick positions of a log axis over [lo, hi]: 1, 2, 5 × 10^k, or every integer multiple of
@@ -238,4 +240,118 @@ fn format_tick(v: f64) -> String {
     } else {
         format!("{v:.0e}")
     }
+}
+
+/// The x-axis label of a swept parameter.
+pub fn parameter_label(key: &str) -> String {
+    match key {
+        "alpha" => "α, exponent of the progressive schedule (dimensionless)".into(),
+        "clamp" => "b (b₁), geometry-term clamp bound (1/length², log scale)".into(),
+        "radius" => "r (r₁), virtual spherical light radius (scene units, log scale)".into(),
+        other => other.to_string(),
+    }
+}
+
+/// Writes `stem.png` and `stem.svg`: the final error of each swept line against the parameter
+/// value, one line per method (`lines`: method name and (value, error) points). α is drawn on a
+/// linear axis, clamp bounds and radii on a log axis; the error axis is always logarithmic.
+pub fn draw_sweep(stem: &Path, lines: &[Series], key: &str, metric: Metric, subtitle: &str) -> Result<()> {
+    ensure_font();
+    let png = stem.with_extension("png");
+    let svg = stem.with_extension("svg");
+    let mut buf = vec![0u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        plot_sweep(&root, lines, key, metric, subtitle).map_err(|e| anyhow!("{}: {e}", png.display()))?;
+        root.present().map_err(|e| anyhow!("{}: {e}", png.display()))?;
+    }
+    let px: Vec<glam::Vec3> =
+        buf.chunks_exact(3).map(|c| glam::Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0).collect();
+    write_png(&png, W as usize, H as usize, &px)?;
+    let root = SVGBackend::new(&svg, (W, H)).into_drawing_area();
+    plot_sweep(&root, lines, key, metric, subtitle).map_err(|e| anyhow!("{}: {e}", svg.display()))?;
+    root.present().map_err(|e| anyhow!("{}: {e}", svg.display()))?;
+    Ok(())
+}
+
+fn plot_sweep<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    lines: &[Series],
+    key: &str,
+    metric: Metric,
+    subtitle: &str,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    let (area, legend) = root.split_horizontally(W as i32 - LEGEND_W);
+    let (mut x0, mut x1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, 0.0f64);
+    for (x, v) in lines.iter().flat_map(|(_, p)| p.iter()) {
+        x0 = x0.min(*x);
+        x1 = x1.max(*x);
+        v0 = v0.min(*v);
+        v1 = v1.max(*v);
+    }
+    let (v0, v1) = log_range(v0, v1);
+    let title =
+        format!("Final {} against {} — {subtitle}", metric.name(), if key == "alpha" { "α" } else { key });
+    let mut builder = ChartBuilder::on(&area);
+    builder.caption(title, ("sans-serif", 24)).margin(20).x_label_area_size(55).y_label_area_size(95);
+    let y_desc = format!("final {}, log scale", metric.axis_label());
+    let x_desc = parameter_label(key);
+    macro_rules! finish {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .max_light_lines(4)
+                .x_desc(x_desc.as_str())
+                .y_desc(y_desc.as_str())
+                .axis_desc_style(("sans-serif", 20))
+                .label_style(("sans-serif", 16))
+                .x_label_formatter(&|v| format_tick(*v))
+                .y_label_formatter(&|v| format_tick(*v))
+                .light_line_style(RGBColor(235, 235, 235))
+                .bold_line_style(RGBColor(200, 200, 200))
+                .draw()?;
+            for (i, (_, points)) in lines.iter().enumerate() {
+                let colour = PALETTE[i % PALETTE.len()];
+                chart.draw_series(LineSeries::new(points.iter().copied(), colour.stroke_width(3)))?;
+                chart.draw_series(points.iter().map(|p| Circle::new(*p, 5, colour.filled())))?;
+            }
+        }};
+    }
+    if key == "alpha" {
+        let (a, b) = if x1 > x0 { (x0, x1) } else { (x0 - 0.1, x1 + 0.1) };
+        let pad = 0.05 * (b - a);
+        finish!(
+            builder.build_cartesian_2d(
+                (a - pad)..(b + pad),
+                (v0..v1).log_scale().with_key_points(ticks(v0, v1))
+            )?
+        );
+    } else {
+        let (a, b) = log_range(x0, x1);
+        finish!(builder.build_cartesian_2d(
+            (a..b).log_scale().with_key_points(ticks(a, b)),
+            (v0..v1).log_scale().with_key_points(ticks(v0, v1))
+        )?);
+    }
+    draw_legend(&legend, lines)
+}
+
+fn draw_legend<DB: DrawingBackend>(
+    legend: &DrawingArea<DB, Shift>,
+    lines: &[Series],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    if lines.is_empty() {
+        return Ok(());
+    }
+    legend.draw(&Text::new("lines", (8, 50), ("sans-serif", 19).into_font()))?;
+    for (i, (label, _)) in lines.iter().enumerate() {
+        let colour = PALETTE[i % PALETTE.len()];
+        let y = 90 + 30 * i as i32;
+        legend.draw(&PathElement::new(vec![(8, y), (40, y)], colour.stroke_width(3)))?;
+        legend.draw(&Circle::new((24, y), 4, colour.filled()))?;
+        legend.draw(&Text::new(label.clone(), (48, y - 9), ("sans-serif", 17).into_font()))?;
+    }
+    Ok(())
 }

@@ -82,6 +82,8 @@ pub struct Run {
     /// vsl, pir-vsl: the radius r (r_1); `None` = per light, by density.
     pub radius: Option<f32>,
     pub vpls: usize,
+    /// In a parameter sweep, the swept parameter ("alpha", "clamp" or "radius") and its value.
+    pub sweep: Option<(String, f32)>,
 }
 
 impl Run {

@@ -22,6 +22,8 @@ pub struct StudyInfo {
     pub width: usize,
     pub height: usize,
     pub budget_s: f64,
+    /// The first snapshot time; later ones follow at factors of √2.
+    pub first_snapshot_s: f64,
     pub seed: u64,
     pub max_depth: u32,
     pub threads: usize,
@@ -114,6 +116,23 @@ pub fn write_all(
         written.push(stem.with_extension("svg"));
     }
 
+    let sweeps = sweep_lines(results);
+    if let Some((key, lines)) = &sweeps {
+        for m in Metric::ALL {
+            let data: Vec<chart::Series> = lines
+                .iter()
+                .map(|(method, pts)| {
+                    let v = pts.iter().map(|(x, s)| (*x, m.of(s))).filter(|(_, v)| *v > 0.0).collect();
+                    (method.clone(), v)
+                })
+                .collect();
+            let stem = dir.join(format!("sweep-{}", m.key()));
+            chart::draw_sweep(&stem, &data, key, m, &subtitle)?;
+            written.push(stem.with_extension("png"));
+            written.push(stem.with_extension("svg"));
+        }
+    }
+
     for r in results {
         let p = dir.join(format!("final-{}.exr", slug(&r.run.label)));
         let last = r.snapshots.last();
@@ -128,9 +147,31 @@ pub fn write_all(
     }
 
     let p = dir.join("report.md");
-    write_text(&p, &report(info, results, region))?;
+    write_text(&p, &report(info, results, region, sweeps.as_ref().map(|(k, _)| k.as_str())))?;
     written.push(p);
     Ok(written)
+}
+
+/// The swept key and, per method, (parameter value, final snapshot) sorted by value; `None`
+/// when no line belongs to a sweep.
+type SweepLines<'a> = (String, Vec<(String, Vec<(f64, &'a Snapshot)>)>);
+
+fn sweep_lines(results: &[RunResult]) -> Option<SweepLines<'_>> {
+    let mut key = None;
+    let mut lines: Vec<(String, Vec<(f64, &Snapshot)>)> = Vec::new();
+    for r in results {
+        let (Some((k, v)), Some(last)) = (&r.run.sweep, r.snapshots.last()) else { continue };
+        key.get_or_insert_with(|| k.clone());
+        let name = r.run.method.name().to_string();
+        match lines.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, pts)) => pts.push((*v as f64, last)),
+            None => lines.push((name, vec![(*v as f64, last)])),
+        }
+    }
+    for (_, pts) in &mut lines {
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    key.map(|k| (k, lines))
 }
 
 fn scene_name(scene: &str) -> String {
@@ -144,7 +185,7 @@ fn scene_name(scene: &str) -> String {
 }
 
 /// The Markdown report.
-pub fn report(info: &StudyInfo, results: &[RunResult], region: Region) -> String {
+pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Option<&str>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Study: {}\n", scene_name(&info.scene));
     let _ = writeln!(
@@ -201,6 +242,18 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region) -> String
     );
     for m in Metric::ALL {
         let _ = writeln!(s, "![{}]({}.png)\n\n[SVG]({}.svg)\n", m.title(), m.key(), m.key());
+    }
+    if let Some(key) = sweep {
+        let _ = writeln!(s, "## Parameter sweep: {key}\n");
+        let _ = writeln!(
+            s,
+            "The final error of each swept line (after the full budget) against {}.\n",
+            chart::parameter_label(key)
+        );
+        for m in Metric::ALL {
+            let _ =
+                writeln!(s, "![final {0} against {key}](sweep-{0}.png)\n\n[SVG](sweep-{0}.svg)\n", m.key());
+        }
     }
     let _ = writeln!(s, "## Images\n");
     let _ = writeln!(
