@@ -274,6 +274,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
         height: reference.height,
         budget_s: a.time,
         first_snapshot_s: a.first_snapshot,
+        hdr_flip_exposures: pir::study::flip::exposures(&reference),
         seed,
         max_depth,
         threads,

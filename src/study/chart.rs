@@ -355,3 +355,22 @@ fn draw_legend<DB: DrawingBackend>(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_ranges_end_on_ticks_and_ticks_stay_inside() {
+        let (lo, hi) = log_range(0.27, 1.3);
+        assert!((lo - 0.2).abs() < 1e-12 && (hi - 2.0).abs() < 1e-12, "{lo} {hi}");
+        let t = ticks(lo, hi);
+        assert_eq!(t.first().copied(), Some(0.2));
+        assert!(t.iter().all(|v| *v >= lo * 0.999 && *v <= hi * 1.001));
+        assert!(t.len() >= 3);
+        // Wide ranges: decades only.
+        assert_eq!(ticks(1e-6, 1.0).len(), 7);
+        assert_eq!(format_tick(0.5), "0.5");
+        assert_eq!(format_tick(1e-3), "1e-3");
+    }
+}

@@ -120,8 +120,12 @@ mod tests {
     fn tone_curve_maps_zero_to_zero_and_x_max_to_0_85() {
         assert_eq!(tone(0.0), 0.0);
         assert!(tone(1e6) <= 1.0);
-        let ex = exposures(&gradient());
+        let img = gradient();
+        let ex = exposures(&img);
         assert!(ex.len() >= 2 && ex.windows(2).all(|w| w[0] <= w[1]));
+        // The first exposure maps the brightest pixel's luminance to 0.85.
+        let y_max = img.pixels.iter().map(|p| luminance(*p)).fold(0.0f32, f32::max);
+        assert!((tone(y_max * ex[0].exp2()) - 0.85).abs() < 1e-4);
     }
 
     #[test]

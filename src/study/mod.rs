@@ -211,3 +211,25 @@ pub fn run_one(
     let snapshots = measured.into_iter().collect::<Result<Vec<_>>>()?;
     Ok(RunResult { run: run.clone(), snapshots, image: film.image() })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn snapshot_times_grow_by_root_two_below_the_budget() {
+        let s = Schedule { budget: Duration::from_secs(2), base: 0.25 };
+        let t = s.times();
+        assert_eq!(t.len(), 6);
+        assert!((t[2] - 0.5).abs() < 1e-12 && (t[4] - 1.0).abs() < 1e-12);
+        assert!(t.iter().all(|x| *x < 2.0));
+    }
+
+    #[test]
+    fn method_names_round_trip() {
+        for m in Method::ALL {
+            assert_eq!(Method::parse(m.name()).unwrap(), m);
+        }
+        assert!(Method::parse("bogus").is_err());
+    }
+}

@@ -24,6 +24,8 @@ pub struct StudyInfo {
     pub budget_s: f64,
     /// The first snapshot time; later ones follow at factors of √2.
     pub first_snapshot_s: f64,
+    /// The exposures (stops) at which HDR-FLIP compares, from the reference.
+    pub hdr_flip_exposures: Vec<f32>,
     pub seed: u64,
     pub max_depth: u32,
     pub threads: usize,
@@ -275,4 +277,29 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
     let _ = writeln!(s, "- relative MSE: mean over pixels and channels of (x − r)² / (r² + 0.01);");
     let _ = writeln!(s, "- HDR-FLIP: {FLIP_NOTE}.");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::study::Method;
+
+    #[test]
+    fn slugs_are_file_name_safe_and_csv_quotes_commas() {
+        assert_eq!(slug("pir-clamp α=0.3"), "pir-clamp_alpha-0.3");
+        assert_eq!(slug("a/b c"), "a_b_c");
+        let s = Snapshot {
+            label: "x".into(),
+            method: Method::Pt,
+            parameters: "a=1,b=2".into(),
+            time_s: 0.5,
+            iterations: 3,
+            rmse: 0.25,
+            rel_mse: 0.125,
+            hdr_flip: 0.0625,
+        };
+        let text = csv(&[s]);
+        let row = text.lines().nth(1).unwrap();
+        assert_eq!(row, "x,pt,\"a=1,b=2\",0.500000,3,2.500000000e-1,1.250000000e-1,6.250000000e-2");
+    }
 }

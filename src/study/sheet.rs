@@ -166,3 +166,22 @@ pub fn write_sheet(path: &Path, results: &[RunResult], reference: &RgbImage) -> 
     write_png(path, sw, sh, &px)?;
     Ok(region)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_hardest_region_holds_the_error() {
+        let reference = RgbImage::new(64, 64);
+        let mut img = reference.clone();
+        for y in 40..48 {
+            for x in 8..16 {
+                img.pixels[y * 64 + x] = Vec3::ONE;
+            }
+        }
+        let r = hardest_region(&[&img], &reference);
+        assert_eq!((r.width, r.height), (16, 16));
+        assert!(r.x <= 8 && r.x + r.width >= 16 && r.y <= 40 && r.y + r.height >= 48, "{r:?}");
+    }
+}
