@@ -197,6 +197,11 @@ fn bad_input_fails_cleanly_before_rendering() {
     assert_clean_failure(&o, &["unknown method", "bogus"]);
     let o = pir(&["study", &s, "--reference", &r, "--sweep", "beta=1,2", "--time", "0.1"], d);
     assert_clean_failure(&o, &["beta"]);
+    let o =
+        pir(&["study", &s, "--reference", &r, "--methods", "pt", "--sweep", "alpha=0.5", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["none of the methods"]);
+    let o = pir(&["study", "nope.toml", "--reference", &r, "--time", "0.1"], d);
+    assert_clean_failure(&o, &["nope.toml"]);
     let o = pir(&["study", &s, "--reference", &r, "--resolution", "16", "16", "--time", "0.1"], d);
     assert_clean_failure(&o, &["differs from the reference"]);
     std::fs::write(d.join("afile"), "x").unwrap();

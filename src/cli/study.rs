@@ -139,6 +139,12 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
     if methods.is_empty() {
         bail!("--methods: no method given");
     }
+    if let Some((key, _)) = &sweep
+        && !methods.iter().any(|m| uses(*m, *key))
+    {
+        let k = a.sweep.as_deref().and_then(|s| s.split_once('=')).map_or("", |(k, _)| k.trim());
+        bail!("--sweep {k}: none of the methods uses this parameter");
+    }
     let base = |m: Method| Run {
         method: m,
         label: m.name().to_string(),
@@ -230,9 +236,8 @@ pub fn run(a: StudyArgs) -> Result<()> {
         bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
-    check_out_dir(&out)?;
-
     let p = prepare(&a.scene, a.threads)?;
+    check_out_dir(&out)?;
     let backend = a.accel.unwrap_or_else(Backend::default_available);
     let accel =
         build_accelerator(backend, &p.scene.positions, &p.scene.indices).map_err(anyhow::Error::msg)?;
@@ -255,6 +260,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
 
     let mut results = Vec::new();
     for run in &runs {
+        eprintln!("pir study: racing {} for {} s …", run.label, a.time);
         let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference))?;
         if let Some(l) = r.snapshots.last() {
             eprintln!(
