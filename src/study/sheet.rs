@@ -86,7 +86,7 @@ fn preview(img: &RgbImage) -> Vec<Vec3> {
 }
 
 const LABEL: usize = 30;
-const MIN_PANEL: usize = 360;
+const MIN_PANEL: usize = 256;
 const GAP: usize = 8;
 
 /// Writes the sheet as a PNG; returns the region that was enlarged.
@@ -95,8 +95,8 @@ pub fn write_sheet(path: &Path, results: &[RunResult], reference: &RgbImage) -> 
     let images: Vec<&RgbImage> = results.iter().map(|r| &r.image).collect();
     let region = hardest_region(&images, reference);
     let zoom = (w / region.width).min(h / region.height).max(1);
-    // Small images are enlarged (nearest-neighbour) to panels at least MIN_PANEL wide.
-    let s = MIN_PANEL.div_ceil(w).max(1);
+    // Small images are enlarged (nearest-neighbour, integer factors) towards MIN_PANEL wide.
+    let s = (MIN_PANEL / w).max(1);
     let (pw, ph) = (w * s, h * s);
     let rows = results.len() + 1;
     let (sw, sh) = (3 * pw + 4 * GAP, LABEL + rows * (ph + LABEL + GAP));
@@ -109,9 +109,9 @@ pub fn write_sheet(path: &Path, results: &[RunResult], reference: &RgbImage) -> 
         }
     };
     let mut labels: Vec<(usize, usize, String)> = vec![
-        (GAP, 6, "final image (box: hardest region)".into()),
-        (2 * GAP + pw, 6, format!("hardest region ×{}", zoom * s)),
-        (3 * GAP + 2 * pw, 6, "relative sq. error, 1e-5 … 1".into()),
+        (GAP, 6, "final image (box: crop)".into()),
+        (2 * GAP + pw, 6, format!("hardest region, ×{}", zoom * s)),
+        (3 * GAP + 2 * pw, 6, "rel. sq. error 1e-5 … 1".into()),
     ];
     for row in 0..rows {
         let (img, name) = if row == 0 {
