@@ -12,3 +12,4 @@ pub mod material;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod study;

@@ -2,7 +2,10 @@
 
 mod compare;
 mod merge;
+mod reference;
 mod render;
+mod setup;
+mod study;
 
 use clap::{Parser, Subcommand};
 
@@ -22,6 +25,8 @@ pub enum Command {
     Render(render::RenderArgs),
     Compare(compare::CompareArgs),
     Merge(merge::MergeArgs),
+    Study(study::StudyArgs),
+    Reference(reference::ReferenceArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -29,5 +34,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(a) => render::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Study(a) => study::run(a),
+        Command::Reference(a) => reference::run(a),
     }
 }

@@ -1,7 +1,7 @@
 //! `pir render SCENE`: render a scene to EXR (linear RGB) and a PNG preview.
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -10,9 +10,7 @@ use std::time::{Duration, Instant};
 use pir::accel::{Backend, build_accelerator, embree_status, set_flush_denormals};
 use pir::image::{RgbImage, write_exr, write_preview};
 use pir::integrator::schedule::DEFAULT_ALPHA;
-use pir::integrator::{
-    Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, Radius, RenderContext, VirtualLights,
-};
+use pir::integrator::{DEFAULT_PATHS, Method, MethodConfig, RenderContext};
 use pir::light::Emitters;
 use pir::render::memory;
 use pir::render::state::{Job, Shard, read_state, write_state};
@@ -21,23 +19,6 @@ use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_fro
 /// Largest accepted image side, and pixel count (refused before anything is allocated).
 const MAX_SIDE: u32 = 65_536;
 const MAX_PIXELS: u64 = 1 << 28;
-
-/// Rendering methods.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Method {
-    /// Path tracer with next-event estimation and MIS: the ground truth.
-    Pt,
-    /// Instant radiosity, plain VPLs (Keller 1997): unbiased, spiky near creases.
-    Ir,
-    /// VPLs with the geometry term clamped at a constant --clamp b: biased for ever.
-    IrClamp,
-    /// Progressive clamping, b_i = b_1 · i^α (--clamp b_1, --alpha α): consistent.
-    PirClamp,
-    /// Virtual spherical lights of constant radius (Hašan et al. 2009; --radius): biased.
-    Vsl,
-    /// Progressive VSLs, r_i = r_1 · i^((α−1)/2) (--radius r_1, --alpha α): consistent.
-    PirVsl,
-}
 
 /// Render a scene progressively and write an EXR and a PNG preview.
 ///
@@ -48,8 +29,11 @@ pub enum Method {
 pub struct RenderArgs {
     /// The scene file (TOML, see the README's scene format).
     pub scene: PathBuf,
-    /// Rendering method.
-    #[arg(long, value_enum, default_value_t = Method::Pt)]
+    /// Rendering method: pt (path tracer, the ground truth), ir (plain VPLs: unbiased, spiky),
+    /// ir-clamp (geometry term clamped at a constant --clamp: biased), pir-clamp (progressive
+    /// clamp b_i = b_1 · i^α: consistent), vsl (virtual spherical lights of constant --radius:
+    /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent).
+    #[arg(long, default_value_t = Method::Pt, value_name = "METHOD")]
     pub method: Method,
     /// Samples per pixel (= iterations; one sample per pixel per iteration).
     #[arg(long, visible_alias = "iterations", value_name = "N")]
@@ -156,9 +140,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
         Some(t) if t.is_finite() && t > 0.0 && t < 1e9 => Some(Duration::from_secs_f64(t)),
         Some(t) => bail!("--checkpoint {t}: must be a positive number of seconds"),
     };
-    let method_name = a.method.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
-    let out =
-        a.out.clone().or_else(|| a.resume.clone()).unwrap_or_else(|| default_output(&a.scene, &method_name));
+    let out = a
+        .out
+        .clone()
+        .or_else(|| a.resume.clone())
+        .unwrap_or_else(|| default_output(&a.scene, a.method.name()));
     if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
         bail!("{}: the output must be an .exr file", out.display());
     }
@@ -187,20 +173,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let backend = a.accel.unwrap_or_else(Backend::default_available);
     let accel = build_accelerator(backend, &scene.positions, &scene.indices).map_err(anyhow::Error::msg)?;
 
-    let bound = a.clamp.unwrap_or_else(|| Clamping::default_bound(scene.bounds.diagonal()));
-    let mut integrator: Box<dyn Integrator> = match a.method {
-        Method::Pt => Box::new(PathTracer),
-        Method::Ir => Box::new(InstantRadiosity::points(Clamping::None, a.vpls)),
-        Method::IrClamp => Box::new(InstantRadiosity::points(Clamping::Constant { b: bound }, a.vpls)),
-        Method::PirClamp => {
-            Box::new(InstantRadiosity::points(Clamping::Progressive { b1: bound, alpha: a.alpha }, a.vpls))
-        }
-        Method::Vsl | Method::PirVsl => {
-            let radius = a.radius.map_or(Radius::Density, Radius::Global);
-            let alpha = (a.method == Method::PirVsl).then_some(a.alpha);
-            Box::new(InstantRadiosity::new(VirtualLights::Spheres { radius, alpha }, a.vpls))
-        }
-    };
+    let config =
+        MethodConfig { method: a.method, vpls: a.vpls, clamp: a.clamp, radius: a.radius, alpha: a.alpha };
+    let mut integrator = config.integrator(scene.bounds.diagonal());
     let ctx = RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth, seed };
     let (w, h) = (width as usize, height as usize);
 
@@ -387,7 +362,7 @@ fn check_memory(a: &RenderArgs, width: u32, height: u32, triangles: usize, max_d
         Some(g) => bail!("--max-memory {g}: must be a positive number of GiB"),
         None => memory::total_memory().map(|m| m / 10 * 8),
     };
-    let paths = if a.method == Method::Pt { 0 } else { a.vpls as u64 };
+    let paths = if a.method.uses_vpls() { a.vpls as u64 } else { 0 };
     let need = memory::Estimate::new(width as u64, height as u64, triangles as u64, paths, max_depth as u64);
     if let Some(limit) = limit
         && need.total() > limit

@@ -8,6 +8,7 @@
 mod direct;
 mod instant_radiosity;
 mod knn;
+mod method;
 mod path;
 pub mod schedule;
 pub mod vpl;
@@ -15,6 +16,7 @@ pub mod vsl;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights};
+pub use method::{Method, MethodConfig};
 pub use path::PathTracer;
 
 use glam::Vec3;

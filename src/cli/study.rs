@@ -1,0 +1,293 @@
+//! `pir study SCENE --reference REF.exr`: an error-against-time race of rendering methods,
+//! with CSV/JSON of every snapshot, log-log charts, an image sheet and a Markdown report.
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+use pir::accel::{Backend, build_accelerator};
+use pir::image::read_exr;
+use pir::integrator::schedule::DEFAULT_ALPHA;
+use pir::integrator::{DEFAULT_PATHS, RenderContext};
+use pir::study::output::{StudyInfo, write_all};
+use pir::study::{Method, Run, Schedule, run_one};
+
+use super::setup::{prepare, scene_stem, seconds};
+
+/// Race rendering methods against a reference for the same wall-clock budget.
+///
+/// Each method renders alone on all threads for --time seconds at the reference's size;
+/// snapshots at 0.25 s · 2^(k/2) and at the end are measured against the reference (RMSE,
+/// relative MSE, HDR-FLIP). The output folder gets snapshots.csv, study.json, one log-log
+/// chart per metric (PNG and SVG), sheet.png, the final EXRs and report.md.
+///
+/// --sweep KEY=V1,V2,… runs every method that uses KEY (alpha: pir-clamp, pir-vsl; clamp:
+/// ir-clamp, pir-clamp; radius: vsl, pir-vsl) once per value; without --methods, only those.
+#[derive(Args, Debug)]
+pub struct StudyArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// The reference image (EXR), e.g. from `pir reference`; renders take its size.
+    #[arg(long, value_name = "REF.exr")]
+    pub reference: PathBuf,
+    /// Methods, comma-separated: pt, ir, ir-clamp, pir-clamp, vsl, pir-vsl [default: all].
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub methods: Option<Vec<String>>,
+    /// Wall-clock budget of each line, in seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_negative_numbers = true)]
+    pub time: f64,
+    /// Output folder, created if missing [default: study-SCENE].
+    #[arg(long, short, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Parameter sweep: alpha=…, clamp=… or radius=…, values comma-separated.
+    #[arg(long, value_name = "KEY=V1,V2,…")]
+    pub sweep: Option<String>,
+    /// Time of the first snapshot, in seconds (later ones follow at factors of √2).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.25)]
+    pub first_snapshot: f64,
+    /// VPL methods: light paths traced per iteration.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
+    pub vpls: usize,
+    /// pir-clamp, pir-vsl: the schedules' exponent α, in (0, 1).
+    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
+    pub alpha: f32,
+    /// ir-clamp, pir-clamp: the geometry-term bound b (b_1) [default: 100 / scene diagonal²].
+    #[arg(long, value_name = "B", allow_negative_numbers = true)]
+    pub clamp: Option<f32>,
+    /// vsl, pir-vsl: the light radius r (r_1) [default: per light, by VPL density].
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
+    pub radius: Option<f32>,
+    /// Random seed [default: the scene's render.seed].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Largest number of path segments [default: the scene's render.max_depth].
+    #[arg(long, value_name = "D")]
+    pub max_depth: Option<u32>,
+    /// Image size; must equal the reference's [default: the reference's].
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub resolution: Option<Vec<u32>>,
+    /// Ray-query backend: embree, bvh or brute [default: embree if built in, else bvh].
+    #[arg(long, value_name = "BACKEND")]
+    pub accel: Option<Backend>,
+}
+
+/// The sweep's parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Key {
+    Alpha,
+    Clamp,
+    Radius,
+}
+
+fn parse_sweep(s: &str) -> Result<(Key, Vec<f32>)> {
+    let (k, vs) = s.split_once('=').with_context(|| format!("--sweep {s:?}: expected KEY=V1,V2,…"))?;
+    let key = match k.trim() {
+        "alpha" | "α" => Key::Alpha,
+        "clamp" => Key::Clamp,
+        "radius" => Key::Radius,
+        other => bail!("--sweep: unknown parameter {other:?}: expected alpha, clamp or radius"),
+    };
+    let mut values = Vec::new();
+    for v in vs.split(',') {
+        let x: f32 = v.trim().parse().with_context(|| format!("--sweep: {v:?} is not a number"))?;
+        let ok = match key {
+            Key::Alpha => x > 0.0 && x < 1.0,
+            _ => x.is_finite() && x > 0.0,
+        };
+        if !ok {
+            bail!(
+                "--sweep {}: {x} is out of range ({})",
+                k.trim(),
+                if key == Key::Alpha { "0 < α < 1" } else { "must be positive" }
+            );
+        }
+        values.push(x);
+    }
+    Ok((key, values))
+}
+
+fn uses(m: Method, key: Key) -> bool {
+    match key {
+        Key::Alpha => m.uses_alpha(),
+        Key::Clamp => m.uses_clamp(),
+        Key::Radius => m.uses_radius(),
+    }
+}
+
+/// The lines of the study, in order.
+fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
+    let sweep = a.sweep.as_deref().map(parse_sweep).transpose()?;
+    let methods: Vec<Method> = match &a.methods {
+        Some(list) => {
+            let mut v = Vec::new();
+            for s in list {
+                let m: Method = s.parse().map_err(|e| anyhow::anyhow!("--methods: {e}"))?;
+                if !v.contains(&m) {
+                    v.push(m);
+                }
+            }
+            v
+        }
+        None => match &sweep {
+            Some((key, _)) => Method::ALL.into_iter().filter(|m| uses(*m, *key)).collect(),
+            None => Method::ALL.to_vec(),
+        },
+    };
+    if methods.is_empty() {
+        bail!("--methods: no method given");
+    }
+    if let Some((key, _)) = &sweep
+        && !methods.iter().any(|m| uses(*m, *key))
+    {
+        let k = a.sweep.as_deref().and_then(|s| s.split_once('=')).map_or("", |(k, _)| k.trim());
+        bail!("--sweep {k}: none of the methods uses this parameter");
+    }
+    let base = |m: Method| Run {
+        method: m,
+        label: m.name().to_string(),
+        alpha: a.alpha,
+        clamp: a.clamp,
+        radius: a.radius,
+        vpls: a.vpls,
+        sweep: None,
+    };
+    let mut out = Vec::new();
+    for m in methods {
+        match &sweep {
+            Some((key, values)) if uses(m, *key) => {
+                for &v in values {
+                    let mut r = base(m);
+                    let (name, value) = match key {
+                        Key::Alpha => ("α", &mut r.alpha),
+                        Key::Clamp => ("b", r.clamp.insert(v)),
+                        Key::Radius => ("r", r.radius.insert(v)),
+                    };
+                    *value = v;
+                    r.label = format!("{} {name}={v}", m.name());
+                    let key = match key {
+                        Key::Alpha => "alpha",
+                        Key::Clamp => "clamp",
+                        Key::Radius => "radius",
+                    };
+                    r.sweep = Some((key.to_string(), v));
+                    out.push(r);
+                }
+            }
+            _ => out.push(base(m)),
+        }
+    }
+    Ok(out)
+}
+
+/// Creates `dir` if needed and checks that files can be written in it.
+fn check_out_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!("{}: exists and is not a folder", dir.display());
+    }
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output folder", dir.display()))?;
+    tempfile::Builder::new()
+        .prefix(".pir-check-")
+        .tempfile_in(dir)
+        .with_context(|| format!("{}: cannot write in the output folder", dir.display()))?;
+    Ok(())
+}
+
+pub fn run(a: StudyArgs) -> Result<()> {
+    // ---- Check every argument before any work.
+    let budget = seconds("--time", a.time)?;
+    if !(a.first_snapshot.is_finite() && a.first_snapshot > 0.0) {
+        bail!("--first-snapshot {}: must be a positive number of seconds", a.first_snapshot);
+    }
+    if a.vpls == 0 || a.vpls > 1 << 24 {
+        bail!("--vpls {}: must be 1 to {}", a.vpls, 1 << 24);
+    }
+    if !(a.alpha > 0.0 && a.alpha < 1.0) {
+        bail!("--alpha {}: must lie strictly between 0 and 1", a.alpha);
+    }
+    for (name, v) in [("--clamp", a.clamp), ("--radius", a.radius)] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0)
+        {
+            bail!("{name} {v}: must be a positive number");
+        }
+    }
+    if a.max_depth == Some(0) {
+        bail!("--max-depth must be at least 1");
+    }
+    let runs = runs(&a)?;
+    let (reference, ref_attrs) = read_exr(&a.reference).context("cannot read the reference")?;
+    if let Some(r) = &a.resolution
+        && (r[0] as usize, r[1] as usize) != (reference.width, reference.height)
+    {
+        bail!(
+            "--resolution {}×{} differs from the reference {} ({}×{}): metrics need equal sizes",
+            r[0],
+            r[1],
+            a.reference.display(),
+            reference.width,
+            reference.height
+        );
+    }
+    if reference.pixels.iter().any(|p| !p.is_finite()) {
+        bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
+    }
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
+    let p = prepare(&a.scene, a.threads)?;
+    check_out_dir(&out)?;
+    let backend = a.accel.unwrap_or_else(Backend::default_available);
+    let accel =
+        build_accelerator(backend, &p.scene.positions, &p.scene.indices).map_err(anyhow::Error::msg)?;
+    let max_depth = a.max_depth.unwrap_or(p.scene.render.max_depth);
+    let seed = a.seed.unwrap_or(p.scene.render.seed);
+    let ctx =
+        RenderContext { scene: &p.scene, accel: accel.as_ref(), emitters: &p.emitters, max_depth, seed };
+    let schedule = Schedule { budget, base: a.first_snapshot };
+    let threads = p.pool.current_num_threads();
+    eprintln!(
+        "pir study: {} at {}×{}, {} lines × {} s on {} threads, output in {}",
+        a.scene.display(),
+        reference.width,
+        reference.height,
+        runs.len(),
+        a.time,
+        threads,
+        out.display()
+    );
+
+    let mut results = Vec::new();
+    for run in &runs {
+        eprintln!("pir study: racing {} for {} s …", run.label, a.time);
+        let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference))?;
+        if let Some(l) = r.snapshots.last() {
+            eprintln!(
+                "pir study: {:<22} {:>6} it in {:6.2} s: RMSE {:.4e}, relative MSE {:.4e}, HDR-FLIP {:.4}",
+                run.label, l.iterations, l.time_s, l.rmse, l.rel_mse, l.hdr_flip
+            );
+        }
+        results.push(r);
+    }
+
+    let attr = |k: &str| ref_attrs.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
+    let info = StudyInfo {
+        scene: a.scene.display().to_string(),
+        reference: a.reference.display().to_string(),
+        reference_spp: attr("pir.spp").or_else(|| attr("pir.iterations")),
+        width: reference.width,
+        height: reference.height,
+        budget_s: a.time,
+        first_snapshot_s: a.first_snapshot,
+        hdr_flip_exposures: pir::study::flip::exposures(&reference),
+        seed,
+        max_depth,
+        threads,
+        accel: accel.describe(),
+        pir_version: env!("CARGO_PKG_VERSION").into(),
+    };
+    let files = write_all(&out, &info, &results, &reference)?;
+    eprintln!("pir study: wrote {} files; see {}", files.len(), out.join("report.md").display());
+    Ok(())
+}

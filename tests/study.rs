@@ -1,0 +1,215 @@
+//! `pir reference` and `pir study` end to end, on the Cornell box at 32×32 with budgets of a
+//! fraction of a second: every output is written, the CSV agrees with the final images, and
+//! bad input fails cleanly before any rendering.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use pir::image::{metrics, read_exr};
+
+fn pir(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(args)
+        .current_dir(cwd)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("run pir")
+}
+
+fn scene() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml").display().to_string()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_clean_failure(o: &Output, expected: &[&str]) {
+    let err = stderr(o);
+    assert!(!o.status.success(), "expected failure, got success: {err}");
+    for e in expected {
+        assert!(err.contains(e), "message lacks {e:?}: {err}");
+    }
+    for bad in ["panicked", "stack backtrace"] {
+        assert!(!err.contains(bad), "{bad:?} in: {err}");
+    }
+}
+
+/// A 32×32 reference in `dir`/ref.exr.
+fn make_reference(dir: &Path) -> PathBuf {
+    let o =
+        pir(&["reference", &scene(), "--time", "0.3", "--resolution", "32", "32", "--out", "ref.exr"], dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    dir.join("ref.exr")
+}
+
+struct Row {
+    label: String,
+    time: f64,
+    iterations: u64,
+    rmse: f64,
+    rel_mse: f64,
+    flip: f64,
+}
+
+fn read_csv(path: &Path) -> Vec<Row> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "label,method,parameters,time_s,iterations,rmse,rel_mse,hdr_flip");
+    lines
+        .map(|l| {
+            // Labels and parameters hold no commas in these tests.
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), 8, "{l}");
+            Row {
+                label: f[0].to_string(),
+                time: f[3].parse().unwrap(),
+                iterations: f[4].parse().unwrap(),
+                rmse: f[5].parse().unwrap(),
+                rel_mse: f[6].parse().unwrap(),
+                flip: f[7].parse().unwrap(),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn reference_then_study_writes_every_output_consistently() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = make_reference(dir.path());
+    let (ref_img, attrs) = read_exr(&reference).unwrap();
+    assert_eq!((ref_img.width, ref_img.height), (32, 32));
+    let spp: u64 = attrs.iter().find(|(k, _)| k == "pir.spp").unwrap().1.parse().unwrap();
+    assert!(spp >= 1);
+
+    let o = pir(
+        &[
+            "study",
+            &scene(),
+            "--reference",
+            "ref.exr",
+            "--methods",
+            "pt,pir-clamp",
+            "--time",
+            "0.5",
+            "--first-snapshot",
+            "0.05",
+            "--vpls",
+            "64",
+            "--out",
+            "out",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("out");
+    for f in [
+        "snapshots.csv",
+        "study.json",
+        "report.md",
+        "sheet.png",
+        "rmse.png",
+        "rmse.svg",
+        "rel_mse.png",
+        "rel_mse.svg",
+        "hdr_flip.png",
+        "hdr_flip.svg",
+        "final-pt.exr",
+        "final-pir-clamp.exr",
+    ] {
+        let len = std::fs::metadata(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")).len();
+        assert!(len > 100, "{f} is {len} bytes");
+    }
+    let svg = std::fs::read_to_string(out.join("rel_mse.svg")).unwrap();
+    assert!(svg.contains("wall-clock time (s)") && svg.contains("relative MSE") && svg.contains("pir-clamp"));
+
+    let rows = read_csv(&out.join("snapshots.csv"));
+    for label in ["pt", "pir-clamp"] {
+        let r: Vec<&Row> = rows.iter().filter(|r| r.label == label).collect();
+        assert!(r.len() >= 3, "{label}: {} snapshots", r.len());
+        assert!(r.windows(2).all(|w| w[0].time < w[1].time && w[0].iterations < w[1].iterations), "{label}");
+        let last = r.last().unwrap();
+        assert!(last.time >= 0.5 && last.time < 3.0, "{label}: {}", last.time);
+        assert!(r.iter().all(|x| x.flip > 0.0 && x.flip < 1.0), "{label}");
+        // The final row is the final image's error.
+        let (img, _) = read_exr(&out.join(format!("final-{label}.exr"))).unwrap();
+        let m = metrics(&img, &ref_img).unwrap();
+        assert!((m.rmse - last.rmse).abs() <= 1e-6 * m.rmse, "{label}: {} vs {}", m.rmse, last.rmse);
+        assert!((m.rel_mse - last.rel_mse).abs() <= 1e-6 * m.rel_mse, "{label}");
+    }
+
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("study.json")).unwrap()).unwrap();
+    assert_eq!(json["snapshots"].as_array().unwrap().len(), rows.len());
+    assert_eq!(json["study"]["width"], 32);
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for link in ["(rel_mse.png)", "(hdr_flip.svg)", "(sheet.png)", "(snapshots.csv)", "| pir-clamp |"] {
+        assert!(report.contains(link), "report lacks {link}");
+    }
+}
+
+#[test]
+fn sweep_runs_one_line_per_value() {
+    let dir = tempfile::tempdir().unwrap();
+    make_reference(dir.path());
+    let o = pir(
+        &[
+            "study",
+            &scene(),
+            "--reference",
+            "ref.exr",
+            "--sweep",
+            "alpha=0.3,0.7",
+            "--methods",
+            "pir-clamp",
+            "--time",
+            "0.1",
+            "--vpls",
+            "16",
+            "--out",
+            "sw",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = read_csv(&dir.path().join("sw/snapshots.csv"));
+    let mut labels: Vec<&str> = rows.iter().map(|r| r.label.as_str()).collect();
+    labels.dedup();
+    assert_eq!(labels, ["pir-clamp α=0.3", "pir-clamp α=0.7"]);
+    for f in ["sweep-rel_mse.png", "sweep-rel_mse.svg", "sweep-hdr_flip.png", "final-pir-clamp_alpha-0.3.exr"]
+    {
+        assert!(dir.path().join("sw").join(f).is_file(), "{f} missing");
+    }
+    let report = std::fs::read_to_string(dir.path().join("sw/report.md")).unwrap();
+    assert!(report.contains("## Parameter sweep: alpha"));
+}
+
+#[test]
+fn bad_input_fails_cleanly_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = scene();
+    let o = pir(&["study", &s, "--reference", "missing.exr", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["missing.exr"]);
+    let reference = make_reference(d);
+    let r = reference.display().to_string();
+    let o = pir(&["study", &s, "--reference", &r, "--methods", "pt,bogus", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["unknown method", "bogus"]);
+    let o = pir(&["study", &s, "--reference", &r, "--sweep", "beta=1,2", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["beta"]);
+    let o =
+        pir(&["study", &s, "--reference", &r, "--methods", "pt", "--sweep", "alpha=0.5", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["none of the methods"]);
+    let o = pir(&["study", "nope.toml", "--reference", &r, "--time", "0.1"], d);
+    assert_clean_failure(&o, &["nope.toml"]);
+    let o = pir(&["study", &s, "--reference", &r, "--resolution", "16", "16", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["differs from the reference"]);
+    std::fs::write(d.join("afile"), "x").unwrap();
+    let o = pir(&["study", &s, "--reference", &r, "--out", "afile/sub", "--time", "0.1"], d);
+    assert_clean_failure(&o, &["afile/sub"]);
+    let o = pir(&["study", &s, "--reference", &r, "--time", "-1"], d);
+    assert_clean_failure(&o, &["--time"]);
+    let o = pir(&["reference", &s, "--time", "0.1", "--out", "x.png"], d);
+    assert_clean_failure(&o, &["x.png"]);
+    assert!(!d.join("study-cornell-box").exists());
+}
