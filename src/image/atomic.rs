@@ -25,6 +25,15 @@ where
         write(&mut w).with_context(|| format!("{}: write failed", path.display()))?;
         w.flush().with_context(|| format!("{}: write failed", path.display()))?;
     }
+    // tempfile creates files readable by their owner only; a render's outputs are ordinary
+    // files that other users (and the next job of a batch) may read.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))
+            .with_context(|| format!("{}: cannot set permissions", path.display()))?;
+    }
     tmp.as_file().sync_all().with_context(|| format!("{}: sync failed", path.display()))?;
     tmp.persist(path)
         .map_err(|e| anyhow::anyhow!("{}: cannot rename into place: {}", path.display(), e.error))?;
@@ -47,5 +56,11 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
         write_atomically(&path, |w| Ok(w.write_all(b"whole")?)).unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"whole");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o644, "outputs are ordinary readable files");
+        }
     }
 }
