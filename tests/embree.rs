@@ -14,7 +14,8 @@ fn no_embree_build_reports_how_to_get_it() {
     use pir::accel::{Backend, build_accelerator, embree_status};
     assert!(embree_status().contains("apt-get install libembree-dev libclang-dev"));
     assert_eq!(Backend::default_available(), Backend::Bvh);
-    let err = build_accelerator(Backend::Embree, &[], &[]).err().unwrap();
+    let empty = pir::geometry::VertexBuffer::default();
+    let err = build_accelerator(Backend::Embree, &empty, &[]).err().unwrap();
     assert!(err.contains("pir was built without Embree; install libembree-dev libclang-dev and rebuild"));
 }
 
