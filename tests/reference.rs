@@ -49,8 +49,14 @@ fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
         eprintln!("skipping {scene_rel}: ../shared is absent");
         return;
     };
-    let scene = pir::scene::load(&shared.join(scene_rel)).unwrap();
-    let (reference, _) = read_exr(&shared.join(reference_rel)).unwrap();
+    check(&shared.join(scene_rel), &shared.join(reference_rel), spp);
+}
+
+fn check(scene_path: &std::path::Path, reference_path: &std::path::Path, spp: u64) {
+    let scene_rel = scene_path.display().to_string();
+    let scene_rel = scene_rel.as_str();
+    let scene = pir::scene::load(scene_path).unwrap();
+    let (reference, _) = read_exr(reference_path).unwrap();
     let (w, h) = (reference.width, reference.height);
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     let quarter = spp / 4;
@@ -105,6 +111,22 @@ fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
     );
     assert!(z_full.abs() < Z, "{scene_rel}: relMSE at {spp} spp is not V/n (z = {z_full:.2})");
     assert!(z_quarter.abs() < Z, "{scene_rel}: relMSE at {quarter} spp is not V/n (z = {z_quarter:.2})");
+}
+
+/// Shading normals and glossy materials on a scene no other test uses: the Mori knob against
+/// its Mitsuba reference (`tests/data/README.md`), same checks as above at 64×64.
+#[test]
+fn path_tracer_converges_to_mitsuba_mori_knob() {
+    let Some(shared) = shared_dir() else {
+        eprintln!("skipping the Mori knob: ../shared is absent");
+        return;
+    };
+    if !shared.join("scenes/mori-knob/testObj.obj").exists() {
+        eprintln!("skipping the Mori knob: ../shared/scenes/mori-knob is absent");
+        return;
+    }
+    let data = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    check(&data.join("mori-knob.toml"), &data.join("mori-knob-64.exr"), 256);
 }
 
 #[test]
