@@ -91,8 +91,13 @@ pub fn read_exr_with_channels(path: &Path) -> Result<ReadExr> {
     if found != 3 {
         bail!("{}: no R, G and B channels", path.display());
     }
-    let mut attributes: Vec<(String, String)> = layer
-        .attributes
+    let attributes = text_attributes(&layer.attributes);
+    Ok(ReadExr { image: img, attributes, channels })
+}
+
+/// A layer's text attributes, sorted by name.
+fn text_attributes(attributes: &LayerAttributes) -> Vec<(String, String)> {
+    let mut v: Vec<(String, String)> = attributes
         .other
         .iter()
         .filter_map(|(k, v)| match v {
@@ -100,8 +105,8 @@ pub fn read_exr_with_channels(path: &Path) -> Result<ReadExr> {
             _ => None,
         })
         .collect();
-    attributes.sort();
-    Ok(ReadExr { image: img, attributes, channels })
+    v.sort();
+    v
 }
 
 /// What [`read_exr_with_channels`] returns.
@@ -125,17 +130,7 @@ pub fn read_exr(path: &Path) -> Result<(RgbImage, Vec<(String, String)>)> {
         },
     )
     .map_err(|e| anyhow::anyhow!("{}: not a readable RGB EXR image: {e}", path.display()))?;
-    let mut attributes: Vec<(String, String)> = image
-        .layer_data
-        .attributes
-        .other
-        .iter()
-        .filter_map(|(k, v)| match v {
-            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
-            _ => None,
-        })
-        .collect();
-    attributes.sort();
+    let attributes = text_attributes(&image.layer_data.attributes);
     Ok((image.layer_data.channel_data.pixels, attributes))
 }
 
