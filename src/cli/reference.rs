@@ -8,12 +8,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use pir::accel::{Backend, build_accelerator};
+use pir::accel::build_accelerator;
 use pir::image::{write_exr, write_preview};
 use pir::integrator::{Integrator, PathTracer, RenderContext};
 use pir::render::{Budget, Control, RenderSettings, render};
 
-use super::setup::{prepare, scene_stem, seconds};
+use super::setup::{SceneOptions, check_writable, prepare, scene_stem, seconds};
 
 /// Render a reference image with the path tracer for a wall-clock budget.
 ///
@@ -28,29 +28,14 @@ pub struct ReferenceArgs {
     /// Output EXR (a PNG preview is written beside it) [default: SCENE-reference.exr].
     #[arg(long, short, value_name = "FILE.exr")]
     pub out: Option<PathBuf>,
-    /// Random seed [default: the scene's render.seed].
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Worker threads [default: all cores].
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
-    /// Largest number of path segments [default: the scene's render.max_depth].
-    #[arg(long, value_name = "D")]
-    pub max_depth: Option<u32>,
-    /// Image size [default: the scene's camera.resolution].
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub resolution: Option<Vec<u32>>,
-    /// Ray-query backend: embree, bvh or brute [default: embree if built in, else bvh].
-    #[arg(long, value_name = "BACKEND")]
-    pub accel: Option<Backend>,
+    #[command(flatten)]
+    pub options: SceneOptions,
 }
 
 pub fn run(a: ReferenceArgs) -> Result<()> {
     let budget = seconds("--time", a.time)?;
-    if a.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1");
-    }
-    if let Some(r) = &a.resolution
+    a.options.check()?;
+    if let Some(r) = &a.options.resolution
         && (r[0] == 0 || r[1] == 0 || r[0] > 65_536 || r[1] > 65_536)
     {
         bail!("--resolution {}×{}: each side must be 1 to 65536", r[0], r[1]);
@@ -60,28 +45,14 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() != Some("exr") {
         bail!("{}: the output must be an .exr file", out.display());
     }
-    let dir = match out.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    tempfile::Builder::new()
-        .prefix(".pir-check-")
-        .tempfile_in(&dir)
-        .with_context(|| format!("{}: cannot write in {}", out.display(), dir.display()))?;
+    check_writable(&out)?;
 
-    let p = prepare(&a.scene, a.threads)?;
-    let accel = build_accelerator(
-        a.accel.unwrap_or_else(Backend::default_available),
-        &p.scene.positions,
-        &p.scene.indices,
-    )
-    .map_err(anyhow::Error::msg)?;
-    let (width, height) = match &a.resolution {
-        Some(r) => (r[0], r[1]),
-        None => (p.scene.camera.width, p.scene.camera.height),
-    };
-    let max_depth = a.max_depth.unwrap_or(p.scene.render.max_depth);
-    let seed = a.seed.unwrap_or(p.scene.render.seed);
+    let p = prepare(&a.scene, &a.options)?;
+    let accel = build_accelerator(a.options.backend(), &p.scene.positions, &p.scene.indices)
+        .map_err(anyhow::Error::msg)?;
+    let (width, height) = a.options.resolution(&p.scene);
+    let max_depth = a.options.max_depth(&p.scene);
+    let seed = a.options.seed(&p.scene);
     let ctx =
         RenderContext { scene: &p.scene, accel: accel.as_ref(), emitters: &p.emitters, max_depth, seed };
     let settings = RenderSettings {

@@ -2,19 +2,20 @@
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use pir::accel::{Backend, build_accelerator, embree_status, set_flush_denormals};
+use pir::accel::{Backend, build_accelerator, embree_status};
 use pir::image::{RgbImage, write_exr, write_preview};
 use pir::integrator::schedule::DEFAULT_ALPHA;
 use pir::integrator::{DEFAULT_PATHS, Method, MethodConfig, RenderContext};
-use pir::light::Emitters;
 use pir::render::memory;
 use pir::render::state::{Job, Shard, read_state, write_state};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
+
+use super::setup::{Prepared, SceneOptions, check_writable, prepare, scene_stem};
 
 /// Largest accepted image side, and pixel count (refused before anything is allocated).
 const MAX_SIDE: u32 = 65_536;
@@ -45,20 +46,8 @@ pub struct RenderArgs {
     /// current directory].
     #[arg(long, short, value_name = "FILE.exr")]
     pub out: Option<PathBuf>,
-    /// Random seed [default: the scene's render.seed]. The same seed gives the same image for
-    /// any number of threads.
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Worker threads [default: all cores].
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
-    /// Largest number of path segments from the camera to an emitter [default: the scene's
-    /// render.max_depth]; 1 = emitters only, 2 = direct light, 3 = one bounce, …
-    #[arg(long, value_name = "D")]
-    pub max_depth: Option<u32>,
-    /// Image size in pixels [default: the scene's camera.resolution].
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub resolution: Option<Vec<u32>>,
+    #[command(flatten)]
+    pub options: SceneOptions,
     /// Exposure of the PNG preview in stops (the EXR is never scaled).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
@@ -98,10 +87,6 @@ pub struct RenderArgs {
     /// machine's memory].
     #[arg(long, value_name = "GIB", allow_negative_numbers = true)]
     pub max_memory: Option<f64>,
-    /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own
-    /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].
-    #[arg(long, value_name = "BACKEND")]
-    pub accel: Option<Backend>,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -110,12 +95,7 @@ pub struct RenderArgs {
 pub fn run(a: RenderArgs) -> Result<()> {
     // ---- Check every argument before any work.
     let budget = budget(&a)?;
-    if let Some(0) = a.threads {
-        bail!("--threads must be at least 1");
-    }
-    if a.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1");
-    }
+    a.options.check()?;
     if !a.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
@@ -144,33 +124,19 @@ pub fn run(a: RenderArgs) -> Result<()> {
         .out
         .clone()
         .or_else(|| a.resume.clone())
-        .unwrap_or_else(|| default_output(&a.scene, a.method.name()));
+        .unwrap_or_else(|| PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.method.name())));
     if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
         bail!("{}: the output must be an .exr file", out.display());
     }
     check_writable(&out)?;
 
-    let scene = pir::scene::load(&a.scene)?;
-    let (width, height) = match &a.resolution {
-        Some(r) => (r[0], r[1]),
-        None => (scene.camera.width, scene.camera.height),
-    };
+    let Prepared { scene, emitters, pool } = prepare(&a.scene, &a.options)?;
+    let (width, height) = a.options.resolution(&scene);
     check_resolution(width, height)?;
-    let max_depth = a.max_depth.unwrap_or(scene.render.max_depth);
+    let max_depth = a.options.max_depth(&scene);
     check_memory(&a, width, height, scene.indices.len(), max_depth)?;
-    let seed = a.seed.unwrap_or(scene.render.seed);
-    let emitters = Emitters::new(&scene)
-        .with_context(|| format!("{}: the scene has no emitter with positive power", a.scene.display()))?;
-
-    // Embree asks for flush-to-zero on every thread that traces rays.
-    set_flush_denormals();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0))
-        .start_handler(|_| set_flush_denormals())
-        .build()
-        .context("cannot start the worker threads")?;
-
-    let backend = a.accel.unwrap_or_else(Backend::default_available);
+    let seed = a.options.seed(&scene);
+    let backend = a.options.backend();
     let accel = build_accelerator(backend, &scene.positions, &scene.indices).map_err(anyhow::Error::msg)?;
 
     let config =
@@ -382,31 +348,5 @@ fn check_resolution(w: u32, h: u32) -> Result<()> {
             "resolution {w}×{h}: each side must be 1 to {MAX_SIDE} and the total at most {MAX_PIXELS} pixels"
         );
     }
-    Ok(())
-}
-
-fn default_output(scene: &Path, method: &str) -> PathBuf {
-    let stem = scene.file_stem().and_then(|s| s.to_str()).unwrap_or("render");
-    let stem = if stem == "scene" {
-        scene.parent().and_then(|p| p.file_name()).and_then(|s| s.to_str()).unwrap_or(stem)
-    } else {
-        stem
-    };
-    PathBuf::from(format!("{stem}-{method}.exr"))
-}
-
-/// Fails now, not after the render, when the output's folder is missing or not writable.
-fn check_writable(out: &Path) -> Result<()> {
-    let dir = match out.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        bail!("{}: the output folder {} does not exist", out.display(), dir.display());
-    }
-    tempfile::Builder::new()
-        .prefix(".pir-check-")
-        .tempfile_in(dir)
-        .with_context(|| format!("{}: cannot write in {}", out.display(), dir.display()))?;
     Ok(())
 }

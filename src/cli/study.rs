@@ -5,14 +5,14 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
-use pir::accel::{Backend, build_accelerator};
+use pir::accel::build_accelerator;
 use pir::image::read_exr;
 use pir::integrator::schedule::DEFAULT_ALPHA;
 use pir::integrator::{DEFAULT_PATHS, RenderContext};
 use pir::study::output::{StudyInfo, write_all};
 use pir::study::{Method, Run, Schedule, run_one};
 
-use super::setup::{prepare, scene_stem, seconds};
+use super::setup::{SceneOptions, prepare, scene_stem, seconds};
 
 /// Race rendering methods against a reference for the same wall-clock budget.
 ///
@@ -57,21 +57,8 @@ pub struct StudyArgs {
     /// vsl, pir-vsl: the light radius r (r_1) [default: per light, by VPL density].
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
-    /// Random seed [default: the scene's render.seed].
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Worker threads [default: all cores].
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
-    /// Largest number of path segments [default: the scene's render.max_depth].
-    #[arg(long, value_name = "D")]
-    pub max_depth: Option<u32>,
-    /// Image size; must equal the reference's [default: the reference's].
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
-    pub resolution: Option<Vec<u32>>,
-    /// Ray-query backend: embree, bvh or brute [default: embree if built in, else bvh].
-    #[arg(long, value_name = "BACKEND")]
-    pub accel: Option<Backend>,
+    #[command(flatten)]
+    pub options: SceneOptions,
 }
 
 /// The sweep's parameter.
@@ -215,12 +202,10 @@ pub fn run(a: StudyArgs) -> Result<()> {
             bail!("{name} {v}: must be a positive number");
         }
     }
-    if a.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1");
-    }
+    a.options.check()?;
     let runs = runs(&a)?;
     let (reference, ref_attrs) = read_exr(&a.reference).context("cannot read the reference")?;
-    if let Some(r) = &a.resolution
+    if let Some(r) = &a.options.resolution
         && (r[0] as usize, r[1] as usize) != (reference.width, reference.height)
     {
         bail!(
@@ -236,13 +221,13 @@ pub fn run(a: StudyArgs) -> Result<()> {
         bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
-    let p = prepare(&a.scene, a.threads)?;
+    let p = prepare(&a.scene, &a.options)?;
     check_out_dir(&out)?;
-    let backend = a.accel.unwrap_or_else(Backend::default_available);
+    let backend = a.options.backend();
     let accel =
         build_accelerator(backend, &p.scene.positions, &p.scene.indices).map_err(anyhow::Error::msg)?;
-    let max_depth = a.max_depth.unwrap_or(p.scene.render.max_depth);
-    let seed = a.seed.unwrap_or(p.scene.render.seed);
+    let max_depth = a.options.max_depth(&p.scene);
+    let seed = a.options.seed(&p.scene);
     let ctx =
         RenderContext { scene: &p.scene, accel: accel.as_ref(), emitters: &p.emitters, max_depth, seed };
     let schedule = Schedule { budget, base: a.first_snapshot };
