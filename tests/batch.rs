@@ -4,14 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn pir(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pir"))
-        .args(args)
-        .current_dir(cwd)
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .unwrap()
-}
+mod common;
+use common::binary::pir;
 
 fn scene() -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -3,35 +3,13 @@
 //! no backtrace (with RUST_BACKTRACE=1 set, as on the render nodes), and no file left behind.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn pir(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pir"))
-        .args(args)
-        .current_dir(cwd)
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .expect("run pir")
-}
+mod common;
+use common::binary::{assert_clean_failure, pir, stderr};
 
 fn scene() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A failed run: non-zero exit, the expected words in the message, no panic or backtrace.
-fn assert_clean_failure(o: &Output, expected: &[&str]) {
-    let err = stderr(o);
-    assert!(!o.status.success(), "expected failure, got success: {err}");
-    for e in expected {
-        assert!(err.contains(e), "message lacks {e:?}: {err}");
-    }
-    for bad in ["panicked", "stack backtrace", "RUST_BACKTRACE"] {
-        assert!(!err.contains(bad), "{bad:?} in: {err}");
-    }
 }
 
 fn files_in(dir: &Path) -> Vec<String> {

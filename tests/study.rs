@@ -3,36 +3,14 @@
 //! bad input fails cleanly before any rendering.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod common;
+use common::binary::{assert_clean_failure, pir, stderr};
 
 use pir::image::{metrics, read_exr};
 
-fn pir(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pir"))
-        .args(args)
-        .current_dir(cwd)
-        .env("RUST_BACKTRACE", "1")
-        .output()
-        .expect("run pir")
-}
-
 fn scene() -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml").display().to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_clean_failure(o: &Output, expected: &[&str]) {
-    let err = stderr(o);
-    assert!(!o.status.success(), "expected failure, got success: {err}");
-    for e in expected {
-        assert!(err.contains(e), "message lacks {e:?}: {err}");
-    }
-    for bad in ["panicked", "stack backtrace"] {
-        assert!(!err.contains(bad), "{bad:?} in: {err}");
-    }
 }
 
 /// A 32×32 reference in `dir`/ref.exr.

@@ -2,6 +2,8 @@
 //! location of the optional `../shared` material.
 #![allow(dead_code)]
 
+pub mod binary;
+
 use glam::Vec3;
 use std::path::PathBuf;
 

@@ -1,0 +1,30 @@
+//! Running the `pir` binary from tests, as a render node would (with RUST_BACKTRACE=1).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// Runs `pir ARGS` in `cwd` and waits for it.
+pub fn pir(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(args)
+        .current_dir(cwd)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("run pir")
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A failed run: non-zero exit, the expected words in the message, no panic or backtrace.
+pub fn assert_clean_failure(o: &Output, expected: &[&str]) {
+    let err = stderr(o);
+    assert!(!o.status.success(), "expected failure, got success: {err}");
+    for e in expected {
+        assert!(err.contains(e), "message lacks {e:?}: {err}");
+    }
+    for bad in ["panicked", "stack backtrace", "RUST_BACKTRACE"] {
+        assert!(!err.contains(bad), "{bad:?} in: {err}");
+    }
+}
