@@ -28,17 +28,22 @@ struct Row {
     rmse: f64,
     rel_mse: f64,
     flip: f64,
+    max_rel_se: f64,
+    mean_rel_diff: f64,
 }
 
 fn read_csv(path: &Path) -> Vec<Row> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next().unwrap(), "label,method,parameters,time_s,iterations,rmse,rel_mse,hdr_flip");
+    assert_eq!(
+        lines.next().unwrap(),
+        "label,method,parameters,time_s,iterations,rmse,rel_mse,hdr_flip,max_rel_se,mean_rel_diff"
+    );
     lines
         .map(|l| {
             // Labels and parameters hold no commas in these tests.
             let f: Vec<&str> = l.split(',').collect();
-            assert_eq!(f.len(), 8, "{l}");
+            assert_eq!(f.len(), 10, "{l}");
             Row {
                 label: f[0].to_string(),
                 time: f[3].parse().unwrap(),
@@ -46,6 +51,8 @@ fn read_csv(path: &Path) -> Vec<Row> {
                 rmse: f[5].parse().unwrap(),
                 rel_mse: f[6].parse().unwrap(),
                 flip: f[7].parse().unwrap(),
+                max_rel_se: f[8].parse().unwrap(),
+                mean_rel_diff: f[9].parse().unwrap(),
             }
         })
         .collect()
@@ -92,6 +99,8 @@ fn reference_then_study_writes_every_output_consistently() {
         "rel_mse.svg",
         "hdr_flip.png",
         "hdr_flip.svg",
+        "max_rel_se.png",
+        "max_rel_se.svg",
         "final-pt.exr",
         "final-pir-clamp.exr",
     ] {
@@ -114,6 +123,9 @@ fn reference_then_study_writes_every_output_consistently() {
         let m = metrics(&img, &ref_img).unwrap();
         assert!((m.rmse - last.rmse).abs() <= 1e-6 * m.rmse, "{label}: {} vs {}", m.rmse, last.rmse);
         assert!((m.rel_mse - last.rel_mse).abs() <= 1e-6 * m.rel_mse, "{label}");
+        assert!((m.max_rel_se - last.max_rel_se).abs() <= 1e-6 * m.max_rel_se, "{label}");
+        let mean = m.mean_rel_diff().iter().sum::<f64>() / 3.0;
+        assert!((mean - last.mean_rel_diff).abs() <= 1e-6 * mean.abs().max(1e-6), "{label}");
     }
 
     let json: serde_json::Value =
@@ -124,6 +136,50 @@ fn reference_then_study_writes_every_output_consistently() {
     for link in ["(rel_mse.png)", "(hdr_flip.svg)", "(sheet.png)", "(snapshots.csv)", "| pir-clamp |"] {
         assert!(report.contains(link), "report lacks {link}");
     }
+}
+
+/// With --iterations every number but the times is the same from run to run, and snapshots
+/// fall on the log-spaced iteration counts.
+#[test]
+fn iteration_budgets_are_reproducible() {
+    let dir = tempfile::tempdir().unwrap();
+    make_reference(dir.path());
+    let study = |out: &str, threads: &str| {
+        let args = [
+            "study",
+            &scene(),
+            "--reference",
+            "ref.exr",
+            "--methods",
+            "pt,ir-clamp",
+            "--iterations",
+            "8",
+            "--vpls",
+            "8",
+            "--threads",
+            threads,
+            "--out",
+            out,
+        ];
+        let o = pir(&args, dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        read_csv(&dir.path().join(out).join("snapshots.csv"))
+    };
+    let (a, b) = (study("a", "1"), study("b", "2"));
+    let its: Vec<u64> = a.iter().filter(|r| r.label == "pt").map(|r| r.iterations).collect();
+    assert_eq!(its, [1, 2, 3, 4, 6, 8]);
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!((&x.label, x.iterations), (&y.label, y.iterations));
+        assert_eq!((x.rmse, x.rel_mse, x.flip, x.max_rel_se), (y.rmse, y.rel_mse, y.flip, y.max_rel_se));
+    }
+    let report = std::fs::read_to_string(dir.path().join("a/report.md")).unwrap();
+    assert!(report.contains("8 iterations per line"), "{report}");
+    let o =
+        pir(&["study", &scene(), "--reference", "ref.exr", "--iterations", "4", "--time", "1"], dir.path());
+    assert_clean_failure(&o, &["--iterations", "--time"]);
+    let o = pir(&["study", &scene(), "--reference", "ref.exr", "--iterations", "0"], dir.path());
+    assert_clean_failure(&o, &["--iterations 0"]);
 }
 
 #[test]

@@ -16,10 +16,11 @@ use super::setup::{SceneOptions, prepare, scene_stem, seconds};
 
 /// Race rendering methods against a reference for the same wall-clock budget.
 ///
-/// Each method renders alone on all threads for --time seconds at the reference's size;
-/// snapshots at 0.25 s · 2^(k/2) and at the end are measured against the reference (RMSE,
-/// relative MSE, HDR-FLIP). The output folder gets snapshots.csv, study.json, one log-log
-/// chart per metric (PNG and SVG), sheet.png, the final EXRs and report.md.
+/// Each method renders alone on all threads for --time seconds (or --iterations) at the
+/// reference's size; snapshots at 0.25 s · 2^(k/2) (1 iteration · 2^(k/2)) and at the end are
+/// measured against the reference (RMSE, relative MSE, HDR-FLIP, worst-pixel error, mean).
+/// The output folder gets snapshots.csv, study.json, one log-log chart per metric (PNG and
+/// SVG), sheet.png, the final EXRs and report.md.
 ///
 /// --sweep KEY=V1,V2,… runs every method that uses KEY (alpha: pir-clamp, pir-vsl; clamp:
 /// ir-clamp, pir-clamp; radius: vsl, pir-vsl) once per value; without --methods, only those.
@@ -36,15 +37,20 @@ pub struct StudyArgs {
     /// Wall-clock budget of each line, in seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_negative_numbers = true)]
     pub time: f64,
+    /// Instead of --time: this many iterations per line, so that every number but the times is
+    /// reproducible.
+    #[arg(long, value_name = "N", conflicts_with = "time")]
+    pub iterations: Option<u64>,
     /// Output folder, created if missing [default: study-SCENE].
     #[arg(long, short, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Parameter sweep: alpha=…, clamp=… or radius=…, values comma-separated.
     #[arg(long, value_name = "KEY=V1,V2,…")]
     pub sweep: Option<String>,
-    /// Time of the first snapshot, in seconds (later ones follow at factors of √2).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0.25)]
-    pub first_snapshot: f64,
+    /// The first snapshot, in seconds, or iterations with --iterations (later ones follow at
+    /// factors of √2) [default: 0.25 s, 1 iteration].
+    #[arg(long, value_name = "SECONDS|N", allow_negative_numbers = true)]
+    pub first_snapshot: Option<f64>,
     /// VPL methods: light paths traced per iteration.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
     pub vpls: usize,
@@ -185,10 +191,29 @@ fn check_out_dir(dir: &Path) -> Result<()> {
 
 pub fn run(a: StudyArgs) -> Result<()> {
     // ---- Check every argument before any work.
-    let budget = seconds("--time", a.time)?;
-    if !(a.first_snapshot.is_finite() && a.first_snapshot > 0.0) {
-        bail!("--first-snapshot {}: must be a positive number of seconds", a.first_snapshot);
-    }
+    let schedule = match a.iterations {
+        Some(0) => bail!("--iterations 0: must be at least 1"),
+        Some(n) => {
+            let first = a.first_snapshot.unwrap_or(1.0);
+            if !(first.is_finite() && first >= 1.0 && first.fract() == 0.0) {
+                bail!(
+                    "--first-snapshot {first}: with --iterations, must be a whole number of iterations ≥ 1"
+                );
+            }
+            Schedule::iterations(n, first as u64)
+        }
+        None => {
+            let first = a.first_snapshot.unwrap_or(0.25);
+            if !(first.is_finite() && first > 0.0) {
+                bail!("--first-snapshot {first}: must be a positive number of seconds");
+            }
+            Schedule::time(seconds("--time", a.time)?, first)
+        }
+    };
+    let budget_text = match a.iterations {
+        Some(n) => format!("{n} iterations"),
+        None => format!("{} s", a.time),
+    };
     if a.vpls == 0 || a.vpls > 1 << 24 {
         bail!("--vpls {}: must be 1 to {}", a.vpls, 1 << 24);
     }
@@ -230,27 +255,33 @@ pub fn run(a: StudyArgs) -> Result<()> {
     let seed = a.options.seed(&p.scene);
     let ctx =
         RenderContext { scene: &p.scene, accel: accel.as_ref(), emitters: &p.emitters, max_depth, seed };
-    let schedule = Schedule { budget, base: a.first_snapshot };
     let threads = p.pool.current_num_threads();
     eprintln!(
-        "pir study: {} at {}×{}, {} lines × {} s on {} threads, output in {}",
+        "pir study: {} at {}×{}, {} lines × {budget_text} on {} threads, output in {}",
         a.scene.display(),
         reference.width,
         reference.height,
         runs.len(),
-        a.time,
         threads,
         out.display()
     );
 
     let mut results = Vec::new();
     for run in &runs {
-        eprintln!("pir study: racing {} for {} s …", run.label, a.time);
+        eprintln!("pir study: racing {} for {budget_text} …", run.label);
         let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference))?;
         if let Some(l) = r.snapshots.last() {
             eprintln!(
-                "pir study: {:<22} {:>6} it in {:6.2} s: RMSE {:.4e}, relative MSE {:.4e}, HDR-FLIP {:.4}",
-                run.label, l.iterations, l.time_s, l.rmse, l.rel_mse, l.hdr_flip
+                "pir study: {:<22} {:>6} it in {:6.2} s: RMSE {:.4e}, relative MSE {:.4e}, HDR-FLIP {:.4}, \
+                 worst pixel {:.3e}, mean {:+.2} %",
+                run.label,
+                l.iterations,
+                l.time_s,
+                l.rmse,
+                l.rel_mse,
+                l.hdr_flip,
+                l.max_rel_se,
+                100.0 * l.mean_rel_diff
             );
         }
         results.push(r);
@@ -263,8 +294,9 @@ pub fn run(a: StudyArgs) -> Result<()> {
         reference_spp: attr("pir.spp").or_else(|| attr("pir.iterations")),
         width: reference.width,
         height: reference.height,
-        budget_s: a.time,
-        first_snapshot_s: a.first_snapshot,
+        budget_s: a.iterations.is_none().then_some(a.time),
+        budget_iterations: a.iterations,
+        first_snapshot: schedule.base,
         hdr_flip_exposures: pir::study::flip::exposures(&reference),
         seed,
         max_depth,

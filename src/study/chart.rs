@@ -33,10 +33,12 @@ pub enum Metric {
     Rmse,
     RelMse,
     HdrFlip,
+    /// The largest per-pixel relative squared error: where VPL spikes show.
+    MaxRelSe,
 }
 
 impl Metric {
-    pub const ALL: [Metric; 3] = [Metric::RelMse, Metric::Rmse, Metric::HdrFlip];
+    pub const ALL: [Metric; 4] = [Metric::RelMse, Metric::Rmse, Metric::HdrFlip, Metric::MaxRelSe];
 
     /// File-name stem.
     pub fn key(self) -> &'static str {
@@ -44,6 +46,7 @@ impl Metric {
             Metric::Rmse => "rmse",
             Metric::RelMse => "rel_mse",
             Metric::HdrFlip => "hdr_flip",
+            Metric::MaxRelSe => "max_rel_se",
         }
     }
 
@@ -53,6 +56,7 @@ impl Metric {
             Metric::Rmse => "RMSE (linear radiance units)",
             Metric::RelMse => "relative MSE (dimensionless)",
             Metric::HdrFlip => "mean HDR-FLIP (0 = identical, 1 = worst)",
+            Metric::MaxRelSe => "worst pixel's relative squared error (dimensionless)",
         }
     }
 
@@ -62,6 +66,7 @@ impl Metric {
             Metric::Rmse => "RMSE",
             Metric::RelMse => "relative MSE",
             Metric::HdrFlip => "HDR-FLIP",
+            Metric::MaxRelSe => "worst-pixel error",
         }
     }
 
@@ -70,6 +75,7 @@ impl Metric {
             Metric::Rmse => "RMSE against time",
             Metric::RelMse => "Relative MSE against time",
             Metric::HdrFlip => "HDR-FLIP against time",
+            Metric::MaxRelSe => "Worst-pixel error against time",
         }
     }
 
@@ -78,6 +84,7 @@ impl Metric {
             Metric::Rmse => s.rmse,
             Metric::RelMse => s.rel_mse,
             Metric::HdrFlip => s.hdr_flip,
+            Metric::MaxRelSe => s.max_rel_se,
         }
     }
 }

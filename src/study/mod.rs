@@ -4,9 +4,12 @@
 //! threads, and keeps a snapshot of the running image at log-spaced times (`base` · 2^(k/2)
 //! seconds, k = 0, 1, …) and at the end. The time of a snapshot is the render's own time:
 //! copying the image out is not counted, and metrics are computed after the render, so that
-//! measuring never slows the race. Every snapshot gets RMSE, relative MSE and HDR-FLIP (see
-//! [`flip`]) against the reference; [`output`] writes the CSV, JSON, charts, image sheet and
-//! report.
+//! measuring never slows the race. A budget of iterations instead of seconds (snapshots at
+//! log-spaced iteration counts) makes a study reproducible number for number, as the stress
+//! tests need: only the recorded times then vary from run to run. Every snapshot gets RMSE,
+//! relative MSE, HDR-FLIP (see [`flip`]), the worst pixel's error and the image mean's
+//! relative difference against the reference; [`output`] writes the CSV, JSON, charts, image
+//! sheet and report.
 
 pub mod chart;
 pub mod flip;
@@ -65,6 +68,11 @@ pub struct Snapshot {
     pub rmse: f64,
     pub rel_mse: f64,
     pub hdr_flip: f64,
+    /// The largest per-pixel relative squared error (channel mean): spikes show here.
+    pub max_rel_se: f64,
+    /// (image mean − reference mean) / reference mean, averaged over the channels: bias
+    /// shows here (a clamped method's stays negative).
+    pub mean_rel_diff: f64,
 }
 
 /// The outcome of one run: its snapshots (in time order) and final image.
@@ -75,19 +83,55 @@ pub struct RunResult {
     pub image: RgbImage,
 }
 
+/// How long each line runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StudyBudget {
+    /// Wall-clock seconds of rendering (the race).
+    Time(Duration),
+    /// Iterations: the same images whatever the machine.
+    Iterations(u64),
+}
+
 /// When snapshots are taken.
 #[derive(Clone, Copy, Debug)]
 pub struct Schedule {
-    pub budget: Duration,
-    /// The first snapshot time in seconds; later ones follow at factors of √2.
+    pub budget: StudyBudget,
+    /// The first snapshot, in seconds or iterations as the budget; later ones follow at factors
+    /// of √2.
     pub base: f64,
 }
 
 impl Schedule {
-    /// The snapshot times strictly before the budget, in seconds.
-    pub fn times(&self) -> Vec<f64> {
-        let b = self.budget.as_secs_f64();
-        (0..).map(|k| self.base * 2f64.powf(k as f64 / 2.0)).take_while(|t| *t < b).collect()
+    /// A time budget with snapshots from `base` seconds.
+    pub fn time(budget: Duration, base: f64) -> Self {
+        Schedule { budget: StudyBudget::Time(budget), base }
+    }
+
+    /// An iteration budget with snapshots from `base` iterations.
+    pub fn iterations(budget: u64, base: u64) -> Self {
+        Schedule { budget: StudyBudget::Iterations(budget), base: base as f64 }
+    }
+
+    fn end(&self) -> f64 {
+        match self.budget {
+            StudyBudget::Time(d) => d.as_secs_f64(),
+            StudyBudget::Iterations(n) => n as f64,
+        }
+    }
+
+    /// The snapshot marks strictly before the end of the budget, in seconds or iterations
+    /// (whole and distinct for iterations).
+    pub fn marks(&self) -> Vec<f64> {
+        let end = self.end();
+        let raw = (0..).map(|k| self.base * 2f64.powf(k as f64 / 2.0)).take_while(|t| *t < end);
+        match self.budget {
+            StudyBudget::Time(_) => raw.collect(),
+            StudyBudget::Iterations(_) => {
+                let mut v: Vec<f64> = raw.map(f64::round).filter(|n| *n >= 1.0 && *n < end).collect();
+                v.dedup();
+                v
+            }
+        }
     }
 }
 
@@ -99,8 +143,8 @@ pub fn run_one(
     schedule: &Schedule,
     reference: &RgbImage,
 ) -> Result<RunResult> {
-    if schedule.base <= 0.0 {
-        bail!("the first snapshot time must be positive");
+    if schedule.base.is_nan() || schedule.base <= 0.0 {
+        bail!("the first snapshot must be positive");
     }
     let mut integrator = run.integrator(ctx.scene.bounds.diagonal());
     let parameters: Vec<String> =
@@ -113,19 +157,23 @@ pub fn run_one(
         tile_size: 16,
         progress: false,
     };
-    let times = schedule.times();
-    let budget = schedule.budget.as_secs_f64();
+    let marks = schedule.marks();
+    let end = schedule.end();
     let mut next = 0usize;
     let mut overhead = Duration::ZERO;
     let mut taken: Vec<(f64, u64, RgbImage)> = Vec::new();
     let (film, _) = render(ctx, integrator.as_mut(), &settings, |film, stats| {
         let t = (stats.elapsed.saturating_sub(overhead)).as_secs_f64();
-        let done = t >= budget;
-        let due = next < times.len() && t >= times[next];
+        let progress = match schedule.budget {
+            StudyBudget::Time(_) => t,
+            StudyBudget::Iterations(_) => stats.iterations as f64,
+        };
+        let done = progress >= end;
+        let due = next < marks.len() && progress >= marks[next];
         if due && !done {
             let c0 = Instant::now();
             taken.push((t, stats.iterations, film.image()));
-            while next < times.len() && times[next] <= t {
+            while next < marks.len() && marks[next] <= progress {
                 next += 1;
             }
             overhead += c0.elapsed();
@@ -151,6 +199,8 @@ pub fn run_one(
                 rmse: m.rmse,
                 rel_mse: m.rel_mse,
                 hdr_flip: flip::hdr_flip(img, reference, &exposures),
+                max_rel_se: m.max_rel_se,
+                mean_rel_diff: m.mean_rel_diff().iter().sum::<f64>() / 3.0,
             })
         })
         .collect();
@@ -164,10 +214,18 @@ mod tests {
 
     #[test]
     fn snapshot_times_grow_by_root_two_below_the_budget() {
-        let s = Schedule { budget: Duration::from_secs(2), base: 0.25 };
-        let t = s.times();
+        let s = Schedule::time(Duration::from_secs(2), 0.25);
+        let t = s.marks();
         assert_eq!(t.len(), 6);
         assert!((t[2] - 0.5).abs() < 1e-12 && (t[4] - 1.0).abs() < 1e-12);
         assert!(t.iter().all(|x| *x < 2.0));
+    }
+
+    #[test]
+    fn iteration_marks_are_whole_distinct_and_below_the_budget() {
+        let m = Schedule::iterations(16, 1).marks();
+        // 1, 1.41, 2, 2.83, 4, 5.66, 8, 11.3 rounded, without repeats; 16 is the end.
+        assert_eq!(m, vec![1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 11.0]);
+        assert!(Schedule::iterations(1, 1).marks().is_empty());
     }
 }

@@ -21,9 +21,12 @@ pub struct StudyInfo {
     pub reference_spp: Option<String>,
     pub width: usize,
     pub height: usize,
-    pub budget_s: f64,
-    /// The first snapshot time; later ones follow at factors of √2.
-    pub first_snapshot_s: f64,
+    /// Each line's budget: seconds of rendering, or iterations.
+    pub budget_s: Option<f64>,
+    pub budget_iterations: Option<u64>,
+    /// The first snapshot (seconds or iterations, as the budget); later ones follow at factors
+    /// of √2.
+    pub first_snapshot: f64,
     /// The exposures (stops) at which HDR-FLIP compares, from the reference.
     pub hdr_flip_exposures: Vec<f32>,
     pub seed: u64,
@@ -37,7 +40,7 @@ pub struct StudyInfo {
 struct Json<'a> {
     study: &'a StudyInfo,
     hardest_region: Region,
-    metrics: [&'static str; 3],
+    metrics: [&'static str; 5],
     hdr_flip: &'static str,
     snapshots: Vec<&'a Snapshot>,
 }
@@ -56,11 +59,13 @@ fn csv_field(s: &str) -> String {
 
 /// The CSV text of the snapshots (header + one row each).
 pub fn csv(snapshots: &[Snapshot]) -> String {
-    let mut out = String::from("label,method,parameters,time_s,iterations,rmse,rel_mse,hdr_flip\n");
+    let mut out = String::from(
+        "label,method,parameters,time_s,iterations,rmse,rel_mse,hdr_flip,max_rel_se,mean_rel_diff\n",
+    );
     for s in snapshots {
         let _ = writeln!(
             out,
-            "{},{},{},{:.6},{},{:.9e},{:.9e},{:.9e}",
+            "{},{},{},{:.6},{},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e}",
             csv_field(&s.label),
             s.method.name(),
             csv_field(&s.parameters),
@@ -68,7 +73,9 @@ pub fn csv(snapshots: &[Snapshot]) -> String {
             s.iterations,
             s.rmse,
             s.rel_mse,
-            s.hdr_flip
+            s.hdr_flip,
+            s.max_rel_se,
+            s.mean_rel_diff
         );
     }
     out
@@ -102,7 +109,7 @@ pub fn write_all(
     let json = Json {
         study: info,
         hardest_region: region,
-        metrics: ["rmse", "rel_mse", "hdr_flip"],
+        metrics: ["rmse", "rel_mse", "hdr_flip", "max_rel_se", "mean_rel_diff"],
         hdr_flip: FLIP_NOTE,
         snapshots: snapshots.iter().collect(),
     };
@@ -192,14 +199,14 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
     let _ = writeln!(s, "# Study: {}\n", scene_name(&info.scene));
     let _ = writeln!(
         s,
-        "Scene `{}`, reference `{}`{}, {}×{} pixels, {} s of wall-clock time per line on {} threads \
-         (one line at a time), seed {}, max depth {}, accelerator {}, pir {}.\n",
+        "Scene `{}`, reference `{}`{}, {}×{} pixels, {} per line on {} threads (one line at a \
+         time), seed {}, max depth {}, accelerator {}, pir {}.\n",
         info.scene,
         info.reference,
         info.reference_spp.as_ref().map_or(String::new(), |n| format!(" ({n} spp)")),
         info.width,
         info.height,
-        info.budget_s,
+        budget_text(info),
         info.threads,
         info.seed,
         info.max_depth,
@@ -207,23 +214,28 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
         info.pir_version
     );
     let _ = writeln!(s, "## Final metrics\n");
-    let _ = writeln!(s, "| line | parameters | time (s) | iterations | RMSE | relative MSE | HDR-FLIP |");
-    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|");
-    let mut best: [Option<(f64, &str)>; 3] = [None; 3];
+    let _ = writeln!(
+        s,
+        "| line | parameters | time (s) | iterations | RMSE | relative MSE | HDR-FLIP | worst pixel | mean |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    let mut best: [Option<(f64, &str)>; 4] = [None; 4];
     for r in results {
         if let Some(l) = r.snapshots.last() {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.2} | {} | {:.4e} | {:.4e} | {:.4} |",
+                "| {} | {} | {:.2} | {} | {:.4e} | {:.4e} | {:.4} | {:.3e} | {:+.2} % |",
                 r.run.label,
                 l.parameters.replace(';', ", "),
                 l.time_s,
                 l.iterations,
                 l.rmse,
                 l.rel_mse,
-                l.hdr_flip
+                l.hdr_flip,
+                l.max_rel_se,
+                100.0 * l.mean_rel_diff
             );
-            for (i, v) in [l.rmse, l.rel_mse, l.hdr_flip].into_iter().enumerate() {
+            for (i, v) in [l.rmse, l.rel_mse, l.hdr_flip, l.max_rel_se].into_iter().enumerate() {
                 if best[i].is_none_or(|(b, _)| v < b) {
                     best[i] = Some((v, &r.run.label));
                 }
@@ -231,16 +243,18 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
         }
     }
     let _ = writeln!(s);
-    let names = ["RMSE", "relative MSE", "HDR-FLIP"];
+    let names = ["RMSE", "relative MSE", "HDR-FLIP", "worst-pixel error"];
     for (name, b) in names.iter().zip(best) {
         if let Some((v, l)) = b {
             let _ = writeln!(s, "- lowest final {name}: **{l}** ({v:.4e})");
         }
     }
     let _ = writeln!(s, "\n## Error against time\n");
+    let unit = if info.budget_iterations.is_some() { "iterations" } else { "s" };
     let _ = writeln!(
         s,
-        "Log-log; each point is a snapshot (times 0.25 s · 2^(k/2) and the end of the budget).\n"
+        "Log-log; each point is a snapshot (at {} {unit} · 2^(k/2) and at the end of the budget).\n",
+        info.first_snapshot
     );
     for m in Metric::ALL {
         let _ = writeln!(s, "![{}]({}.png)\n\n[SVG]({}.svg)\n", m.title(), m.key(), m.key());
@@ -275,8 +289,22 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
     let _ = writeln!(s, "- time: render time of the line, excluding the copies taken for snapshots;");
     let _ = writeln!(s, "- RMSE: root mean over pixels and channels of (x − r)², in linear radiance;");
     let _ = writeln!(s, "- relative MSE: mean over pixels and channels of (x − r)² / (r² + 0.01);");
-    let _ = writeln!(s, "- HDR-FLIP: {FLIP_NOTE}.");
+    let _ = writeln!(s, "- HDR-FLIP: {FLIP_NOTE};");
+    let _ = writeln!(s, "- worst pixel: the largest per-pixel relative squared error (mean over channels);");
+    let _ = writeln!(
+        s,
+        "- mean: relative difference of the image's channel means to the reference's, averaged over \
+         the channels."
+    );
     s
+}
+
+fn budget_text(info: &StudyInfo) -> String {
+    match (info.budget_iterations, info.budget_s) {
+        (Some(n), _) => format!("{n} iterations"),
+        (None, Some(t)) => format!("{t} s of wall-clock time"),
+        (None, None) => "an unrecorded budget".to_string(),
+    }
 }
 
 #[cfg(test)]
@@ -297,9 +325,14 @@ mod tests {
             rmse: 0.25,
             rel_mse: 0.125,
             hdr_flip: 0.0625,
+            max_rel_se: 1.5,
+            mean_rel_diff: -0.25,
         };
         let text = csv(&[s]);
         let row = text.lines().nth(1).unwrap();
-        assert_eq!(row, "x,pt,\"a=1,b=2\",0.500000,3,2.500000000e-1,1.250000000e-1,6.250000000e-2");
+        assert_eq!(
+            row,
+            "x,pt,\"a=1,b=2\",0.500000,3,2.500000000e-1,1.250000000e-1,6.250000000e-2,1.500000000e0,-2.500000000e-1"
+        );
     }
 }
