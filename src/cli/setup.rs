@@ -25,7 +25,7 @@ pub struct SceneOptions {
     #[arg(long, value_name = "D")]
     pub max_depth: Option<u32>,
     /// Image size in pixels [default: the scene's camera.resolution; for `pir study`, the
-    /// reference's, which it must equal].
+    /// reference's, or the reference's divided by a whole factor, which box-downsamples it].
     #[arg(long, num_args = 2, value_names = ["W", "H"])]
     pub resolution: Option<Vec<u32>>,
     /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own

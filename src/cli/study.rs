@@ -6,7 +6,7 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 
 use pir::accel::build_accelerator;
-use pir::image::read_exr;
+use pir::image::{RgbImage, read_exr};
 use pir::integrator::schedule::DEFAULT_ALPHA;
 use pir::integrator::{DEFAULT_PATHS, RenderContext};
 use pir::study::output::{StudyInfo, write_all};
@@ -175,6 +175,30 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
     Ok(out)
 }
 
+/// The reference at the size asked for: itself, or box-downsampled by a whole factor, which is
+/// exactly the reference at that size (pixels are one-pixel box filters), so a high-resolution
+/// reference serves quick studies too.
+fn at_resolution(reference: RgbImage, (w, h): (usize, usize), path: &Path) -> Result<RgbImage> {
+    if (w, h) == (reference.width, reference.height) {
+        return Ok(reference);
+    }
+    let factor = reference.width / w.max(1);
+    if factor >= 1
+        && factor * w == reference.width
+        && factor * h == reference.height
+        && let Some(small) = reference.downsample(factor)
+    {
+        return Ok(small);
+    }
+    bail!(
+        "--resolution {w}×{h} differs from the reference {} ({}×{}) by no whole factor: metrics need \
+         equal sizes",
+        path.display(),
+        reference.width,
+        reference.height
+    )
+}
+
 /// Creates `dir` if needed and checks that files can be written in it.
 fn check_out_dir(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
@@ -230,18 +254,10 @@ pub fn run(a: StudyArgs) -> Result<()> {
     a.options.check()?;
     let runs = runs(&a)?;
     let (reference, ref_attrs) = read_exr(&a.reference).context("cannot read the reference")?;
-    if let Some(r) = &a.options.resolution
-        && (r[0] as usize, r[1] as usize) != (reference.width, reference.height)
-    {
-        bail!(
-            "--resolution {}×{} differs from the reference {} ({}×{}): metrics need equal sizes",
-            r[0],
-            r[1],
-            a.reference.display(),
-            reference.width,
-            reference.height
-        );
-    }
+    let reference = match &a.options.resolution {
+        Some(r) => at_resolution(reference, (r[0] as usize, r[1] as usize), &a.reference)?,
+        None => reference,
+    };
     if reference.pixels.iter().any(|p| !p.is_finite()) {
         bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
     }

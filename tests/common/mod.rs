@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod binary;
+pub mod study_csv;
 
 use glam::Vec3;
 use std::path::PathBuf;
