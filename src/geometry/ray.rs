@@ -48,3 +48,45 @@ pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     let eps = 1e-4 * scale;
     if ng.dot(w) >= 0.0 { p + ng * eps } else { p - ng * eps }
 }
+
+/// A surface point with both of its [`offset_origin`] positions computed once, for a point
+/// that starts or ends many segments (a VPL gather connects one receiver to every VPL and
+/// every VPL to every receiver). [`OffsetPoint::toward`] is exactly `offset_origin(p, ng, w)`.
+#[derive(Clone, Copy, Debug)]
+pub struct OffsetPoint {
+    pub p: Vec3,
+    pub ng: Vec3,
+    /// `p` moved along `+ng` and along `-ng`.
+    above: Vec3,
+    below: Vec3,
+}
+
+impl OffsetPoint {
+    #[inline]
+    pub fn new(p: Vec3, ng: Vec3) -> Self {
+        let eps = 1e-4 * p.abs().max_element().max(1.0);
+        OffsetPoint { p, ng, above: p + ng * eps, below: p - ng * eps }
+    }
+
+    /// The point moved off its surface on the side that `w` points to.
+    #[inline]
+    pub fn toward(&self, w: Vec3) -> Vec3 {
+        if self.ng.dot(w) >= 0.0 { self.above } else { self.below }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offset_point_is_offset_origin() {
+        let ng = Vec3::new(0.3, -0.8, 0.52).normalize();
+        for p in [Vec3::new(0.1, 0.2, -0.3), Vec3::new(-250.0, 3.0, 1e3), Vec3::ZERO] {
+            let o = OffsetPoint::new(p, ng);
+            for w in [ng, -ng, Vec3::X, Vec3::new(-0.3, 0.8, -0.52), Vec3::ZERO] {
+                assert_eq!(o.toward(w).to_array(), offset_origin(p, ng, w).to_array());
+            }
+        }
+    }
+}

@@ -41,13 +41,15 @@
 
 use glam::Vec3;
 
-use super::direct::{Sampled, emission, sample_emitters, shadow_ray};
+use super::direct::{Sampled, emission, sample_emitters, shadow_segment};
 use super::knn::KdTree;
 use super::schedule::{DEFAULT_ALPHA, clamp_bound, radius};
+use super::shadow_batch::ShadowBatch;
 use super::vpl::{Vpl, trace_vpls};
+use super::vpl_lanes::{DiffuseReceiver, LANES, LaneKind, VplLanes};
 use super::vsl::{self, KNN_K, KNN_SCALE};
 use super::{Counters, Integrator, RenderContext};
-use crate::geometry::{Ray, offset_origin};
+use crate::geometry::{OffsetPoint, Ray, offset_origin};
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
@@ -58,9 +60,6 @@ use crate::scene::SurfacePoint;
 /// reached a relative MSE of 5.0e-4 with 16 paths, 5.1e-4 with 32, 6.3e-4 with 64 and 1.2e-3
 /// with 256. 32 keeps a few VPLs per iteration for glossy and spherical lights too.
 pub const DEFAULT_PATHS: usize = 32;
-
-/// Shadow rays per batch handed to the accelerator.
-const BATCH: usize = 64;
 
 /// How the geometry term is bounded.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,6 +121,8 @@ pub struct InstantRadiosity {
     /// geometry-term bound and (for spheres) radii.
     vpls: Vec<Vpl>,
     emitting: Vec<PreparedBsdf>,
+    /// The same VPLs in lanes, for the point-light gather, and their shadow-ray ends.
+    lanes: VplLanes,
     bound: f32,
     radii: Vec<f32>,
 }
@@ -134,6 +135,7 @@ impl InstantRadiosity {
             fallback_radius: 0.0,
             vpls: Vec::new(),
             emitting: Vec::new(),
+            lanes: VplLanes::default(),
             bound: f32::INFINITY,
             radii: Vec::new(),
         }
@@ -178,7 +180,6 @@ impl InstantRadiosity {
         &self.vpls
     }
 
-    /// Indirect light at x from every VPL of at most `max_vpl_depth` segments.
     /// Φ f_p cos_p f_x cos_x / d² of one VPL at x, with G clamped at this iteration's bound;
     /// zero when either BSDF is.
     fn point_contribution(&self, sp: &SurfacePoint, fx: &PreparedBsdf, vpl: &Vpl, fp: &PreparedBsdf) -> Vec3 {
@@ -206,6 +207,8 @@ impl InstantRadiosity {
         c
     }
 
+    /// Indirect light at x from every VPL of at most `max_vpl_depth` segments: the
+    /// contributions of the VPLs, each queued with its shadow ray.
     #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
@@ -218,48 +221,45 @@ impl InstantRadiosity {
         counters: &mut Counters,
     ) -> Vec3 {
         let gx = LocalGeometry { ng: sp.ng, frame: sp.frame };
-        let mut total = Vec3::ZERO;
-        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); BATCH];
-        let mut contrib = [Vec3::ZERO; BATCH];
-        let mut occluded = [false; BATCH];
-        let mut n = 0;
-        let mut flush = |n: usize, rays: &[Ray; BATCH], contrib: &[Vec3; BATCH], counters: &mut Counters| {
-            counters.shadow_rays += n as u64;
-            ctx.accel.occluded_batch(&rays[..n], &mut occluded[..n]);
-            let mut sum = Vec3::ZERO;
-            for k in 0..n {
-                if !occluded[k] {
-                    sum += contrib[k];
+        let x = OffsetPoint::new(sp.p, sp.ng);
+        let mut batch = ShadowBatch::new(ctx.accel);
+        if matches!(self.lights, VirtualLights::Spheres { .. }) {
+            for (j, vpl) in self.vpls.iter().enumerate() {
+                if vpl.depth > max_vpl_depth {
+                    continue;
+                }
+                let bsdf_p = &ctx.scene.materials[vpl.material as usize].bsdf;
+                let c = vsl::contribution(&gx, sp.p, bsdf, wo, vpl, bsdf_p, self.radii[j], sampler);
+                if c != Vec3::ZERO {
+                    batch.push(shadow_segment(&x, self.lanes.end(j)), c);
                 }
             }
-            sum
-        };
-        let spheres = matches!(self.lights, VirtualLights::Spheres { .. });
-        let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
-        for (j, vpl) in self.vpls.iter().enumerate() {
-            if vpl.depth > max_vpl_depth {
-                continue;
+        } else {
+            let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
+            if !fx.is_active() {
+                return Vec3::ZERO;
             }
-            let bsdf_p = &ctx.scene.materials[vpl.material as usize].bsdf;
-            let c = if spheres {
-                vsl::contribution(&gx, sp.p, bsdf, wo, vpl, bsdf_p, self.radii[j], sampler)
-            } else {
-                self.point_contribution(sp, &fx, vpl, &self.emitting[j])
-            };
-            if c == Vec3::ZERO {
-                continue;
-            }
-            rays[n] = shadow_ray(sp.p, sp.ng, vpl.p, vpl.ng);
-            contrib[n] = c;
-            n += 1;
-            if n == BATCH {
-                total += flush(n, &rays, &contrib, counters);
-                n = 0;
+            // Lambertian pairs lane by lane, the others one by one, queued in VPL order.
+            let receiver = DiffuseReceiver::new(sp, &fx);
+            for chunk in 0..self.lanes.chunks() {
+                let lanes =
+                    receiver.map(|r| self.lanes.diffuse_contributions(chunk, &r, self.bound, max_vpl_depth));
+                for i in 0..LANES {
+                    let j = chunk * LANES + i;
+                    let Some(vpl) = self.vpls.get(j) else { break };
+                    let c = match (lanes, self.lanes.kind(j)) {
+                        (Some(c), LaneKind::Diffuse | LaneKind::Empty) => c[i],
+                        _ if vpl.depth > max_vpl_depth => continue,
+                        _ => self.point_contribution(sp, &fx, vpl, &self.emitting[j]),
+                    };
+                    if c != Vec3::ZERO {
+                        batch.push(shadow_segment(&x, self.lanes.end(j)), c);
+                    }
+                }
             }
         }
-        if n > 0 {
-            total += flush(n, &rays, &contrib, counters);
-        }
+        let (total, traced) = batch.finish();
+        counters.shadow_rays += traced;
         total
     }
 }
@@ -311,6 +311,7 @@ impl Integrator for InstantRadiosity {
                 PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance)
             })
             .collect();
+        self.lanes = VplLanes::new(&vpls, &self.emitting);
         self.vpls = vpls;
         self.bound = match self.lights {
             VirtualLights::Points(c) => c.bound(iteration),

@@ -11,7 +11,9 @@ mod knn;
 mod method;
 mod path;
 pub mod schedule;
+mod shadow_batch;
 pub mod vpl;
+mod vpl_lanes;
 pub mod vsl;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};

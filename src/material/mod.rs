@@ -28,7 +28,7 @@ pub mod glossy;
 pub mod mirror;
 mod prepared;
 
-pub use prepared::PreparedBsdf;
+pub use prepared::{PreparedBsdf, PreparedDiffuse};
 
 use glam::{Vec2, Vec3};
 

@@ -9,6 +9,19 @@ use glam::Vec3;
 use super::glossy::Glossy;
 use super::{Bsdf, LocalGeometry, TransportMode, diffuse};
 
+/// An active Lambertian [`PreparedBsdf`], taken apart ([`PreparedBsdf::as_diffuse`]). Its
+/// `eval(wi)`, with `wi_ng = wi · ng` and `wi_ns = wi · ns` both positive, is
+/// `albedo · (1/π · wi_ns)`, times `wo_cos_shading · |wi_ng| / (wo_cos_geometric · |wi_ns|)`
+/// in importance mode (zero when that is not finite), then zero unless finite, clamped at 0.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedDiffuse {
+    pub albedo: Vec3,
+    pub mode: TransportMode,
+    /// |wo · ns| and |wo · ng| of the fixed direction.
+    pub wo_cos_shading: f32,
+    pub wo_cos_geometric: f32,
+}
+
 #[derive(Clone, Copy, Debug)]
 pub struct PreparedBsdf {
     bsdf: Bsdf,
@@ -30,6 +43,28 @@ impl PreparedBsdf {
         let wo_l = g.frame.to_local(wo);
         let active = wo_ng > 0.0 && wo_l.z > 0.0 && !bsdf.is_delta();
         PreparedBsdf { bsdf, g, mode, wo_l, wo_ng, active }
+    }
+
+    /// Whether [`PreparedBsdf::eval`] can be non-zero at all.
+    #[inline]
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// The constants of an active Lambertian BSDF, for code that evaluates many of them at
+    /// once (the VPL gather's lanes) with exactly the operations of [`PreparedBsdf::eval`];
+    /// `None` for other BSDFs and inactive ones.
+    #[inline]
+    pub fn as_diffuse(&self) -> Option<PreparedDiffuse> {
+        match self.bsdf {
+            Bsdf::Diffuse { albedo } if self.active => Some(PreparedDiffuse {
+                albedo,
+                mode: self.mode,
+                wo_cos_shading: self.wo_l.z.abs(),
+                wo_cos_geometric: self.wo_ng.abs(),
+            }),
+            _ => None,
+        }
     }
 
     /// f(wo, wi) · |cos θi|, exactly [`Bsdf::eval`] for the fixed `wo`.

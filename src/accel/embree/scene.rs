@@ -213,13 +213,27 @@ const _: () = {
 #[repr(C, align(64))]
 struct ValidMask<const N: usize>([i32; N]);
 
-/// Whether a ray may be given to Embree (see the module docs).
+/// Whether a ray may be given to Embree (see the module docs): [`Ray::is_valid`], a non-empty
+/// interval and no coordinate beyond `FLT_LARGE`. Written as one chain of `&` (no early
+/// exits), since the packet loops run it for every ray and its branches cost about as much
+/// as filling the packet: `|x| <= FLT_LARGE` is false for NaN and infinities (so it covers
+/// finiteness), `tmin >= 0` and `tmin < tmax` are false when either is NaN.
 #[inline]
 fn traceable(ray: &Ray) -> bool {
-    ray.is_valid()
-        && ray.tmin < ray.tmax
-        && ray.origin.abs().max_element() <= FLT_LARGE
-        && ray.dir.abs().max_element() <= FLT_LARGE
+    let small = |v: Vec3| (v.x.abs() <= FLT_LARGE) & (v.y.abs() <= FLT_LARGE) & (v.z.abs() <= FLT_LARGE);
+    let ok = small(ray.origin)
+        & small(ray.dir)
+        & ((ray.dir.x != 0.0) | (ray.dir.y != 0.0) | (ray.dir.z != 0.0))
+        & (ray.tmin >= 0.0)
+        & (ray.tmin < ray.tmax);
+    debug_assert_eq!(
+        ok,
+        ray.is_valid()
+            && ray.tmin < ray.tmax
+            && ray.origin.abs().max_element() <= FLT_LARGE
+            && ray.dir.abs().max_element() <= FLT_LARGE
+    );
+    ok
 }
 
 /// Embree's `tfar` for the open end of `(tmin, tmax)`: the largest float below a finite `tmax`.
@@ -590,7 +604,7 @@ macro_rules! packet_queries {
                         unsafe { sys::$c_occluded(valid.0.as_ptr(), self.scene.raw, &mut r) };
                     }
                     for (i, o) in occluded.iter_mut().enumerate() {
-                        *o = valid.0[i] != 0 && r.tfar[i] < 0.0;
+                        *o = (valid.0[i] != 0) & (r.tfar[i] < 0.0);
                     }
                 }
             }
