@@ -45,6 +45,8 @@ fn reference_then_study_writes_every_output_consistently() {
             "0.05",
             "--vpls",
             "64",
+            "--target-rel-mse",
+            "1e3",
             "--out",
             "out",
         ],
@@ -100,6 +102,10 @@ fn reference_then_study_writes_every_output_consistently() {
     for link in ["(rel_mse.png)", "(hdr_flip.svg)", "(sheet.png)", "(snapshots.csv)", "| pir-clamp |"] {
         assert!(report.contains(link), "report lacks {link}");
     }
+    // Every line is below an error of 1,000 at its first snapshot.
+    assert!(report.contains("## Time to reach a relative MSE of 1.000e3"), "{report}");
+    let first_pt = rows.iter().find(|r| r.label == "pt").unwrap();
+    assert!(report.contains(&format!("| pt | {:.2} | {} |", first_pt.time, first_pt.iterations)), "{report}");
 }
 
 /// With --iterations every number but the times is the same from run to run, and snapshots

@@ -44,6 +44,10 @@ pub struct StudyArgs {
     /// Output folder, created if missing [default: study-SCENE].
     #[arg(long, short, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Report each line's time to reach this relative MSE (e.g. that of `pt` at 1,024 spp,
+    /// from `pir compare`).
+    #[arg(long, value_name = "E")]
+    pub target_rel_mse: Option<f64>,
     /// Parameter sweep: alpha=…, clamp=… or radius=…, values comma-separated.
     #[arg(long, value_name = "KEY=V1,V2,…")]
     pub sweep: Option<String>,
@@ -251,6 +255,11 @@ pub fn run(a: StudyArgs) -> Result<()> {
             bail!("{name} {v}: must be a positive number");
         }
     }
+    if let Some(e) = a.target_rel_mse
+        && !(e.is_finite() && e > 0.0)
+    {
+        bail!("--target-rel-mse {e}: must be a positive number");
+    }
     a.options.check()?;
     let runs = runs(&a)?;
     let (reference, ref_attrs) = read_exr(&a.reference).context("cannot read the reference")?;
@@ -314,6 +323,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
         budget_iterations: a.iterations,
         first_snapshot: schedule.base,
         hdr_flip_exposures: pir::study::flip::exposures(&reference),
+        target_rel_mse: a.target_rel_mse,
         seed,
         max_depth,
         threads,

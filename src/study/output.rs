@@ -29,6 +29,8 @@ pub struct StudyInfo {
     pub first_snapshot: f64,
     /// The exposures (stops) at which HDR-FLIP compares, from the reference.
     pub hdr_flip_exposures: Vec<f32>,
+    /// With `--target-rel-mse`: the relative MSE whose time to reach the report gives.
+    pub target_rel_mse: Option<f64>,
     pub seed: u64,
     pub max_depth: u32,
     pub threads: usize,
@@ -249,6 +251,23 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
             let _ = writeln!(s, "- lowest final {name}: **{l}** ({v:.4e})");
         }
     }
+    if let Some(target) = info.target_rel_mse {
+        let _ = writeln!(s, "\n## Time to reach a relative MSE of {target:.3e}\n");
+        let _ = writeln!(
+            s,
+            "The render time at which each line's relative MSE first falls to the target, interpolated \
+             log-log between the snapshots around the crossing.\n"
+        );
+        let _ = writeln!(s, "| line | time (s) | iterations by then |");
+        let _ = writeln!(s, "|---|---:|---:|");
+        for r in results {
+            let cell = match time_to_reach(&r.snapshots, target) {
+                Some((t, it)) => format!("{t:.2} | {it}"),
+                None => format!("not within {:.1} s | –", r.snapshots.last().map_or(0.0, |l| l.time_s)),
+            };
+            let _ = writeln!(s, "| {} | {cell} |", r.run.label);
+        }
+    }
     let _ = writeln!(s, "\n## Error against time\n");
     let unit = if info.budget_iterations.is_some() { "iterations" } else { "s" };
     let _ = writeln!(
@@ -299,6 +318,22 @@ pub fn report(info: &StudyInfo, results: &[RunResult], region: Region, sweep: Op
     s
 }
 
+/// When a line's relative MSE first reaches `target`: the time, interpolated log-log between
+/// the last snapshot above it and the first at or below it, and the iterations of the latter.
+pub fn time_to_reach(snapshots: &[Snapshot], target: f64) -> Option<(f64, u64)> {
+    let i = snapshots.iter().position(|s| s.rel_mse <= target)?;
+    let b = &snapshots[i];
+    let Some(a) = i.checked_sub(1).map(|k| &snapshots[k]) else { return Some((b.time_s, b.iterations)) };
+    let (la, lb, lt) = (a.rel_mse.ln(), b.rel_mse.ln(), target.ln());
+    let f = if la > lb { ((la - lt) / (la - lb)).clamp(0.0, 1.0) } else { 1.0 };
+    let t = if a.time_s > 0.0 && b.time_s > 0.0 {
+        (a.time_s.ln() + f * (b.time_s.ln() - a.time_s.ln())).exp()
+    } else {
+        b.time_s
+    };
+    Some((t, b.iterations))
+}
+
 fn budget_text(info: &StudyInfo) -> String {
     match (info.budget_iterations, info.budget_s) {
         (Some(n), _) => format!("{n} iterations"),
@@ -311,6 +346,34 @@ fn budget_text(info: &StudyInfo) -> String {
 mod tests {
     use super::*;
     use crate::study::Method;
+
+    fn snap(time_s: f64, rel_mse: f64) -> Snapshot {
+        Snapshot {
+            label: "x".into(),
+            method: Method::Pt,
+            parameters: String::new(),
+            time_s,
+            iterations: (time_s * 10.0) as u64,
+            rmse: 0.0,
+            rel_mse,
+            hdr_flip: 0.0,
+            max_rel_se: 0.0,
+            mean_rel_diff: 0.0,
+        }
+    }
+
+    #[test]
+    fn time_to_reach_interpolates_log_log_at_the_first_crossing() {
+        let s = [snap(1.0, 1e-2), snap(4.0, 1e-4), snap(8.0, 1e-5)];
+        // Halfway down in log error between 1 s and 4 s: 2 s, in log time.
+        let (t, it) = time_to_reach(&s, 1e-3).unwrap();
+        assert!((t - 2.0).abs() < 1e-9 && it == 40, "{t} {it}");
+        assert_eq!(time_to_reach(&s, 1e-2), Some((1.0, 10)));
+        assert_eq!(time_to_reach(&s, 1e-6), None);
+        // A line that dips below the target, rises again and falls later counts its first dip.
+        let s = [snap(1.0, 1e-2), snap(2.0, 1e-4), snap(4.0, 1e-2), snap(8.0, 1e-4)];
+        assert_eq!(time_to_reach(&s, 1e-4).map(|x| x.0), Some(2.0));
+    }
 
     #[test]
     fn slugs_are_file_name_safe_and_csv_quotes_commas() {
