@@ -63,7 +63,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "B", allow_negative_numbers = true)]
     pub clamp: Option<f32>,
     /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
-    /// [default: per light, the distance to its 4th nearest VPL].
+    /// [default: per light, the distance to its 4th nearest VPL, at most 4 % of the scene
+    /// diagonal].
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
     /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and

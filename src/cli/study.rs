@@ -64,7 +64,8 @@ pub struct StudyArgs {
     /// ir-clamp, pir-clamp: the geometry-term bound b (b_1) [default: 100 / scene diagonal²].
     #[arg(long, value_name = "B", allow_negative_numbers = true)]
     pub clamp: Option<f32>,
-    /// vsl, pir-vsl: the light radius r (r_1) [default: per light, by VPL density].
+    /// vsl, pir-vsl: the light radius r (r_1) [default: per light, by VPL density, at most 4 %
+    /// of the scene diagonal].
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
     #[command(flatten)]

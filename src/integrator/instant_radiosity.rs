@@ -16,9 +16,9 @@
 //!   100 / diagonal², the G of two facing surfaces a tenth of the scene's diagonal apart, so
 //!   the default needs no tuning whatever the scene's units.
 //! - `--radius R` the radius r (`vsl`) or r_1 (`pir-vsl`), one for all lights. Default: per
-//!   light from the VPL density, the distance to its 4th nearest VPL of the iteration
-//!   (see [`super::vsl`]); a scene too small for 10 neighbours falls back to 2 % of the
-//!   diagonal.
+//!   light from the VPL density, the distance to its 4th nearest VPL of the iteration, at most
+//!   4 % of the scene's diagonal (see [`super::vsl`]); an iteration with too few VPLs for the
+//!   neighbours takes the 4 %.
 //! - `--alpha A` the schedule exponent of `pir-clamp` and `pir-vsl` (default 0.6, the
 //!   thesis' best).
 //!
@@ -47,7 +47,7 @@ use super::schedule::{DEFAULT_ALPHA, clamp_bound, radius};
 use super::shadow_batch::ShadowBatch;
 use super::vpl::{Vpl, trace_vpls};
 use super::vpl_lanes::{DiffuseReceiver, LANES, LaneKind, VplLanes};
-use super::vsl::{self, KNN_K, KNN_SCALE};
+use super::vsl::{self, KNN_K, KNN_SCALE, MAX_RADIUS};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::{OffsetPoint, Ray, offset_origin};
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
@@ -116,7 +116,7 @@ pub struct InstantRadiosity {
     lights: VirtualLights,
     paths: usize,
     /// Fallback radius when the density radius cannot be computed.
-    fallback_radius: f32,
+    max_radius: f32,
     /// This iteration's VPLs, each VPL's BSDF prepared for its incoming direction, the
     /// geometry-term bound and (for spheres) radii.
     vpls: Vec<Vpl>,
@@ -132,7 +132,7 @@ impl InstantRadiosity {
         InstantRadiosity {
             lights,
             paths,
-            fallback_radius: 0.0,
+            max_radius: 0.0,
             vpls: Vec::new(),
             emitting: Vec::new(),
             lanes: VplLanes::default(),
@@ -166,9 +166,10 @@ impl InstantRadiosity {
                 points
                     .iter()
                     .map(|&p| {
-                        let r1 =
-                            tree.kth_distance(p, KNN_K + 1).map_or(self.fallback_radius, |d| KNN_SCALE * d);
-                        r1.max(self.fallback_radius * 1e-3) * factor
+                        let r1 = tree
+                            .kth_distance(p, KNN_K + 1)
+                            .map_or(self.max_radius, |d| (KNN_SCALE * d).min(self.max_radius));
+                        r1.max(self.max_radius * 1e-3) * factor
                     })
                     .collect()
             }
@@ -287,7 +288,9 @@ impl Integrator for InstantRadiosity {
             VirtualLights::Spheres { radius, alpha } => {
                 let r = match radius {
                     Radius::Global(r) => r.to_string(),
-                    Radius::Density => format!("density (k={KNN_K}, x{KNN_SCALE})"),
+                    Radius::Density => {
+                        format!("density (k={KNN_K}, x{KNN_SCALE}, max {MAX_RADIUS} diagonal)")
+                    }
                 };
                 p.push(("radius".into(), r));
                 if let Some(a) = alpha {
@@ -317,7 +320,7 @@ impl Integrator for InstantRadiosity {
             VirtualLights::Points(c) => c.bound(iteration),
             VirtualLights::Spheres { .. } => f32::INFINITY,
         };
-        self.fallback_radius = 0.02 * ctx.scene.bounds.diagonal();
+        self.max_radius = vsl::MAX_RADIUS * ctx.scene.bounds.diagonal();
         self.compute_radii(iteration);
     }
 
