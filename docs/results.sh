@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Regenerates docs/results/: the studies that docs/results.md shows. One command:
+#
+#     docs/results.sh            (from the checkout; about 25 minutes on 2 cores)
+#
+# Every study races the methods at equal wall-clock time, one at a time on all threads, so the
+# machine should be otherwise idle. TIME_SCALE=0.25 docs/results.sh makes every budget a
+# quarter as long (a quick look, not the published figures). The Cornell box's reference is
+# the project's shared Mitsuba 3 reference (../shared, beside the checkout); without it that
+# study is skipped with a message. The others use references committed under scenes/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+scale=${TIME_SCALE:-1}
+secs() { awk -v t="$1" -v s="$scale" 'BEGIN { printf "%g", t * s }'; }
+
+cargo build --release --quiet
+pir=target/release/pir
+out=docs/results
+mkdir -p "$out"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+# study NAME SCENE REFERENCE SECONDS [more pir study flags…]
+study() {
+    local name=$1 scene=$2 reference=$3 time=$4
+    shift 4
+    echo "== $name: $scene, $(secs "$time") s per line" >&2
+    rm -rf "${out:?}/$name"
+    "$pir" study "$scene" --reference "$reference" --time "$(secs "$time")" --out "$out/$name" "$@"
+    # The final images are in the sheet; the EXRs would only make the repository heavy.
+    rm -f "$out/$name"/final-*.exr
+}
+
+shared=../shared
+if [ -f "$shared/references/cornell-box-original.exr" ]; then
+    # The error of pt at 1,024 spp is the target each method's time is measured against.
+    "$pir" render "$shared/scenes/cornell-box/original.toml" --spp 1024 --out "$tmp/pt-1024.exr" --quiet
+    target=$("$pir" compare "$tmp/pt-1024.exr" "$shared/references/cornell-box-original.exr" |
+        awk '/^relative MSE/ { print $3 }')
+    echo "pt at 1,024 spp: relative MSE $target" >&2
+    study cornell-box "$shared/scenes/cornell-box/original.toml" \
+        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target"
+    # The thesis' parameter study (figures 5.1-5.4), at 128x128.
+    for sweep in alpha=0.3,0.5,0.6,0.7,0.9 clamp=1,3,10,30,100 radius=0.02,0.05,0.1,0.2,0.4; do
+        study "sweep-${sweep%%=*}" "$shared/scenes/cornell-box/original.toml" \
+            "$shared/references/cornell-box-original.exr" 10 --resolution 128 128 --sweep "$sweep"
+    done
+else
+    echo "skipping the Cornell box studies: $shared/references is absent" >&2
+fi
+
+study cornell-glossy scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30
+study corner-diffuse scenes/stress/corner/diffuse.toml scenes/stress/corner/reference-diffuse-64.exr 10
+study corner-glossy scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10
+study glossy scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20
+# The radius trade-off where it bites: glossy receivers want larger spheres than creases do.
+study sweep-radius-glossy scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 10 \
+    --resolution 64 64 --sweep radius=0.02,0.05,0.1,0.2
+study slit scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20
+study caustic scenes/stress/caustic/scene.toml scenes/stress/caustic/reference-128.exr 20
+echo "done: $out" >&2
