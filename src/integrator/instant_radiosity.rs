@@ -181,33 +181,6 @@ impl InstantRadiosity {
         &self.vpls
     }
 
-    /// Φ f_p cos_p f_x cos_x / d² of one VPL at x, with G clamped at this iteration's bound;
-    /// zero when either BSDF is.
-    fn point_contribution(&self, sp: &SurfacePoint, fx: &PreparedBsdf, vpl: &Vpl, fp: &PreparedBsdf) -> Vec3 {
-        let d = vpl.p - sp.p;
-        let dist2 = d.length_squared();
-        if dist2 <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let w = d / dist2.sqrt();
-        let fx = fx.eval(w);
-        if fx == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let fp = fp.eval(-w);
-        if fp == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let c = vpl.flux * fx * fp / dist2;
-        if self.bound.is_finite() {
-            let g = sp.frame.n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
-            if g > self.bound {
-                return c * (self.bound / g);
-            }
-        }
-        c
-    }
-
     /// Indirect light at x from every VPL of at most `max_vpl_depth` segments: the
     /// contributions of the VPLs, each queued with its shadow ray.
     #[allow(clippy::too_many_arguments)]
@@ -251,7 +224,7 @@ impl InstantRadiosity {
                     let c = match (lanes, self.lanes.kind(j)) {
                         (Some(c), LaneKind::Diffuse | LaneKind::Empty) => c[i],
                         _ if vpl.depth > max_vpl_depth => continue,
-                        _ => self.point_contribution(sp, &fx, vpl, &self.emitting[j]),
+                        _ => point_contribution(sp.p, sp.frame.n, &fx, vpl, &self.emitting[j], self.bound),
                     };
                     if c != Vec3::ZERO {
                         batch.push(shadow_segment(&x, self.lanes.end(j)), c);
@@ -263,6 +236,41 @@ impl InstantRadiosity {
         counters.shadow_rays += traced;
         total
     }
+}
+
+/// Φ f_p cos_p f_x cos_x / d² of one VPL at the receiver x (shading normal `n`), with G
+/// clamped at `bound`; zero when either BSDF is. The scalar form of the gather; the four-wide
+/// kernel of [`super::vpl_lanes`] computes exactly this, bit for bit.
+pub(super) fn point_contribution(
+    x: Vec3,
+    n: Vec3,
+    fx: &PreparedBsdf,
+    vpl: &Vpl,
+    fp: &PreparedBsdf,
+    bound: f32,
+) -> Vec3 {
+    let d = vpl.p - x;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let w = d / dist2.sqrt();
+    let fx = fx.eval(w);
+    if fx == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let fp = fp.eval(-w);
+    if fp == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    let c = vpl.flux * fx * fp / dist2;
+    if bound.is_finite() {
+        let g = n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
+        if g > bound {
+            return c * (bound / g);
+        }
+    }
+    c
 }
 
 impl Integrator for InstantRadiosity {

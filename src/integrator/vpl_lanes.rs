@@ -7,7 +7,7 @@
 //! memory that cost more than the shadow rays themselves (profile of the Cornell box: 44 %
 //! of the render in BSDF evaluation and the gather's own code, 40 % in Embree), and written
 //! as plain per-lane code the compiler did not vectorise it. Every lane performs exactly the
-//! floating-point operations of `InstantRadiosity::point_contribution` in the same order (SSE
+//! floating-point operations of `instant_radiosity::point_contribution` in the same order (SSE
 //! arithmetic is IEEE per lane, and Rust never fuses or reorders), and a failed check
 //! anywhere masks the lane to zero where the scalar code returns zero early, so the result is
 //! bit-identical (`matches_the_scalar_contribution` below). Other VPLs (glossy ones) are
@@ -142,7 +142,7 @@ impl VplLanes {
 
     /// Φ f_p cos_p f_x cos_x / d², G clamped at `bound`, of every [`LaneKind::Diffuse`] light
     /// of chunk `chunk` of at most `max_depth` segments at receiver `x`, lane by
-    /// lane; zero in the other lanes. Bit-identical to `InstantRadiosity::point_contribution`.
+    /// lane; zero in the other lanes. Bit-identical to `instant_radiosity::point_contribution`.
     #[inline]
     pub fn diffuse_contributions(
         &self,
@@ -212,6 +212,7 @@ impl VplLanes {
 mod tests {
     use super::*;
     use crate::geometry::Frame;
+    use crate::integrator::instant_radiosity::point_contribution;
     use crate::material::{Bsdf, LocalGeometry};
     use crate::sampling::{Domain, Sampler};
 
@@ -225,32 +226,6 @@ mod tests {
         let ng = unit(s);
         let ns = (ng + 0.3 * unit(s)).normalize_or(ng);
         (ng, Frame::from_normal(ns))
-    }
-
-    /// The scalar reference, as in `InstantRadiosity::point_contribution`.
-    fn scalar(x: Vec3, fx: &PreparedBsdf, xn: Vec3, vpl: &Vpl, fp: &PreparedBsdf, bound: f32) -> Vec3 {
-        let d = vpl.p - x;
-        let dist2 = d.length_squared();
-        if dist2 <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let w = d / dist2.sqrt();
-        let fx = fx.eval(w);
-        if fx == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let fp = fp.eval(-w);
-        if fp == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let c = vpl.flux * fx * fp / dist2;
-        if bound.is_finite() {
-            let g = xn.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
-            if g > bound {
-                return c * (bound / g);
-            }
-        }
-        c
     }
 
     #[test]
@@ -305,7 +280,7 @@ mod tests {
                         assert_eq!(got, Vec3::ZERO);
                         continue;
                     }
-                    let want = scalar(sp.p, &fx, frame.n, &vpls[j], &emitting[j], bound);
+                    let want = point_contribution(sp.p, frame.n, &fx, &vpls[j], &emitting[j], bound);
                     assert_eq!(got.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "{j}");
                     nonzero += usize::from(want != Vec3::ZERO);
                 }
