@@ -159,12 +159,13 @@ fn constant_clamp_stays_too_dark_on_the_cornell_box() {
     }
 }
 
-/// Measured 2026-11-24 (8,000 iterations of 64 paths, 32×32), channel means against the
-/// references: Cornell box pir-clamp +0.14/+0.16/+0.24 %, pir-vsl −0.27/−0.17/+0.07 %;
-/// mirror-and-glass box pir-clamp −0.02/−0.01/−0.04 %, pir-vsl −0.43/−0.24/−0.31 % (red
-/// z = −3.7: the spheres' darkening is still fading, as r_i² ∝ i^(α−1)).
+/// Measured 2026-12-01 (8,000 iterations of 64 paths, 32×32), channel means against the
+/// references: Cornell box pir-clamp +0.14/+0.16/+0.24 %, pir-vsl +0.08/+0.10/+0.21 %;
+/// mirror-and-glass box pir-clamp −0.02/−0.01/−0.04 %, pir-vsl −0.15/−0.11/−0.15 % (all
+/// |z| ≤ 1.3). Before the VSL radius was capped at 4 % of the diagonal, pir-vsl was at
+/// −0.43 % (red, z = −3.7) on the mirror-and-glass box, its darkening still fading.
 #[test]
-#[ignore = "long: about ten minutes"]
+#[ignore = "long: about three minutes"]
 fn long_progressive_methods_within_half_a_percent() {
     for c in [cornell(), spheres()].into_iter().flatten() {
         assert_within_half_percent(&c, &run(&c, &mut pir_clamp(&c), LONG));
