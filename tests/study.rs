@@ -217,3 +217,31 @@ fn bad_input_fails_cleanly_before_rendering() {
     assert_clean_failure(&o, &["x.png"]);
     assert!(!d.join("study-cornell-box").exists());
 }
+
+/// SIGINT during a study ends the running line after its iteration and writes the study of
+/// the lines raced so far, with exit 0: an interrupted study loses nothing already raced.
+#[test]
+fn interrupted_study_writes_the_lines_raced_so_far() {
+    let dir = tempfile::tempdir().unwrap();
+    make_reference(dir.path());
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(["study", &scene(), "--reference", "ref.exr", "--methods", "pt,pir-clamp", "--time", "600"])
+        .args(["--first-snapshot", "0.05", "--out", "st"])
+        .current_dir(dir.path())
+        .env("RUST_BACKTRACE", "1")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let kill = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("interrupted: writing the 1 of 2 lines"), "{err}");
+    let rows = read_csv(&dir.path().join("st/snapshots.csv"));
+    assert!(!rows.is_empty() && rows.iter().all(|r| r.label == "pt"), "only pt was raced");
+    let last = rows.last().unwrap();
+    assert!(last.time < 600.0 && last.iterations >= 1);
+    assert!(dir.path().join("st/report.md").is_file() && dir.path().join("st/final-pt.exr").is_file());
+}

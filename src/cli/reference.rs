@@ -2,18 +2,17 @@
 //! of studies, for scenes without an external one. The EXR records its sample count
 //! (`pir.spp`, `pir.iterations`) and render time.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 
 use pir::accel::build_accelerator;
 use pir::image::{write_exr, write_preview};
 use pir::integrator::{Integrator, PathTracer, RenderContext};
 use pir::render::{Budget, Control, RenderSettings, render};
 
-use super::setup::{SceneOptions, check_writable, prepare, scene_stem, seconds};
+use super::setup::{SceneOptions, check_writable, interrupt_flag, prepare, scene_stem, seconds};
 
 /// Render a reference image with the path tracer for a wall-clock budget.
 ///
@@ -68,12 +67,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         a.time,
         p.pool.current_num_threads()
     );
-    let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let flag = Arc::clone(&interrupted);
-        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
-            .context("cannot install the interrupt handler")?;
-    }
+    let interrupted = interrupt_flag()?;
     let mut pt = PathTracer;
     let (film, stats) = p.pool.install(|| {
         render(&ctx, &mut pt, &settings, |_, _| {

@@ -1,10 +1,9 @@
 //! `pir render SCENE`: render a scene to EXR (linear RGB) and a PNG preview.
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use pir::accel::{Backend, build_accelerator, embree_status};
@@ -15,7 +14,7 @@ use pir::render::memory;
 use pir::render::state::{Job, Shard, read_state, write_state};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
 
-use super::setup::{Prepared, SceneOptions, check_writable, prepare, scene_stem};
+use super::setup::{Prepared, SceneOptions, check_writable, interrupt_flag, prepare, scene_stem};
 
 /// Largest accepted image side, and pixel count (refused before anything is allocated).
 const MAX_SIDE: u32 = 65_536;
@@ -234,12 +233,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     };
 
     // Ctrl-C or SIGTERM: finish the running iteration, write the image, exit 0.
-    let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let flag = Arc::clone(&interrupted);
-        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
-            .context("cannot install the interrupt handler")?;
-    }
+    let interrupted = interrupt_flag()?;
     let mut last_checkpoint = Instant::now();
     let mut checkpoint_error = None;
     let (film, stats) = pool.install(|| {

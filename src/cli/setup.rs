@@ -5,6 +5,8 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use pir::accel::{Backend, set_flush_denormals};
 use pir::light::Emitters;
@@ -114,6 +116,16 @@ pub fn seconds(name: &str, t: f64) -> Result<std::time::Duration> {
     } else {
         bail!("{name} {t}: must be a positive number of seconds")
     }
+}
+
+/// A flag that Ctrl-C or SIGTERM sets: the commands finish the running iteration, write what
+/// they have and exit 0. Installed once per process.
+pub fn interrupt_flag() -> Result<Arc<AtomicBool>> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = Arc::clone(&flag);
+    ctrlc::set_handler(move || f.store(true, Ordering::SeqCst))
+        .context("cannot install the interrupt handler")?;
+    Ok(flag)
 }
 
 /// "scenes/cornell-box/scene.toml" → "cornell-box"; "foo.toml" → "foo".

@@ -4,6 +4,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 
 use pir::accel::build_accelerator;
 use pir::image::{RgbImage, read_exr};
@@ -12,7 +13,7 @@ use pir::integrator::{DEFAULT_PATHS, RenderContext};
 use pir::study::output::{StudyInfo, write_all};
 use pir::study::{Method, Run, Schedule, run_one};
 
-use super::setup::{SceneOptions, prepare, scene_stem, seconds};
+use super::setup::{SceneOptions, interrupt_flag, prepare, scene_stem, seconds};
 
 /// Race rendering methods against a reference for the same wall-clock budget.
 ///
@@ -21,6 +22,9 @@ use super::setup::{SceneOptions, prepare, scene_stem, seconds};
 /// measured against the reference (RMSE, relative MSE, HDR-FLIP, worst-pixel error, mean).
 /// The output folder gets snapshots.csv, study.json, one log-log chart per metric (PNG and
 /// SVG), sheet.png, the final EXRs and report.md.
+///
+/// Ctrl-C or SIGTERM ends the running line after its iteration and writes the study of the
+/// lines raced so far.
 ///
 /// --sweep KEY=V1,V2,… runs every method that uses KEY (alpha: pir-clamp, pir-vsl; clamp:
 /// ir-clamp, pir-clamp; radius: vsl, pir-vsl) once per value; without --methods, only those.
@@ -292,10 +296,16 @@ pub fn run(a: StudyArgs) -> Result<()> {
         out.display()
     );
 
+    // Ctrl-C or SIGTERM: end the running line after its iteration and write the study of the
+    // lines raced so far (the last one cut short), then exit 0.
+    let interrupted = interrupt_flag()?;
     let mut results = Vec::new();
     for run in &runs {
+        if interrupted.load(Ordering::SeqCst) {
+            break;
+        }
         eprintln!("pir study: racing {} for {budget_text} …", run.label);
-        let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference))?;
+        let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference, &interrupted))?;
         if let Some(l) = r.snapshots.last() {
             eprintln!(
                 "pir study: {:<22} {:>6} it in {:6.2} s: RMSE {:.4e}, relative MSE {:.4e}, HDR-FLIP {:.4}, \
@@ -313,6 +323,17 @@ pub fn run(a: StudyArgs) -> Result<()> {
         results.push(r);
     }
 
+    if results.is_empty() {
+        eprintln!("pir study: interrupted before the first line: nothing to write");
+        return Ok(());
+    }
+    if interrupted.load(Ordering::SeqCst) {
+        eprintln!(
+            "pir study: interrupted: writing the {} of {} lines raced so far (the last one cut short)",
+            results.len(),
+            runs.len()
+        );
+    }
     let attr = |k: &str| ref_attrs.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
     let info = StudyInfo {
         scene: a.scene.display().to_string(),

@@ -19,6 +19,7 @@ pub mod sheet;
 use anyhow::{Result, bail};
 use rayon::prelude::*;
 use serde::Serialize;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::image::{RgbImage, metrics};
@@ -136,12 +137,14 @@ impl Schedule {
 }
 
 /// Renders one run against `reference` (whose size the render takes) and measures it.
-/// Runs on the current rayon pool.
+/// Runs on the current rayon pool. When `stop` is set the run ends after the running
+/// iteration, with a final snapshot of what it has (an interrupted study).
 pub fn run_one(
     ctx: &RenderContext,
     run: &Run,
     schedule: &Schedule,
     reference: &RgbImage,
+    stop: &AtomicBool,
 ) -> Result<RunResult> {
     if schedule.base.is_nan() || schedule.base <= 0.0 {
         bail!("the first snapshot must be positive");
@@ -168,7 +171,7 @@ pub fn run_one(
             StudyBudget::Time(_) => t,
             StudyBudget::Iterations(_) => stats.iterations as f64,
         };
-        let done = progress >= end;
+        let done = progress >= end || stop.load(Ordering::SeqCst);
         let due = next < marks.len() && progress >= marks[next];
         if due && !done {
             let c0 = Instant::now();
