@@ -3,10 +3,9 @@
 //! no backtrace (with RUST_BACKTRACE=1 set, as on the render nodes), and no file left behind.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 mod common;
-use common::binary::{assert_clean_failure, pir, stderr};
+use common::binary::{assert_clean_failure, pir, pir_interrupted, stderr};
 
 fn scene() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml")
@@ -260,28 +259,10 @@ fn interrupt_writes_the_image_and_exits_zero() {
     for signal in ["-INT", "-TERM"] {
         let dir = tempfile::tempdir().unwrap();
         let s = scene();
-        let child = Command::new(env!("CARGO_BIN_EXE_pir"))
-            .args([
-                "render",
-                s.to_str().unwrap(),
-                "--time",
-                "600",
-                "--resolution",
-                "64",
-                "64",
-                "--out",
-                "i.exr",
-            ])
-            .current_dir(dir.path())
-            .env("RUST_BACKTRACE", "1")
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
+        let args =
+            ["render", s.to_str().unwrap(), "--time", "600", "--resolution", "64", "64", "--out", "i.exr"];
         // Let it start rendering, then interrupt it.
-        std::thread::sleep(std::time::Duration::from_millis(1500));
-        let kill = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
-        assert!(kill.success());
-        let o = child.wait_with_output().unwrap();
+        let o = pir_interrupted(&args, dir.path(), signal, std::time::Duration::from_millis(1500));
         let err = stderr(&o);
         assert!(o.status.success(), "{signal}: {err}");
         assert!(err.contains("interrupted"), "{err}");

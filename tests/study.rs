@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::binary::{assert_clean_failure, pir, stderr};
+use common::binary::{assert_clean_failure, pir, pir_interrupted, stderr};
 use common::study_csv::{Row, read_csv};
 
 use pir::image::{metrics, read_exr};
@@ -224,18 +224,9 @@ fn bad_input_fails_cleanly_before_rendering() {
 fn interrupted_study_writes_the_lines_raced_so_far() {
     let dir = tempfile::tempdir().unwrap();
     make_reference(dir.path());
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pir"))
-        .args(["study", &scene(), "--reference", "ref.exr", "--methods", "pt,pir-clamp", "--time", "600"])
-        .args(["--first-snapshot", "0.05", "--out", "st"])
-        .current_dir(dir.path())
-        .env("RUST_BACKTRACE", "1")
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
-    let kill = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
+    let args = ["study", &scene(), "--reference", "ref.exr", "--methods", "pt,pir-clamp", "--time", "600"];
+    let args = [&args[..], &["--first-snapshot", "0.05", "--out", "st"]].concat();
+    let o = pir_interrupted(&args, dir.path(), "-INT", std::time::Duration::from_millis(1500));
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("interrupted: writing the 1 of 2 lines"), "{err}");

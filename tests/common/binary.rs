@@ -13,6 +13,21 @@ pub fn pir(args: &[&str], cwd: &Path) -> Output {
         .expect("run pir")
 }
 
+/// Runs `pir ARGS` in `cwd`, sends it `signal` (e.g. "-INT") after `after`, and waits for it.
+pub fn pir_interrupted(args: &[&str], cwd: &Path, signal: &str, after: std::time::Duration) -> Output {
+    let child = Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(args)
+        .current_dir(cwd)
+        .env("RUST_BACKTRACE", "1")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run pir");
+    std::thread::sleep(after);
+    let kill = Command::new("kill").args([signal, &child.id().to_string()]).status().expect("run kill");
+    assert!(kill.success(), "kill {signal} failed");
+    child.wait_with_output().expect("wait for pir")
+}
+
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
