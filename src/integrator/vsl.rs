@@ -8,8 +8,10 @@
 //! over the cone of directions the sphere subtends at x (half-angle asin(min(r/d, 1))), with one
 //! shadow ray to the centre. Both BSDFs are integrated over the cone, so neither the 1/d² of
 //! the geometry term nor a narrow glossy lobe can make a spike; for d ≫ r the integral is the
-//! point-light term. The integral is estimated as in Hašan's shader, by rounds of three samples
-//! (uniform in the cone, receiver BSDF, VSL BSDF) combined with the balance heuristic, but with
+//! point-light term. Where no closed form applies (below) the integral is estimated as in
+//! Hašan's shader, by rounds of one sample per technique (uniform in the cone, receiver BSDF,
+//! VSL BSDF; a diffuse end's BSDF technique is left out) combined with the balance heuristic,
+//! but with
 //! ⌊[`ROUNDS_PER_PI`]·θ_max/π⌋ + 1 rounds instead of Hašan's ⌊200·θ_max/π⌋ + 1: any number of
 //! rounds is unbiased for the cone integral, the count only sets the noise of one iteration,
 //! and a progressive render averages that noise away over iterations, so pir spends its time
