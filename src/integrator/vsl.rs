@@ -31,7 +31,7 @@
 //! below averages to, without its noise and at the cost of a point light. The cone lies in
 //! front of a plane of normal n exactly when n·A > sin θ_max. Otherwise the integral is
 //! sampled, with a BSDF's sampling as a technique only at a glossy end, whose lobe needs
-//! finding (see [`sampled`]). Together these made `pir-vsl` on
+//! finding (see `sampled`). Together these made `pir-vsl` on
 //! the Cornell box 2.2× faster per iteration (128×128, 16 iterations: 18.0 s → 8.2 s).
 //!
 //! The radius is global, or per VSL from the local VPL density: r = the distance to its 4th
