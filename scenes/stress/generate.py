@@ -63,10 +63,13 @@ class Obj:
                     if len(set(t)) == 3:
                         self.lines.append("f " + " ".join(f"{k[0]}//{k[1]}" for k in t))
 
-    def write(self, path, mtllib):
-        self.lines.insert(self.header, f"mtllib {mtllib}")
-        with open(path, "w") as f:
+    def write(self, folder, name, materials):
+        """Writes folder/name.obj and its MTL, folder/name.mtl, of the given text."""
+        self.lines.insert(self.header, f"mtllib {name}.mtl")
+        with open(f"{folder}/{name}.obj", "w") as f:
             f.write("\n".join(self.lines) + "\n")
+        with open(f"{folder}/{name}.mtl", "w") as f:
+            f.write(materials)
 
 
 def room(o, x=(-1.0, 1.0), y=(0.0, 1.0), z=(-1.0, 1.0), walls=("floor", "back", "left", "right"),
@@ -92,12 +95,10 @@ def glossy():
     # The light faces the back wall (-z), above the camera's view.
     o.quad("light, facing -z", "light", [(0.2, 0.95, 0.8), (-0.2, 0.95, 0.8), (-0.2, 1.25, 0.8), (0.2, 1.25, 0.8)])
     o.box("block", "wall", (0.25, 0.0, -0.75), (0.55, 0.3, -0.45))
-    o.write("glossy/glossy.obj", "glossy.mtl")
-    with open("glossy/glossy.mtl", "w") as f:
-        f.write("# Materials of the glossy stress scene (the scene file sets the floor).\n"
-                "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl wall\nKd 0.75 0.75 0.75\n"
-                "newmtl red\nKd 0.7 0.15 0.1\nnewmtl green\nKd 0.15 0.6 0.15\n"
-                "newmtl light\nKd 0 0 0\nKe 12 12 12\n")
+    o.write("glossy", "glossy", "# Materials of the glossy stress scene (the scene file sets the floor).\n"
+            "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl wall\nKd 0.75 0.75 0.75\n"
+            "newmtl red\nKd 0.7 0.15 0.1\nnewmtl green\nKd 0.15 0.6 0.15\n"
+            "newmtl light\nKd 0 0 0\nKe 12 12 12\n")
 
 
 def slit():
@@ -112,11 +113,9 @@ def slit():
     o.quad("light above the slit, facing -y", "light",
            [(-0.15, 1.4, -0.6), (0.15, 1.4, -0.6), (0.15, 1.4, 0.6), (-0.15, 1.4, 0.6)])
     o.box("block", "block", (-0.55, 0.0, -0.45), (-0.25, 0.45, -0.15))
-    o.write("slit/slit.obj", "slit.mtl")
-    with open("slit/slit.mtl", "w") as f:
-        f.write("# Materials of the slit stress scene.\n"
-                "newmtl wall\nKd 0.75 0.75 0.75\nnewmtl red\nKd 0.7 0.15 0.1\nnewmtl green\nKd 0.15 0.6 0.15\n"
-                "newmtl block\nKd 0.6 0.55 0.45\nnewmtl light\nKd 0 0 0\nKe 40 40 40\n")
+    o.write("slit", "slit", "# Materials of the slit stress scene.\n"
+            "newmtl wall\nKd 0.75 0.75 0.75\nnewmtl red\nKd 0.7 0.15 0.1\nnewmtl green\nKd 0.15 0.6 0.15\n"
+            "newmtl block\nKd 0.6 0.55 0.45\nnewmtl light\nKd 0 0 0\nKe 40 40 40\n")
 
 
 def caustic():
@@ -127,12 +126,10 @@ def caustic():
     o.quad("light, facing -y", "light",
            [(-0.05, 1.29, -0.15), (0.05, 1.29, -0.15), (0.05, 1.29, -0.05), (-0.05, 1.29, -0.05)])
     o.sphere("glass sphere", "glass", (-0.25, 0.3, -0.1), 0.28)
-    o.write("caustic/caustic.obj", "caustic.mtl")
-    with open("caustic/caustic.mtl", "w") as f:
-        f.write("# Materials of the caustic stress scene.\n"
-                "newmtl wall\nKd 0.75 0.75 0.75\nnewmtl red\nKd 0.7 0.15 0.1\n"
-                "newmtl mirror\nKs 0.9 0.9 0.9\nillum 5\nnewmtl glass\nNi 1.5\nillum 7\n"
-                "newmtl light\nKd 0 0 0\nKe 300 300 300\n")
+    o.write("caustic", "caustic", "# Materials of the caustic stress scene.\n"
+            "newmtl wall\nKd 0.75 0.75 0.75\nnewmtl red\nKd 0.7 0.15 0.1\n"
+            "newmtl mirror\nKs 0.9 0.9 0.9\nillum 5\nnewmtl glass\nNi 1.5\nillum 7\n"
+            "newmtl light\nKd 0 0 0\nKe 300 300 300\n")
 
 
 if __name__ == "__main__":
