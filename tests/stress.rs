@@ -41,15 +41,17 @@ fn stress(dir: &str) -> PathBuf {
 /// and returns its snapshots.
 fn study(scene: &Path, reference: &Path, methods: &str, iterations: u64) -> Vec<Row> {
     let out = tempfile::tempdir().unwrap();
+    let (scene_arg, reference_arg, iterations) =
+        (scene.display().to_string(), reference.display().to_string(), iterations.to_string());
     let args = [
         "study",
-        &scene.display().to_string(),
+        &scene_arg,
         "--reference",
-        &reference.display().to_string(),
+        &reference_arg,
         "--methods",
         methods,
         "--iterations",
-        &iterations.to_string(),
+        &iterations,
         "--resolution",
         "64",
         "64",
@@ -59,9 +61,7 @@ fn study(scene: &Path, reference: &Path, methods: &str, iterations: u64) -> Vec<
         "5",
         "--out",
         "study",
-    ]
-    .map(|s| s.to_string());
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    ];
     let o = pir(&args, out.path());
     assert!(o.status.success(), "{}", stderr(&o));
     let rows = read_csv(&out.path().join("study/snapshots.csv"));
