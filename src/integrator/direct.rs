@@ -75,7 +75,7 @@ pub fn sample_emitters(
         return Vec3::ZERO;
     }
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    let pdf_bsdf = bsdf.pdf(&g, wo, wi, TransportMode::Radiance);
+    let pdf_bsdf = bsdf.pdf(&g, wo, wi);
     f * es.radiance * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light)
 }
 

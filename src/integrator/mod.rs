@@ -4,20 +4,27 @@
 //! per-iteration preparation ([`Integrator::begin_iteration`], e.g. tracing VPLs) and the
 //! per-ray radiance estimate ([`Integrator::radiance`]). The progressive driver in
 //! [`crate::render`] owns pixels, iterations and threads.
+//!
+//! Where each concept lives:
+//! - [`walker`]: the camera-path walker, the one loop every method's camera paths run
+//!   (emission, direct light with MIS, delta bounces, continuation), with a hook at the
+//!   non-delta vertices;
+//! - [`scatter`]: how a path continues from a vertex (BSDF sampling, Russian roulette), for
+//!   camera and light paths alike;
+//! - [`direct`]: direct light from the real emitters (light sampling, MIS weights);
+//! - `path.rs`: `pt`, the walker with no hook;
+//! - [`many_light`]: the VPL methods, the walker with the gather as its hook;
+//! - `method.rs`: the methods by name and their configuration.
 
-mod direct;
-mod instant_radiosity;
-mod knn;
+pub mod direct;
+pub mod many_light;
 mod method;
 mod path;
-pub mod schedule;
-mod shadow_batch;
-pub mod vpl;
-mod vpl_lanes;
-pub mod vsl;
+pub mod scatter;
+pub mod walker;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
-pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights};
+pub use many_light::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights, schedule};
 pub use method::{Method, MethodConfig};
 pub use path::PathTracer;
 

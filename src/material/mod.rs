@@ -14,12 +14,14 @@
 //!   the light, where the particle came from) and `wi` the direction the path continues in
 //!   (sampled onward, or towards the camera-side vertex being connected to); ns is the shading
 //!   normal, ng the geometric one (Veach 1997, thesis §5.3; pbrt-v3 `CorrectShadingNormal`).
-//!   The correction is applied to every lobe, delta ones included (it is 1 when ns = ng).
+//!   The correction is applied to every lobe, delta ones included (it is 1 when ns = ng); it
+//!   is written once, in [`shading_correction`].
 //!
 //! One file per concept: [`diffuse`], [`glossy`] (with [`ggx`]), [`mirror`], [`glass`] (with
 //! [`fresnel`]). This module checks the hemispheres, applies the transport-mode correction and
 //! dispatches on the [`Bsdf`] enum; the lobes work in the local shading frame.
 
+mod adjoint;
 pub mod diffuse;
 pub mod fresnel;
 pub mod ggx;
@@ -28,6 +30,7 @@ pub mod glossy;
 pub mod mirror;
 mod prepared;
 
+pub use adjoint::{Lanes, shading_correction};
 pub use prepared::{PreparedBsdf, PreparedDiffuse};
 
 use glam::{Vec2, Vec3};
@@ -98,17 +101,6 @@ impl Bsdf {
         matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })
     }
 
-    /// A rough per-channel reflectance of the material (for Russian roulette, light-path
-    /// throughput heuristics and VPL culling; not an exact directional albedo).
-    pub fn albedo_hint(&self) -> Vec3 {
-        match *self {
-            Bsdf::Diffuse { albedo } => albedo,
-            Bsdf::Glossy { albedo, specular, .. } => (albedo + specular).min(Vec3::ONE),
-            Bsdf::Mirror { specular } => specular,
-            Bsdf::Glass { .. } => Vec3::ONE,
-        }
-    }
-
     /// f(wo, wi) · |cos θi| for the non-delta part; zero for delta materials.
     ///
     /// Zero unless `wo` and `wi` are both in front of the geometric normal and above the
@@ -120,7 +112,7 @@ impl Bsdf {
 
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi`; zero for delta materials.
     /// It does not depend on the transport mode.
-    pub fn pdf(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
+    pub fn pdf(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3) -> f32 {
         let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return 0.0 };
         let p = match *self {
             Bsdf::Diffuse { albedo } if albedo.max_element() > 0.0 => diffuse::pdf(wi_l),
@@ -190,7 +182,7 @@ impl Bsdf {
         };
         let wi = g.frame.to_world(wi_l).try_normalize()?;
         // Evaluate through the public functions so that weight == eval / pdf exactly.
-        let pdf = self.pdf(g, wo, wi, mode);
+        let pdf = self.pdf(g, wo, wi);
         if pdf <= 0.0 {
             return None;
         }
@@ -209,17 +201,13 @@ fn reflection_pair(g: &LocalGeometry, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)
     (wo_l.z > 0.0 && wi_l.z > 0.0).then_some((wo_l, wi_l))
 }
 
-/// 1 in radiance mode; the adjoint shading-normal correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|)
-/// in importance mode (0 when it is undefined).
+/// 1 in radiance mode; the adjoint shading-normal correction in importance mode.
 fn mode_factor(g: &LocalGeometry, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
     match mode {
         TransportMode::Radiance => 1.0,
         TransportMode::Importance => {
             let ns = g.frame.n;
-            let num = wo.dot(ns).abs() * wi.dot(g.ng).abs();
-            let den = wo.dot(g.ng).abs() * wi.dot(ns).abs();
-            let f = num / den;
-            if den > 0.0 && f.is_finite() { f } else { 0.0 }
+            shading_correction(wo.dot(ns), wo.dot(g.ng), wi.dot(g.ng), wi.dot(ns))
         }
     }
 }

@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 use super::glossy::Glossy;
-use super::{Bsdf, LocalGeometry, TransportMode, diffuse};
+use super::{Bsdf, LocalGeometry, TransportMode, diffuse, shading_correction};
 
 /// An active Lambertian [`PreparedBsdf`], taken apart ([`PreparedBsdf::as_diffuse`]). Its
 /// `eval(wi)`, with `wi_ng = wi · ng` and `wi_ns = wi · ns` both positive, is
@@ -90,13 +90,7 @@ impl PreparedBsdf {
         };
         let factor = match self.mode {
             TransportMode::Radiance => 1.0,
-            // The adjoint shading-normal correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|).
-            TransportMode::Importance => {
-                let num = self.wo_l.z.abs() * wi_ng.abs();
-                let den = self.wo_ng.abs() * wi_l.z.abs();
-                let f = num / den;
-                if den > 0.0 && f.is_finite() { f } else { 0.0 }
-            }
+            TransportMode::Importance => shading_correction(self.wo_l.z, self.wo_ng, wi_ng, wi_l.z),
         };
         let value = value * factor;
         if value.is_finite() { value.max(Vec3::ZERO) } else { Vec3::ZERO }

@@ -17,8 +17,8 @@ use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 use crate::accel::Hit;
-use crate::geometry::{Aabb, Frame, Ray, VertexBuffer};
-use crate::material::Material;
+use crate::geometry::{Aabb, Frame, VertexBuffer};
+use crate::material::{LocalGeometry, Material};
 
 /// Rendering defaults from the scene's `[render]` table (command-line flags override them).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -69,6 +69,14 @@ pub struct SurfacePoint {
     pub material: u32,
 }
 
+impl SurfacePoint {
+    /// What a BSDF needs of the point: its normal and shading frame.
+    #[inline]
+    pub fn geometry(&self) -> LocalGeometry {
+        LocalGeometry { ng: self.ng, frame: self.frame }
+    }
+}
+
 impl Scene {
     pub fn triangle(&self, prim: u32) -> [Vec3; 3] {
         let [a, b, c] = self.indices[prim as usize];
@@ -111,7 +119,7 @@ impl Scene {
     }
 
     /// The surface point of a ray's hit; the position is recomputed from the barycentrics.
-    pub fn surface_of_hit(&self, _ray: &Ray, hit: &Hit) -> SurfacePoint {
+    pub fn surface_of_hit(&self, hit: &Hit) -> SurfacePoint {
         self.surface_at(hit.prim, Vec2::new(hit.u, hit.v))
     }
 }

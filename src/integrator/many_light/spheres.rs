@@ -31,39 +31,27 @@
 //! below averages to, without its noise and at the cost of a point light. The cone lies in
 //! front of a plane of normal n exactly when n·A > sin θ_max. Otherwise the integral is
 //! sampled, with a BSDF's sampling as a technique only at a glossy end, whose lobe needs
-//! finding (see `sampled`). Together these made `pir-vsl` on
-//! the Cornell box 2.2× faster per iteration (128×128, 16 iterations: 18.0 s → 8.2 s).
+//! finding (see `sampled`).
 //!
-//! The radius is global, or per VSL from the local VPL density: r = the distance to its 4th
-//! nearest VPL of the iteration. Public implementations take twice the distance to the 10th,
-//! for a single set of many thousand VPLs; a progressive render traces few paths per
-//! iteration, so that rule gives large spheres whose darkening near creases fades only as
-//! r_i² ∝ i^(α−1). Measured on the Cornell box at 64 paths per iteration after 400 iterations
-//! (`tests/reference_vpl.rs`): mean −3.2 % with 2 × d₁₀, −1.3 % with d₁₀, −0.66 % with d₄
-//! (relative MSE 7.8e-4 → 4.0e-4 from d₁₀ to d₄); on the mirror-and-glass box −1.4 % → −0.8 %.
-//! The stress scene's worst pixel stays the same (`tests/stress.rs`): smaller spheres are
-//! still far from the 1/d² singularity of a point light.
-//!
-//! With the default 32 paths per iteration d₄ is still large (a third of a metre in the 2 m
-//! Cornell box), so the radius is capped at [`MAX_RADIUS`] of the scene's diagonal. The cap
-//! trades the thesis' two failures: too small and glossy receivers get soft spikes back, too
-//! large and creases darken. Measured at 64×64, 8 s per variant on 2 cores, against the Mitsuba
-//! references (`pir study … --methods vsl,pir-vsl --time 8 --resolution 64 64`):
-//!
-//! | cap | Cornell box `pir-vsl` relative MSE, HDR-FLIP, mean | glossy stress scene `pir-vsl` |
-//! |---|---|---|
-//! | none (d₄) | 6.9e-4, 0.094, −0.82 % | 3.0e-3, 0.075, −2.2 % (worst pixel 0.15) |
-//! | 2 % | 2.4e-4, 0.045, +0.01 % | 4.8e-3, 0.048, +0.6 % (worst pixel 1.0) |
-//! | 4 % | 2.5e-4, 0.051, −0.07 % | 2.9e-3, 0.049, +0.3 % (worst pixel 0.18) |
-//!
-//! At 2 % the glossy corner's floor spikes again (worst pixel 2.4 against 22 for `pir-clamp`,
-//! where the test asks for a tenth); 4 % keeps it clean (0.31) and keeps nearly all the gain.
+//! # Radius
+//! The radius is global (`--radius`), or per VSL from the local VPL density: r = the distance
+//! to its [`KNN_K`]th nearest VPL of the iteration, at most [`MAX_RADIUS`] of the scene's
+//! diagonal (an iteration with too few VPLs for the neighbours takes the cap). Public
+//! implementations take twice the distance to the 10th, for a single set of many thousand
+//! VPLs; a progressive render traces few paths per iteration, so that rule gives large
+//! spheres whose darkening near creases fades only as r_i² ∝ i^(α−1). The cap trades the
+//! thesis' two failures: too small and glossy receivers get soft spikes back, too large and
+//! creases darken. The measurements behind k = 4 and the 4 % cap are in
+//! `docs/measurements.md`.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-use super::vpl::Vpl;
-use crate::geometry::Frame;
+use super::Radius;
+use super::knn::KdTree;
+use super::light_paths::Vpl;
+use super::schedule::radius;
+use crate::geometry::{Frame, OffsetPoint};
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
@@ -77,6 +65,64 @@ pub const MAX_RADIUS: f32 = 0.04;
 
 /// Rounds of the cone estimate per π of cone half-angle (Hašan et al. use 200).
 pub const ROUNDS_PER_PI: f32 = 20.0;
+
+/// How the density radius is named in a render's parameters (EXR metadata, resume identity).
+pub fn density_radius_name() -> String {
+    format!("density (k={KNN_K}, x{KNN_SCALE}, max {MAX_RADIUS} diagonal)")
+}
+
+/// This iteration's virtual spherical lights: the VPLs with their shadow-ray ends and radii.
+pub struct SphereLights {
+    pub vpls: Vec<Vpl>,
+    /// VPL j's end of its shadow rays.
+    pub ends: Vec<OffsetPoint>,
+    /// VPL j's radius in this iteration.
+    pub radii: Vec<f32>,
+}
+
+impl SphereLights {
+    /// The spheres of iteration `iteration` (from 1): radius r_1 (global or per light by
+    /// density), times i^((α−1)/2) when `alpha` is given. `scene_diagonal` sets the cap.
+    pub fn new(vpls: Vec<Vpl>, r: Radius, alpha: Option<f32>, iteration: u64, scene_diagonal: f32) -> Self {
+        let factor = alpha.map_or(1.0, |a| radius(1.0, a, iteration));
+        let max_radius = MAX_RADIUS * scene_diagonal;
+        let radii = match r {
+            Radius::Global(r1) => vec![r1 * factor; vpls.len()],
+            Radius::Density => {
+                let points: Vec<Vec3> = vpls.iter().map(|v| v.p).collect();
+                let tree = KdTree::new(&points);
+                // The light itself is its own nearest point: the k-th neighbour is the (k+1)-th.
+                points
+                    .iter()
+                    .map(|&p| {
+                        let r1 = tree
+                            .kth_distance(p, KNN_K + 1)
+                            .map_or(max_radius, |d| (KNN_SCALE * d).min(max_radius));
+                        r1.max(max_radius * 1e-3) * factor
+                    })
+                    .collect()
+            }
+        };
+        let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
+        SphereLights { vpls, ends, radii }
+    }
+
+    /// Sphere j's contribution at the receiver x, without visibility (see [`contribution`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn contribution(
+        &self,
+        j: usize,
+        gx: &LocalGeometry,
+        x: Vec3,
+        bsdf_x: &Bsdf,
+        wo: Vec3,
+        bsdf_p: &Bsdf,
+        sampler: &mut Sampler,
+    ) -> Vec3 {
+        contribution(gx, x, bsdf_x, wo, &self.vpls[j], bsdf_p, self.radii[j], sampler)
+    }
+}
 
 /// A direction in the cone about +z with 1 − cos θ ≤ `one_minus_cos_max`, uniform in solid
 /// angle; written in terms of 1 − cos θ so that tiny cones keep their precision.
@@ -174,10 +220,8 @@ impl Lobes {
 
 /// ∫_cone f_x cos_x f_p cos_p dω by rounds of one sample per technique (uniform in the cone,
 /// and each end's BSDF that `lobes` names) combined with the balance heuristic: Hašan's
-/// three-technique estimator for two glossy ends, cone samples alone for two diffuse ones.
-/// Measured for diffuse pairs on the 64×64 Cornell box, 8 s of `pir-vsl` per variant on 2
-/// cores: relative MSE 1.02e-3 and HDR-FLIP 0.111 with cone samples alone (246 iterations),
-/// 1.38e-3 and 0.122 with three techniques (152 iterations).
+/// three-technique estimator for two glossy ends, cone samples alone for two diffuse ones
+/// (cheaper per round, and lower error at equal time: `docs/measurements.md`).
 fn sampled(e: &Ends, cone: &Cone, lobes: Lobes, sampler: &mut Sampler) -> Vec3 {
     let pdf_cone = 1.0 / (2.0 * PI * cone.one_minus);
     let frame = Frame::from_normal(cone.axis);
@@ -194,10 +238,10 @@ fn sampled(e: &Ends, cone: &Cone, lobes: Lobes, sampler: &mut Sampler) -> Vec3 {
         }
         let mut pdf_sum = pdf_cone;
         if lobes.receiver {
-            pdf_sum += e.bsdf_x.pdf(e.gx, e.wo, w, TransportMode::Radiance);
+            pdf_sum += e.bsdf_x.pdf(e.gx, e.wo, w);
         }
         if lobes.vsl {
-            pdf_sum += e.bsdf_p.pdf(&e.gp, e.w_in, -w, TransportMode::Importance);
+            pdf_sum += e.bsdf_p.pdf(&e.gp, e.w_in, -w);
         }
         a * b / pdf_sum
     };

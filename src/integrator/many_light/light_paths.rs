@@ -3,7 +3,8 @@
 //! Each iteration traces N light paths. A path starts on an emitter triangle chosen by power
 //! at a uniform point, leaves in a cosine-distributed direction, and at every hit samples the
 //! BSDF in importance mode (with the adjoint shading-normal correction), continuing under
-//! Russian roulette. Every non-delta vertex gets a VPL that stores what its own BSDF needs
+//! Russian roulette (the continuation of [`crate::integrator::scatter`], shared with the
+//! camera walker). Every non-delta vertex gets a VPL that stores what its own BSDF needs
 //! later (position, normals, incoming direction, material) and the path's throughput Φ
 //! divided by N, the number of light PATHS traced (not of VPLs). Delta vertices (mirror,
 //! glass) get none, but the path continues through them: that is how caustics reach diffuse
@@ -16,8 +17,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::RenderContext;
 use crate::geometry::{Frame, Ray, offset_origin};
+use crate::integrator::RenderContext;
+use crate::integrator::scatter::{scatter, survives_roulette};
 use crate::material::{LocalGeometry, TransportMode};
 use crate::sampling::{Domain, Sampler, cosine_hemisphere};
 
@@ -95,7 +97,7 @@ fn trace_path(
     for depth in 1..=max_depth {
         rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
-        let sp = ctx.scene.surface_of_hit(&ray, &hit);
+        let sp = ctx.scene.surface_of_hit(&hit);
         let w_in = -ray.dir.normalize();
         let bsdf = &ctx.scene.materials[sp.material as usize].bsdf;
         if !bsdf.is_delta() {
@@ -112,22 +114,11 @@ fn trace_path(
         if depth == max_depth {
             break;
         }
-        let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
-        let u_lobe = sampler.next_f32();
-        let u = sampler.next_2d();
-        let Some(s) = bsdf.sample(&g, w_in, u_lobe, u, TransportMode::Importance) else { break };
-        beta *= s.weight;
-        if beta.max_element() <= 0.0 || !beta.is_finite() {
+        let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
+        // Survival by the throughput relative to the path's start (importance transport has
+        // no 1/η² radiance scaling to compensate).
+        if depth >= RR_DEPTH && !survives_roulette(beta.max_element() / beta0, &mut beta, sampler) {
             break;
-        }
-        if depth >= RR_DEPTH {
-            // Survival by the throughput relative to the path's start (importance transport
-            // has no 1/η² radiance scaling to compensate).
-            let q = (beta.max_element() / beta0).min(0.95);
-            if sampler.next_f32() >= q {
-                break;
-            }
-            beta /= q;
         }
         ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }

@@ -2,12 +2,12 @@
 //! chunk) for the gather's hot loop: one receiver against every VPL.
 //!
 //! The common case, a Lambertian receiver and a Lambertian VPL, is computed for a whole chunk
-//! at once with glam's `Vec4` (SSE), without branches; written per VPL with
-//! [`PreparedBsdf::eval`] it was a chain of calls, early returns and `Vec3`s passed through
-//! memory that cost more than the shadow rays themselves (profile of the Cornell box: 44 %
-//! of the render in BSDF evaluation and the gather's own code, 40 % in Embree), and written
-//! as plain per-lane code the compiler did not vectorise it. Every lane performs exactly the
-//! floating-point operations of `instant_radiosity::point_contribution` in the same order (SSE
+//! at once with glam's `Vec4` (SSE), without branches: written per VPL with
+//! [`PreparedBsdf::eval`] it is a chain of calls, early returns and `Vec3`s passed through
+//! memory that cost more than the shadow rays themselves, and written as plain per-lane code
+//! the compiler does not vectorise it (profile in `docs/measurements.md`). Every lane
+//! performs exactly the floating-point operations of `gather::point_contribution` in the
+//! same order (SSE
 //! arithmetic is IEEE per lane, and Rust never fuses or reorders), and a failed check
 //! anywhere masks the lane to zero where the scalar code returns zero early, so the result is
 //! bit-identical (`matches_the_scalar_contribution` below). Other VPLs (glossy ones) are
@@ -16,9 +16,9 @@
 use glam::{Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 
-use super::vpl::Vpl;
+use super::light_paths::Vpl;
 use crate::geometry::OffsetPoint;
-use crate::material::{PreparedBsdf, PreparedDiffuse, TransportMode};
+use crate::material::{PreparedBsdf, PreparedDiffuse, TransportMode, shading_correction};
 use crate::scene::SurfacePoint;
 
 /// Lights per chunk: the width of `Vec4`.
@@ -142,7 +142,7 @@ impl VplLanes {
 
     /// Φ f_p cos_p f_x cos_x / d², G clamped at `bound`, of every [`LaneKind::Diffuse`] light
     /// of chunk `chunk` of at most `max_depth` segments at receiver `x`, lane by
-    /// lane; zero in the other lanes. Bit-identical to `instant_radiosity::point_contribution`.
+    /// lane; zero in the other lanes. Bit-identical to `gather::point_contribution`.
     #[inline]
     pub fn diffuse_contributions(
         &self,
@@ -176,10 +176,7 @@ impl VplLanes {
         let p_ng = vx * q.ng[0] + vy * q.ng[1] + vz * q.ng[2];
         let p_ns = vx * q.ns[0] + vy * q.ns[1] + vz * q.ns[2];
         let kp = s(FRAC_1_PI) * p_ns.max(zero);
-        let num = q.wo_cos_shading * p_ng.abs();
-        let den = q.wo_cos_geometric * p_ns.abs();
-        let f = num / den;
-        let factor = Vec4::select(den.cmpgt(zero) & f.is_finite_mask(), f, zero);
+        let factor = shading_correction(q.wo_cos_shading, q.wo_cos_geometric, p_ng, p_ns);
         let fp = [q.albedo[0] * kp * factor, q.albedo[1] * kp * factor, q.albedo[2] * kp * factor];
         let fp_ok = fp[0].is_finite_mask() & fp[1].is_finite_mask() & fp[2].is_finite_mask();
         let fp = fp.map(|v| v.max(zero));
@@ -212,7 +209,7 @@ impl VplLanes {
 mod tests {
     use super::*;
     use crate::geometry::Frame;
-    use crate::integrator::instant_radiosity::point_contribution;
+    use crate::integrator::many_light::gather::point_contribution;
     use crate::material::{Bsdf, LocalGeometry};
     use crate::sampling::{Domain, Sampler};
 

@@ -1,0 +1,209 @@
+//! The many-light methods: instant radiosity with virtual point lights, plain, clamped and
+//! progressively clamped, and virtual spherical lights of constant or progressively
+//! shrinking radius.
+//!
+//! | `--method` | virtual light | bias | reference |
+//! |---|---|---|---|
+//! | `ir` | point, G unclamped | none, but spiky near creases and on glossy surfaces | Keller 1997 |
+//! | `ir-clamp` | point, G' = min(G, b) | too dark, for ever | Keller; pbrt-v2 `igi` |
+//! | `pir-clamp` | point, G' = min(G, b_i), b_i = b_1 · i^α | vanishes: consistent | thesis 4.2.1 |
+//! | `vsl` | sphere of radius r | blur, for ever | Hašan et al. 2009 |
+//! | `pir-vsl` | sphere, r_i = r_1 · i^((α−1)/2) | vanishes: consistent | thesis 4.2.2 |
+//!
+//! Parameters (flags of `pir render`):
+//! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]). Each leaves a virtual
+//!   light at every non-delta vertex.
+//! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default
+//!   ([`Clamping::default_bound`]): 100 / diagonal², the G of two facing surfaces a tenth of
+//!   the scene's diagonal apart, so the default needs no tuning whatever the scene's units.
+//! - `--radius R` the radius r (`vsl`) or r_1 (`pir-vsl`), one for all lights. Default: per
+//!   light from the VPL density (see [`spheres`]).
+//! - `--alpha A` the schedule exponent of `pir-clamp` and `pir-vsl` (default 0.6, the
+//!   thesis' best; see [`schedule`]).
+//!
+//! An iteration traces the light paths ([`light_paths`]), makes this iteration's light set
+//! from their vertices ([`light_set`]: points with their G bound, or spheres with their
+//! radii), and every camera path, followed by the walker of [`super::walker`], gathers from
+//! the set at its non-delta vertices ([`gather`]). The walker's split of the path space
+//! (emitters, virtual lights, delta chains) makes every method render exactly the path
+//! space of `pt` for the same `max_depth`: a VPL of s segments from its emitter serves a
+//! camera vertex of d segments when d + 1 + s ≤ max_depth.
+//!
+//! The files: [`light_paths`] (light tracing, the [`Vpl`]), [`light_set`] (the per-iteration
+//! set, points or spheres), [`gather`] (one receiver against the set, shadow rays in
+//! batches: [`shadow_batch`]), [`lanes`] (the four-wide kernel of diffuse point lights),
+//! [`spheres`] (virtual spherical lights: radii and the cone integral, with [`knn`]),
+//! [`schedule`] (the progressive schedules). Measurements behind the defaults are in
+//! `docs/measurements.md`.
+
+pub mod gather;
+pub mod knn;
+pub mod lanes;
+pub mod light_paths;
+pub mod light_set;
+pub mod schedule;
+pub mod shadow_batch;
+pub mod spheres;
+
+pub use light_paths::{Vpl, trace_vpls};
+pub use light_set::LightSet;
+
+use glam::Vec3;
+
+use super::walker::{Vertex, VertexHook, walk};
+use super::{Counters, Integrator, RenderContext};
+use crate::geometry::Ray;
+use crate::sampling::Sampler;
+use schedule::clamp_bound;
+
+/// Light paths per iteration when `--vpls` is not given. An iteration costs pixels × VPLs
+/// shadow rays and the progressive schedules advance once per iteration, so many cheap
+/// iterations beat few rich ones (measured in `docs/measurements.md`); 32 keeps a few VPLs
+/// per iteration for glossy and spherical lights too.
+pub const DEFAULT_PATHS: usize = 32;
+
+/// How the geometry term of point lights is bounded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Clamping {
+    /// `ir`: no bound.
+    None,
+    /// `ir-clamp`: a constant bound b.
+    Constant { b: f32 },
+    /// `pir-clamp`: b_i = b_1 · i^α.
+    Progressive { b1: f32, alpha: f32 },
+}
+
+impl Clamping {
+    /// The default b (or b_1) for a scene of the given diagonal: 100 / diagonal².
+    pub fn default_bound(scene_diagonal: f32) -> f32 {
+        100.0 / (scene_diagonal * scene_diagonal).max(1e-12)
+    }
+
+    /// Progressive clamping with the default α.
+    pub fn progressive(b1: f32) -> Self {
+        Clamping::Progressive { b1, alpha: schedule::DEFAULT_ALPHA }
+    }
+
+    /// The bound of iteration `iteration` (from 1).
+    pub fn bound(&self, iteration: u64) -> f32 {
+        match *self {
+            Clamping::None => f32::INFINITY,
+            Clamping::Constant { b } => b,
+            Clamping::Progressive { b1, alpha } => clamp_bound(b1, alpha, iteration),
+        }
+    }
+}
+
+/// The radius of virtual spherical lights (r, or r_1 for the progressive schedule).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Radius {
+    /// One radius for every light.
+    Global(f32),
+    /// Per light, from the density of the iteration's VPLs (see [`spheres`]).
+    Density,
+}
+
+/// Which virtual lights, with which bias control: the parameters of a many-light method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VirtualLights {
+    Points(Clamping),
+    /// Spheres; with `alpha` the radius shrinks as r_1 · i^((α−1)/2).
+    Spheres {
+        radius: Radius,
+        alpha: Option<f32>,
+    },
+}
+
+/// A many-light method: its parameters, and the light set of the current iteration.
+pub struct InstantRadiosity {
+    lights: VirtualLights,
+    paths: usize,
+    set: LightSet,
+}
+
+impl InstantRadiosity {
+    pub fn new(lights: VirtualLights, paths: usize) -> Self {
+        InstantRadiosity { lights, paths, set: LightSet::default() }
+    }
+
+    /// Point lights with the given clamping.
+    pub fn points(clamping: Clamping, paths: usize) -> Self {
+        Self::new(VirtualLights::Points(clamping), paths)
+    }
+
+    /// This iteration's light set.
+    pub fn light_set(&self) -> &LightSet {
+        &self.set
+    }
+}
+
+/// The many-light hook of the camera walker: at a non-delta vertex of d segments, the light
+/// of every virtual light of at most max_depth − d − 1 segments.
+impl VertexHook for LightSet {
+    const COVERS_SURFACES: bool = true;
+
+    #[inline]
+    fn at_vertex(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Option<Vec3> {
+        Some(self.gather(ctx, v, ctx.max_depth - v.depth - 1, sampler, counters))
+    }
+}
+
+impl Integrator for InstantRadiosity {
+    fn name(&self) -> &'static str {
+        match self.lights {
+            VirtualLights::Points(Clamping::None) => "ir",
+            VirtualLights::Points(Clamping::Constant { .. }) => "ir-clamp",
+            VirtualLights::Points(Clamping::Progressive { .. }) => "pir-clamp",
+            VirtualLights::Spheres { alpha: None, .. } => "vsl",
+            VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
+        }
+    }
+
+    fn parameters(&self) -> Vec<(String, String)> {
+        let mut p = vec![("vpls".to_string(), self.paths.to_string())];
+        match self.lights {
+            VirtualLights::Points(Clamping::None) => {}
+            VirtualLights::Points(Clamping::Constant { b }) => p.push(("clamp".into(), b.to_string())),
+            VirtualLights::Points(Clamping::Progressive { b1, alpha }) => {
+                p.push(("clamp".into(), b1.to_string()));
+                p.push(("alpha".into(), alpha.to_string()));
+            }
+            VirtualLights::Spheres { radius, alpha } => {
+                let r = match radius {
+                    Radius::Global(r) => r.to_string(),
+                    Radius::Density => spheres::density_radius_name(),
+                };
+                p.push(("radius".into(), r));
+                if let Some(a) = alpha {
+                    p.push(("alpha".into(), a.to_string()));
+                }
+            }
+        }
+        p
+    }
+
+    fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
+        // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
+        let max_vpl_depth = ctx.max_depth.saturating_sub(2);
+        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, max_vpl_depth);
+        counters.light_rays += rays;
+        counters.vpls += vpls.len() as u64;
+        self.set = LightSet::new(ctx, &self.lights, vpls, iteration);
+    }
+
+    fn radiance(
+        &self,
+        ctx: &RenderContext,
+        ray: Ray,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Vec3 {
+        walk(ctx, ray, &self.set, sampler, counters)
+    }
+}
