@@ -62,11 +62,6 @@ impl Emitters {
         self.prims.is_empty()
     }
 
-    /// Total emitted power (mean over channels), in watts for radiance in W/(m² sr).
-    pub fn total_power(&self) -> f64 {
-        self.dist.total()
-    }
-
     /// Area density of [`Emitters::sample`] producing a point on triangle `prim`.
     #[inline]
     pub fn pdf_area(&self, prim: u32) -> f32 {
