@@ -8,8 +8,7 @@ use std::time::{Duration, Instant};
 
 use pir::accel::{Backend, build_accelerator, embree_status};
 use pir::image::{RgbImage, write_exr, write_preview};
-use pir::integrator::schedule::DEFAULT_ALPHA;
-use pir::integrator::{DEFAULT_PATHS, Method, MethodConfig, RenderContext};
+use pir::integrator::{MethodConfig, RenderContext};
 use pir::render::memory;
 use pir::render::state::{Job, Shard, read_state, write_state};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
@@ -29,12 +28,8 @@ const MAX_PIXELS: u64 = 1 << 28;
 pub struct RenderArgs {
     /// The scene file (TOML, see the README's scene format).
     pub scene: PathBuf,
-    /// Rendering method: pt (path tracer, the ground truth), ir (plain VPLs: unbiased, spiky),
-    /// ir-clamp (geometry term clamped at a constant --clamp: biased), pir-clamp (progressive
-    /// clamp b_i = b_1 · i^α: consistent), vsl (virtual spherical lights of constant --radius:
-    /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent).
-    #[arg(long, default_value_t = Method::Pt, value_name = "METHOD")]
-    pub method: Method,
+    #[command(flatten)]
+    pub config: MethodConfig,
     /// Samples per pixel (= iterations; one sample per pixel per iteration).
     #[arg(long, visible_alias = "iterations", value_name = "N")]
     pub spp: Option<u64>,
@@ -53,23 +48,6 @@ pub struct RenderArgs {
     /// Do not write the PNG preview.
     #[arg(long)]
     pub no_preview: bool,
-    /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
-    /// vertex).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
-    pub vpls: usize,
-    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length² [default:
-    /// 100 / scene diagonal², the G of facing surfaces a tenth of the scene apart].
-    #[arg(long, value_name = "B", allow_negative_numbers = true)]
-    pub clamp: Option<f32>,
-    /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
-    /// [default: per light, the distance to its 4th nearest VPL, at most 4 % of the scene
-    /// diagonal].
-    #[arg(long, value_name = "R", allow_negative_numbers = true)]
-    pub radius: Option<f32>,
-    /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
-    /// r_i = r_1 · i^((α−1)/2), in (0, 1).
-    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
-    pub alpha: f32,
     /// Write the image (with the state needed to resume it) every SECONDS, atomically, so that
     /// a killed render loses at most one interval. Makes the output resumable.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -99,32 +77,16 @@ pub fn run(a: RenderArgs) -> Result<()> {
     if !a.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
-    if a.vpls == 0 || a.vpls > 1 << 24 {
-        bail!("--vpls {}: must be 1 to {}", a.vpls, 1 << 24);
-    }
-    if let Some(b) = a.clamp
-        && !(b.is_finite() && b > 0.0)
-    {
-        bail!("--clamp {b}: must be a positive number");
-    }
-    if let Some(r) = a.radius
-        && !(r.is_finite() && r > 0.0)
-    {
-        bail!("--radius {r}: must be a positive number");
-    }
-    if !(a.alpha > 0.0 && a.alpha < 1.0) {
-        bail!("--alpha {}: must lie strictly between 0 and 1", a.alpha);
-    }
+    a.config.validate()?;
     let checkpoint = match a.checkpoint {
         None => None,
         Some(t) if t.is_finite() && t > 0.0 && t < 1e9 => Some(Duration::from_secs_f64(t)),
         Some(t) => bail!("--checkpoint {t}: must be a positive number of seconds"),
     };
-    let out = a
-        .out
-        .clone()
-        .or_else(|| a.resume.clone())
-        .unwrap_or_else(|| PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.method.name())));
+    let out =
+        a.out.clone().or_else(|| a.resume.clone()).unwrap_or_else(|| {
+            PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.config.method.name()))
+        });
     if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
         bail!("{}: the output must be an .exr file", out.display());
     }
@@ -139,9 +101,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let backend = a.options.backend();
     let accel = build_accelerator(backend, &scene.positions, &scene.indices).map_err(anyhow::Error::msg)?;
 
-    let config =
-        MethodConfig { method: a.method, vpls: a.vpls, clamp: a.clamp, radius: a.radius, alpha: a.alpha };
-    let mut integrator = config.integrator(scene.bounds.diagonal());
+    let mut integrator = a.config.integrator(scene.bounds.diagonal());
     let ctx = RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth, seed };
     let (w, h) = (width as usize, height as usize);
 
@@ -323,7 +283,7 @@ fn check_memory(a: &RenderArgs, width: u32, height: u32, triangles: usize, max_d
         Some(g) => bail!("--max-memory {g}: must be a positive number of GiB"),
         None => memory::total_memory().map(|m| m / 10 * 8),
     };
-    let paths = if a.method.uses_vpls() { a.vpls as u64 } else { 0 };
+    let paths = a.config.light_paths() as u64;
     let need = memory::Estimate::new(width as u64, height as u64, triangles as u64, paths, max_depth as u64);
     if let Some(limit) = limit
         && need.total() > limit

@@ -18,7 +18,7 @@ pub mod vsl;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use instant_radiosity::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights};
-pub use method::{Method, MethodConfig};
+pub use method::{MAX_VPLS, Method, MethodConfig, MethodParams, Parameter};
 pub use path::PathTracer;
 
 use glam::Vec3;

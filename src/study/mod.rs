@@ -24,35 +24,39 @@ use std::time::{Duration, Instant};
 
 use crate::image::{RgbImage, metrics};
 pub use crate::integrator::Method;
-use crate::integrator::{Integrator, MethodConfig, RenderContext};
+use crate::integrator::{MethodConfig, Parameter, RenderContext};
 use crate::render::{Budget, Control, RenderSettings, render};
 
 /// One line of a study: a method with its parameters.
 #[derive(Clone, Debug, Serialize)]
 pub struct Run {
-    pub method: Method,
     /// The line's name in charts and tables, e.g. "pir-clamp α=0.3".
     pub label: String,
-    pub alpha: f32,
-    /// ir-clamp, pir-clamp: the bound b (b_1); `None` = the default for the scene.
-    pub clamp: Option<f32>,
-    /// vsl, pir-vsl: the radius r (r_1); `None` = per light, by density.
-    pub radius: Option<f32>,
-    pub vpls: usize,
-    /// In a parameter sweep, the swept parameter ("alpha", "clamp" or "radius") and its value.
-    pub sweep: Option<(String, f32)>,
+    #[serde(flatten)]
+    pub config: MethodConfig,
+    /// In a parameter sweep, the swept parameter and its value.
+    pub sweep: Option<(Parameter, f32)>,
 }
 
 impl Run {
-    pub fn integrator(&self, scene_diagonal: f32) -> Box<dyn Integrator> {
-        let config = MethodConfig {
-            method: self.method,
-            vpls: self.vpls,
-            clamp: self.clamp,
-            radius: self.radius,
-            alpha: self.alpha,
-        };
-        config.integrator(scene_diagonal)
+    /// The line of a method with its parameters, labelled by the method's name.
+    pub fn new(config: MethodConfig) -> Run {
+        Run { label: config.method.name().to_string(), config, sweep: None }
+    }
+
+    /// This line with `parameter` set to `value`, labelled by both ("pir-clamp α=0.3").
+    pub fn swept(&self, parameter: Parameter, value: f32) -> Run {
+        let mut config = self.config;
+        config.params.set(parameter, value);
+        Run {
+            label: format!("{} {}={value}", config.method.name(), parameter.symbol()),
+            config,
+            sweep: Some((parameter, value)),
+        }
+    }
+
+    pub fn method(&self) -> Method {
+        self.config.method
     }
 }
 
@@ -149,7 +153,7 @@ pub fn run_one(
     if schedule.base.is_nan() || schedule.base <= 0.0 {
         bail!("the first snapshot must be positive");
     }
-    let mut integrator = run.integrator(ctx.scene.bounds.diagonal());
+    let mut integrator = run.config.integrator(ctx.scene.bounds.diagonal());
     let parameters: Vec<String> =
         integrator.parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
     let parameters = parameters.join(";");
@@ -195,7 +199,7 @@ pub fn run_one(
             let m = metrics(img, reference)?;
             Ok(Snapshot {
                 label: run.label.clone(),
-                method: run.method,
+                method: run.method(),
                 parameters: parameters.clone(),
                 time_s: *t,
                 iterations: *it,
