@@ -107,15 +107,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
 
     // ---- What this render is, and where it starts (a resumed film or an empty one).
     let shard = a.shard.unwrap_or(Shard::ALL);
-    let job = Job {
-        scene_fingerprint: scene.fingerprint(),
-        method: integrator.name().to_string(),
-        parameters: integrator.parameters(),
-        max_depth,
-        seed,
-        width: w,
-        height: h,
-    };
+    let job = Job::new(&scene, &a.config, max_depth, seed, w, h);
     let film = match &a.resume {
         None => Film::new(w, h),
         Some(path) => {
@@ -161,6 +153,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     // ---- Output, written at checkpoints, on interruption and at the end.
     let preview = (!a.no_preview).then(|| out.with_extension("png"));
     let parameters = integrator.parameters();
+    let method_name = integrator.name();
     let describe = accel.describe();
     let threads = pool.current_num_threads();
     let write = |film: &Film, stats: &RenderStats| -> Result<RgbImage> {
@@ -168,7 +161,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let mut attrs: Vec<(String, String)> = vec![
             ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
             ("pir.scene".into(), a.scene.display().to_string()),
-            ("pir.method".into(), job.method.clone()),
+            ("pir.method".into(), method_name.into()),
             ("pir.max_depth".into(), max_depth.to_string()),
             ("pir.seed".into(), seed.to_string()),
             ("pir.iterations".into(), film.iterations().to_string()),
