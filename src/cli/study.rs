@@ -6,13 +6,13 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
-use pir::accel::build_accelerator;
 use pir::image::{RgbImage, read_exr};
-use pir::integrator::{MethodConfig, MethodParams, Parameter, RenderContext};
+use pir::integrator::{MethodConfig, MethodParams, Parameter};
+use pir::render::{Renderer, SceneOptions};
 use pir::study::output::{StudyInfo, write_all};
 use pir::study::{Method, Run, Schedule, run_one};
 
-use super::setup::{SceneOptions, interrupt_flag, prepare, scene_stem, seconds};
+use super::setup::{interrupt_flag, scene_stem, seconds};
 
 /// Race rendering methods against a reference for the same wall-clock budget.
 ///
@@ -201,16 +201,15 @@ pub fn run(a: StudyArgs) -> Result<()> {
         bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
-    let p = prepare(&a.scene, &a.options)?;
+    let scene = pir::scene::load(&a.scene)?;
+    // Every line renders at the reference's size.
+    let options = SceneOptions {
+        resolution: Some(vec![reference.width as u32, reference.height as u32]),
+        ..a.options.clone()
+    };
+    let renderer = Renderer::new(&scene, &options)?;
     check_out_dir(&out)?;
-    let backend = a.options.backend();
-    let accel =
-        build_accelerator(backend, &p.scene.positions, &p.scene.indices).map_err(anyhow::Error::msg)?;
-    let max_depth = a.options.max_depth(&p.scene);
-    let seed = a.options.seed(&p.scene);
-    let ctx =
-        RenderContext { scene: &p.scene, accel: accel.as_ref(), emitters: &p.emitters, max_depth, seed };
-    let threads = p.pool.current_num_threads();
+    let threads = renderer.threads();
     eprintln!(
         "pir study: {} at {}×{}, {} lines × {budget_text} on {} threads, output in {}",
         a.scene.display(),
@@ -230,7 +229,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
             break;
         }
         eprintln!("pir study: racing {} for {budget_text} …", run.label);
-        let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference, &interrupted))?;
+        let r = run_one(&renderer, run, &schedule, &reference, &interrupted)?;
         if let Some(l) = r.snapshots.last() {
             eprintln!(
                 "pir study: {:<22} {:>6} it in {:6.2} s: RMSE {:.4e}, relative MSE {:.4e}, HDR-FLIP {:.4}, \
@@ -271,10 +270,10 @@ pub fn run(a: StudyArgs) -> Result<()> {
         first_snapshot: schedule.base,
         hdr_flip_exposures: pir::study::flip::exposures(&reference),
         target_rel_mse: a.target_rel_mse,
-        seed,
-        max_depth,
+        seed: renderer.seed(),
+        max_depth: renderer.max_depth(),
         threads,
-        accel: accel.describe(),
+        accel: renderer.accel_description().to_string(),
         pir_version: env!("CARGO_PKG_VERSION").into(),
     };
     let files = write_all(&out, &info, &results, &reference)?;
