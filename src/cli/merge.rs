@@ -77,7 +77,7 @@ pub fn run(a: MergeArgs) -> Result<()> {
     let image = film.image();
     let attrs = vec![
         ("pir.version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-        ("pir.method".to_string(), first.job.method.clone()),
+        ("pir.method".to_string(), first.job.config.method.name().to_string()),
         ("pir.seed".to_string(), first.job.seed.to_string()),
         ("pir.max_depth".to_string(), first.job.max_depth.to_string()),
         ("pir.iterations".to_string(), total.to_string()),

@@ -2,6 +2,7 @@
 
 mod compare;
 mod merge;
+mod progress;
 mod reference;
 mod render;
 mod setup;

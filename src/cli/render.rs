@@ -2,23 +2,20 @@
 
 use anyhow::{Result, bail};
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use pir::accel::{Backend, build_accelerator, embree_status};
-use pir::image::{RgbImage, write_exr, write_preview};
-use pir::integrator::schedule::DEFAULT_ALPHA;
-use pir::integrator::{DEFAULT_PATHS, Method, MethodConfig, RenderContext};
+use pir::accel::{Backend, embree_status};
+use pir::image::RgbImage;
+use pir::integrator::MethodConfig;
 use pir::render::memory;
-use pir::render::state::{Job, Shard, read_state, write_state};
-use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
+use pir::render::state::{Job, Shard, read_state};
+use pir::render::{Budget, Control, Film, RenderStats, Renderer, SceneOptions, check_resolution};
+use pir::scene::Scene;
 
-use super::setup::{Prepared, SceneOptions, check_writable, interrupt_flag, prepare, scene_stem};
-
-/// Largest accepted image side, and pixel count (refused before anything is allocated).
-const MAX_SIDE: u32 = 65_536;
-const MAX_PIXELS: u64 = 1 << 28;
+use super::progress::Progress;
+use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 
 /// Render a scene progressively and write an EXR and a PNG preview.
 ///
@@ -29,12 +26,8 @@ const MAX_PIXELS: u64 = 1 << 28;
 pub struct RenderArgs {
     /// The scene file (TOML, see the README's scene format).
     pub scene: PathBuf,
-    /// Rendering method: pt (path tracer, the ground truth), ir (plain VPLs: unbiased, spiky),
-    /// ir-clamp (geometry term clamped at a constant --clamp: biased), pir-clamp (progressive
-    /// clamp b_i = b_1 · i^α: consistent), vsl (virtual spherical lights of constant --radius:
-    /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent).
-    #[arg(long, default_value_t = Method::Pt, value_name = "METHOD")]
-    pub method: Method,
+    #[command(flatten)]
+    pub config: MethodConfig,
     /// Samples per pixel (= iterations; one sample per pixel per iteration).
     #[arg(long, visible_alias = "iterations", value_name = "N")]
     pub spp: Option<u64>,
@@ -53,23 +46,6 @@ pub struct RenderArgs {
     /// Do not write the PNG preview.
     #[arg(long)]
     pub no_preview: bool,
-    /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
-    /// vertex).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
-    pub vpls: usize,
-    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length² [default:
-    /// 100 / scene diagonal², the G of facing surfaces a tenth of the scene apart].
-    #[arg(long, value_name = "B", allow_negative_numbers = true)]
-    pub clamp: Option<f32>,
-    /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
-    /// [default: per light, the distance to its 4th nearest VPL, at most 4 % of the scene
-    /// diagonal].
-    #[arg(long, value_name = "R", allow_negative_numbers = true)]
-    pub radius: Option<f32>,
-    /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
-    /// r_i = r_1 · i^((α−1)/2), in (0, 1).
-    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
-    pub alpha: f32,
     /// Write the image (with the state needed to resume it) every SECONDS, atomically, so that
     /// a killed render loses at most one interval. Makes the output resumable.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -92,100 +68,129 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+/// What the arguments ask for, checked before any work.
+struct Plan {
+    budget: Budget,
+    checkpoint: Option<Duration>,
+    out: PathBuf,
+    preview: Option<PathBuf>,
+    shard: Shard,
+    /// Whether the output carries the state to resume it.
+    resumable: bool,
+}
+
 pub fn run(a: RenderArgs) -> Result<()> {
-    // ---- Check every argument before any work.
-    let budget = budget(&a)?;
+    let plan = check_arguments(&a)?;
+    let scene = pir::scene::load(&a.scene)?;
+    check_memory(&a, &scene)?;
+    let renderer = Renderer::new(&scene, &a.options)?;
+    let job = renderer.job(&a.config);
+    let film = starting_film(&a, &renderer, &job, plan.shard)?;
+    print_header(&a, &renderer);
+    let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
+    let image = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
+    print_summary(&plan, &renderer, &stats, &image);
+    Ok(())
+}
+
+/// Checks every argument that needs no scene.
+fn check_arguments(a: &RenderArgs) -> Result<Plan> {
+    let budget = budget(a)?;
     a.options.check()?;
     if !a.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
-    if a.vpls == 0 || a.vpls > 1 << 24 {
-        bail!("--vpls {}: must be 1 to {}", a.vpls, 1 << 24);
-    }
-    if let Some(b) = a.clamp
-        && !(b.is_finite() && b > 0.0)
-    {
-        bail!("--clamp {b}: must be a positive number");
-    }
-    if let Some(r) = a.radius
-        && !(r.is_finite() && r > 0.0)
-    {
-        bail!("--radius {r}: must be a positive number");
-    }
-    if !(a.alpha > 0.0 && a.alpha < 1.0) {
-        bail!("--alpha {}: must lie strictly between 0 and 1", a.alpha);
-    }
-    let checkpoint = match a.checkpoint {
-        None => None,
-        Some(t) if t.is_finite() && t > 0.0 && t < 1e9 => Some(Duration::from_secs_f64(t)),
-        Some(t) => bail!("--checkpoint {t}: must be a positive number of seconds"),
-    };
-    let out = a
-        .out
-        .clone()
-        .or_else(|| a.resume.clone())
-        .unwrap_or_else(|| PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.method.name())));
-    if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
-        bail!("{}: the output must be an .exr file", out.display());
-    }
-    check_writable(&out)?;
-
-    let Prepared { scene, emitters, pool } = prepare(&a.scene, &a.options)?;
-    let (width, height) = a.options.resolution(&scene);
-    check_resolution(width, height)?;
-    let max_depth = a.options.max_depth(&scene);
-    check_memory(&a, width, height, scene.indices.len(), max_depth)?;
-    let seed = a.options.seed(&scene);
-    let backend = a.options.backend();
-    let accel = build_accelerator(backend, &scene.positions, &scene.indices).map_err(anyhow::Error::msg)?;
-
-    let config =
-        MethodConfig { method: a.method, vpls: a.vpls, clamp: a.clamp, radius: a.radius, alpha: a.alpha };
-    let mut integrator = config.integrator(scene.bounds.diagonal());
-    let ctx = RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth, seed };
-    let (w, h) = (width as usize, height as usize);
-
-    // ---- What this render is, and where it starts (a resumed film or an empty one).
+    a.config.validate()?;
+    let checkpoint = a.checkpoint.map(|t| seconds("--checkpoint", t)).transpose()?;
+    let out =
+        a.out.clone().or_else(|| a.resume.clone()).unwrap_or_else(|| {
+            PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.config.method.name()))
+        });
+    check_exr_output(&out)?;
     let shard = a.shard.unwrap_or(Shard::ALL);
-    let job = Job {
-        scene_fingerprint: scene.fingerprint(),
-        method: integrator.name().to_string(),
-        parameters: integrator.parameters(),
-        max_depth,
-        seed,
-        width: w,
-        height: h,
+    Ok(Plan {
+        budget: Budget { iterations: budget.iterations.map(|n| shard.iterations_of(n)), ..budget },
+        checkpoint,
+        preview: (!a.no_preview).then(|| out.with_extension("png")),
+        out,
+        shard,
+        resumable: a.checkpoint.is_some() || a.resume.is_some() || a.shard.is_some(),
+    })
+}
+
+fn budget(a: &RenderArgs) -> Result<Budget> {
+    if a.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    let time = a.time.map(|t| seconds("--time", t)).transpose()?;
+    let iterations = match (a.spp, time) {
+        (None, None) => Some(64),
+        (n, _) => n,
     };
-    let film = match &a.resume {
-        None => Film::new(w, h),
-        Some(path) => {
-            let saved = read_state(path)?;
-            let mut differences = job.differences(&saved.job);
-            if saved.shard != shard {
-                differences.push(format!("shard: {shard} here, {} in the file", saved.shard));
-            }
-            if !differences.is_empty() {
-                bail!("{}: cannot resume a different render: {}", path.display(), differences.join("; "));
-            }
-            eprintln!("pir: resuming {} at iteration {}", path.display(), saved.film.iterations());
-            saved.film
-        }
+    Ok(Budget { iterations, time })
+}
+
+/// Refuses, before anything large is allocated, a render that would need more memory than
+/// --max-memory (default 80 % of the machine's).
+fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<()> {
+    let (width, height) = a.options.resolution(scene);
+    check_resolution(width, height)?;
+    let limit = match a.max_memory {
+        Some(g) if g.is_finite() && g > 0.0 => Some((g * (1u64 << 30) as f64) as u64),
+        Some(g) => bail!("--max-memory {g}: must be a positive number of GiB"),
+        None => memory::total_memory().map(|m| m / 10 * 8),
     };
-    let resumable =
-        (checkpoint.is_some() || a.resume.is_some() || a.shard.is_some()).then_some((&job, shard));
-    let budget = Budget { iterations: budget.iterations.map(|n| shard.iterations_of(n)), ..budget };
-    let settings = RenderSettings { width: w, height: h, budget, tile_size: 16, progress: !a.quiet };
+    let need = memory::Estimate::new(
+        width as u64,
+        height as u64,
+        scene.indices.len() as u64,
+        a.config.light_paths() as u64,
+        a.options.max_depth(scene) as u64,
+    );
+    if let Some(limit) = limit
+        && need.total() > limit
+    {
+        bail!(
+            "this render would need about {need}, more than the limit of {:.2} GiB (--max-memory; by \
+             default 80 % of this machine's memory)",
+            limit as f64 / (1u64 << 30) as f64
+        );
+    }
+    Ok(())
+}
+
+/// The film the render starts from: a resumed one (of the same job and shard) or an empty one.
+fn starting_film(a: &RenderArgs, renderer: &Renderer, job: &Job, shard: Shard) -> Result<Film> {
+    let Some(path) = &a.resume else {
+        let (w, h) = renderer.resolution();
+        return Ok(Film::new(w as usize, h as usize));
+    };
+    let saved = read_state(path)?;
+    let mut differences = job.differences(&saved.job);
+    if saved.shard != shard {
+        differences.push(format!("shard: {shard} here, {} in the file", saved.shard));
+    }
+    if !differences.is_empty() {
+        bail!("{}: cannot resume a different render: {}", path.display(), differences.join("; "));
+    }
+    eprintln!("pir: resuming {} at iteration {}", path.display(), saved.film.iterations());
+    Ok(saved.film)
+}
+
+fn print_header(a: &RenderArgs, renderer: &Renderer) {
+    let scene = renderer.scene();
+    let (width, height) = renderer.resolution();
     eprintln!(
         "pir: {} ({} triangles, {} emitting), {}×{}, method {}, max_depth {}, seed {}, {} threads",
         a.scene.display(),
         scene.indices.len(),
-        emitters.len(),
+        renderer.emitters().len(),
         width,
         height,
-        integrator.name(),
-        max_depth,
-        seed,
-        pool.current_num_threads()
+        a.config.method.name(),
+        renderer.max_depth(),
+        renderer.seed(),
+        renderer.threads()
     );
     if scene.degenerate_dropped > 0 {
         eprintln!(
@@ -193,74 +198,68 @@ pub fn run(a: RenderArgs) -> Result<()> {
             scene.degenerate_dropped
         );
     }
-    eprintln!("pir: accelerator {}", accel.describe());
+    eprintln!("pir: accelerator {}", renderer.accel_description());
     if !Backend::Embree.is_available() {
         eprintln!("pir: {}", embree_status());
     }
+}
 
-    // ---- Output, written at checkpoints, on interruption and at the end.
-    let preview = (!a.no_preview).then(|| out.with_extension("png"));
-    let parameters = integrator.parameters();
-    let describe = accel.describe();
-    let threads = pool.current_num_threads();
-    let write = |film: &Film, stats: &RenderStats| -> Result<RgbImage> {
-        let image = film.image();
-        let mut attrs: Vec<(String, String)> = vec![
-            ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
-            ("pir.scene".into(), a.scene.display().to_string()),
-            ("pir.method".into(), job.method.clone()),
-            ("pir.max_depth".into(), max_depth.to_string()),
-            ("pir.seed".into(), seed.to_string()),
-            ("pir.iterations".into(), film.iterations().to_string()),
-            ("pir.spp".into(), film.iterations().to_string()),
-            ("pir.resolution".into(), format!("{width} {height}")),
-            ("pir.render_time_s".into(), format!("{:.3}", stats.elapsed.as_secs_f64())),
-            ("pir.accel".into(), describe.clone()),
-            ("pir.threads".into(), threads.to_string()),
-            ("pir.dropped_samples".into(), stats.dropped.to_string()),
-        ];
-        for (k, v) in &parameters {
-            attrs.push((format!("pir.param.{k}"), v.clone()));
-        }
-        match resumable {
-            Some((job, shard)) => write_state(&out, &image, &attrs, job, shard, film)?,
-            None => write_exr(&out, &image, &attrs)?,
-        }
-        if let Some(p) = &preview {
-            write_preview(p, &image, a.exposure)?;
-        }
-        Ok(image)
-    };
+/// Writes the EXR (resumable when asked) and the preview; at checkpoints, on interruption and
+/// at the end.
+fn write_output(
+    a: &RenderArgs,
+    plan: &Plan,
+    renderer: &Renderer,
+    job: &Job,
+    film: &Film,
+    stats: &RenderStats,
+) -> Result<RgbImage> {
+    let attributes = renderer.attributes(&a.config, stats);
+    let state = plan.resumable.then_some((job, plan.shard));
+    let preview = plan.preview.as_deref().map(|p: &Path| (p, a.exposure));
+    renderer.write(&plan.out, film, &attributes, state, preview)
+}
 
-    // Ctrl-C or SIGTERM: finish the running iteration, write the image, exit 0.
+/// Renders with a progress bar and checkpoints. Ctrl-C or SIGTERM finishes the running
+/// iteration and returns what was rendered (the caller writes it and exits 0).
+fn render(
+    a: &RenderArgs,
+    plan: &Plan,
+    renderer: &Renderer,
+    job: &Job,
+    film: Film,
+) -> Result<(Film, RenderStats)> {
     let interrupted = interrupt_flag()?;
+    let progress = Progress::new(&plan.budget, !a.quiet);
     let mut last_checkpoint = Instant::now();
     let mut checkpoint_error = None;
-    let (film, stats) = pool.install(|| {
-        render_from(&ctx, integrator.as_mut(), &settings, film, shard, |film, stats| {
-            if interrupted.load(Ordering::SeqCst) {
+    let (film, stats) = renderer.resume(&a.config, plan.budget, film, plan.shard, |film, stats| {
+        progress.update(stats);
+        if interrupted.load(Ordering::SeqCst) {
+            return Control::Stop;
+        }
+        if plan.checkpoint.is_some_and(|c| last_checkpoint.elapsed() >= c) {
+            if let Err(e) = write_output(a, plan, renderer, job, film, stats) {
+                checkpoint_error = Some(e);
                 return Control::Stop;
             }
-            if checkpoint.is_some_and(|c| last_checkpoint.elapsed() >= c) {
-                if let Err(e) = write(film, stats) {
-                    checkpoint_error = Some(e);
-                    return Control::Stop;
-                }
-                last_checkpoint = Instant::now();
-            }
-            Control::Continue
-        })
+            last_checkpoint = Instant::now();
+        }
+        Control::Continue
     });
+    progress.finish();
     if let Some(e) = checkpoint_error {
         return Err(e.context("writing a checkpoint failed"));
     }
     if interrupted.load(Ordering::SeqCst) {
         eprintln!("pir: interrupted: writing the {} iterations rendered so far", stats.iterations);
     }
-    let image = write(&film, &stats)?;
+    Ok((film, stats))
+}
 
-    // ---- Summary.
+fn print_summary(plan: &Plan, renderer: &Renderer, stats: &RenderStats, image: &RgbImage) {
     let secs = stats.elapsed.as_secs_f64();
+    let (width, height) = renderer.resolution();
     let pixels = (width as u64 * height as u64) as f64;
     eprintln!(
         "pir: {} iterations ({} spp in the image) in {:.2} s ({:.2} s pixels, {:.2} s preparation): {:.2} Msamples/s, {:.2} Mrays/s ({} closest-hit, {} shadow)",
@@ -292,56 +291,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
             stats.dropped
         );
     }
-    match &preview {
-        Some(p) => eprintln!("pir: wrote {} and {}", out.display(), p.display()),
-        None => eprintln!("pir: wrote {}", out.display()),
+    match &plan.preview {
+        Some(p) => eprintln!("pir: wrote {} and {}", plan.out.display(), p.display()),
+        None => eprintln!("pir: wrote {}", plan.out.display()),
     }
-    Ok(())
-}
-
-fn budget(a: &RenderArgs) -> Result<Budget> {
-    if a.spp == Some(0) {
-        bail!("--spp must be at least 1");
-    }
-    let time = match a.time {
-        None => None,
-        Some(t) if t.is_finite() && t > 0.0 && t < 1e9 => Some(Duration::from_secs_f64(t)),
-        Some(t) => bail!("--time {t}: must be a positive number of seconds"),
-    };
-    let iterations = match (a.spp, time) {
-        (None, None) => Some(64),
-        (n, _) => n,
-    };
-    Ok(Budget { iterations, time })
-}
-
-/// Refuses, before anything large is allocated, a render that would need more memory than
-/// --max-memory (default 80 % of the machine's).
-fn check_memory(a: &RenderArgs, width: u32, height: u32, triangles: usize, max_depth: u32) -> Result<()> {
-    let limit = match a.max_memory {
-        Some(g) if g.is_finite() && g > 0.0 => Some((g * (1u64 << 30) as f64) as u64),
-        Some(g) => bail!("--max-memory {g}: must be a positive number of GiB"),
-        None => memory::total_memory().map(|m| m / 10 * 8),
-    };
-    let paths = if a.method.uses_vpls() { a.vpls as u64 } else { 0 };
-    let need = memory::Estimate::new(width as u64, height as u64, triangles as u64, paths, max_depth as u64);
-    if let Some(limit) = limit
-        && need.total() > limit
-    {
-        bail!(
-            "this render would need about {need}, more than the limit of {:.2} GiB (--max-memory; by \
-             default 80 % of this machine's memory)",
-            limit as f64 / (1u64 << 30) as f64
-        );
-    }
-    Ok(())
-}
-
-fn check_resolution(w: u32, h: u32) -> Result<()> {
-    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
-        bail!(
-            "resolution {w}×{h}: each side must be 1 to {MAX_SIDE} and the total at most {MAX_PIXELS} pixels"
-        );
-    }
-    Ok(())
 }

@@ -6,14 +6,13 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
-use pir::accel::build_accelerator;
 use pir::image::{RgbImage, read_exr};
-use pir::integrator::schedule::DEFAULT_ALPHA;
-use pir::integrator::{DEFAULT_PATHS, RenderContext};
+use pir::integrator::{MethodConfig, MethodParams, Parameter};
+use pir::render::{Renderer, SceneOptions};
 use pir::study::output::{StudyInfo, write_all};
 use pir::study::{Method, Run, Schedule, run_one};
 
-use super::setup::{SceneOptions, interrupt_flag, prepare, scene_stem, seconds};
+use super::setup::{interrupt_flag, scene_stem, seconds};
 
 /// Race rendering methods against a reference for the same wall-clock budget.
 ///
@@ -59,64 +58,26 @@ pub struct StudyArgs {
     /// factors of √2) [default: 0.25 s, 1 iteration].
     #[arg(long, value_name = "SECONDS|N", allow_negative_numbers = true)]
     pub first_snapshot: Option<f64>,
-    /// VPL methods: light paths traced per iteration.
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
-    pub vpls: usize,
-    /// pir-clamp, pir-vsl: the schedules' exponent α, in (0, 1).
-    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
-    pub alpha: f32,
-    /// ir-clamp, pir-clamp: the geometry-term bound b (b_1) [default: 100 / scene diagonal²].
-    #[arg(long, value_name = "B", allow_negative_numbers = true)]
-    pub clamp: Option<f32>,
-    /// vsl, pir-vsl: the light radius r (r_1) [default: per light, by VPL density, at most 4 %
-    /// of the scene diagonal].
-    #[arg(long, value_name = "R", allow_negative_numbers = true)]
-    pub radius: Option<f32>,
+    #[command(flatten)]
+    pub params: MethodParams,
     #[command(flatten)]
     pub options: SceneOptions,
 }
 
-/// The sweep's parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Key {
-    Alpha,
-    Clamp,
-    Radius,
-}
-
-fn parse_sweep(s: &str) -> Result<(Key, Vec<f32>)> {
+fn parse_sweep(s: &str) -> Result<(Parameter, Vec<f32>)> {
     let (k, vs) = s.split_once('=').with_context(|| format!("--sweep {s:?}: expected KEY=V1,V2,…"))?;
-    let key = match k.trim() {
-        "alpha" | "α" => Key::Alpha,
-        "clamp" => Key::Clamp,
-        "radius" => Key::Radius,
-        other => bail!("--sweep: unknown parameter {other:?}: expected alpha, clamp or radius"),
+    let Some(key) = Parameter::from_key(k.trim()) else {
+        bail!("--sweep: unknown parameter {:?}: expected alpha, clamp or radius", k.trim());
     };
     let mut values = Vec::new();
     for v in vs.split(',') {
         let x: f32 = v.trim().parse().with_context(|| format!("--sweep: {v:?} is not a number"))?;
-        let ok = match key {
-            Key::Alpha => x > 0.0 && x < 1.0,
-            _ => x.is_finite() && x > 0.0,
-        };
-        if !ok {
-            bail!(
-                "--sweep {}: {x} is out of range ({})",
-                k.trim(),
-                if key == Key::Alpha { "0 < α < 1" } else { "must be positive" }
-            );
+        if !key.accepts(x) {
+            bail!("--sweep {}: {x} is out of range ({})", k.trim(), key.range());
         }
         values.push(x);
     }
     Ok((key, values))
-}
-
-fn uses(m: Method, key: Key) -> bool {
-    match key {
-        Key::Alpha => m.uses_alpha(),
-        Key::Clamp => m.uses_clamp(),
-        Key::Radius => m.uses_radius(),
-    }
 }
 
 /// The lines of the study, in order.
@@ -134,7 +95,7 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
             v
         }
         None => match &sweep {
-            Some((key, _)) => Method::ALL.into_iter().filter(|m| uses(*m, *key)).collect(),
+            Some((key, _)) => Method::ALL.into_iter().filter(|m| m.uses(*key)).collect(),
             None => Method::ALL.to_vec(),
         },
     };
@@ -142,43 +103,19 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
         bail!("--methods: no method given");
     }
     if let Some((key, _)) = &sweep
-        && !methods.iter().any(|m| uses(*m, *key))
+        && !methods.iter().any(|m| m.uses(*key))
     {
         let k = a.sweep.as_deref().and_then(|s| s.split_once('=')).map_or("", |(k, _)| k.trim());
         bail!("--sweep {k}: none of the methods uses this parameter");
     }
-    let base = |m: Method| Run {
-        method: m,
-        label: m.name().to_string(),
-        alpha: a.alpha,
-        clamp: a.clamp,
-        radius: a.radius,
-        vpls: a.vpls,
-        sweep: None,
-    };
     let mut out = Vec::new();
-    for m in methods {
+    for method in methods {
+        let run = Run::new(MethodConfig { method, params: a.params });
         match &sweep {
-            Some((key, values)) if uses(m, *key) => {
-                for &v in values {
-                    let mut r = base(m);
-                    let (name, value) = match key {
-                        Key::Alpha => ("α", &mut r.alpha),
-                        Key::Clamp => ("b", r.clamp.insert(v)),
-                        Key::Radius => ("r", r.radius.insert(v)),
-                    };
-                    *value = v;
-                    r.label = format!("{} {name}={v}", m.name());
-                    let key = match key {
-                        Key::Alpha => "alpha",
-                        Key::Clamp => "clamp",
-                        Key::Radius => "radius",
-                    };
-                    r.sweep = Some((key.to_string(), v));
-                    out.push(r);
-                }
+            Some((key, values)) if method.uses(*key) => {
+                out.extend(values.iter().map(|&v| run.swept(*key, v)));
             }
-            _ => out.push(base(m)),
+            _ => out.push(run),
         }
     }
     Ok(out)
@@ -247,19 +184,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
         Some(n) => format!("{n} iterations"),
         None => format!("{} s", a.time),
     };
-    if a.vpls == 0 || a.vpls > 1 << 24 {
-        bail!("--vpls {}: must be 1 to {}", a.vpls, 1 << 24);
-    }
-    if !(a.alpha > 0.0 && a.alpha < 1.0) {
-        bail!("--alpha {}: must lie strictly between 0 and 1", a.alpha);
-    }
-    for (name, v) in [("--clamp", a.clamp), ("--radius", a.radius)] {
-        if let Some(v) = v
-            && !(v.is_finite() && v > 0.0)
-        {
-            bail!("{name} {v}: must be a positive number");
-        }
-    }
+    a.params.validate()?;
     if let Some(e) = a.target_rel_mse
         && !(e.is_finite() && e > 0.0)
     {
@@ -276,16 +201,15 @@ pub fn run(a: StudyArgs) -> Result<()> {
         bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
-    let p = prepare(&a.scene, &a.options)?;
+    let scene = pir::scene::load(&a.scene)?;
+    // Every line renders at the reference's size.
+    let options = SceneOptions {
+        resolution: Some(vec![reference.width as u32, reference.height as u32]),
+        ..a.options.clone()
+    };
+    let renderer = Renderer::new(&scene, &options)?;
     check_out_dir(&out)?;
-    let backend = a.options.backend();
-    let accel =
-        build_accelerator(backend, &p.scene.positions, &p.scene.indices).map_err(anyhow::Error::msg)?;
-    let max_depth = a.options.max_depth(&p.scene);
-    let seed = a.options.seed(&p.scene);
-    let ctx =
-        RenderContext { scene: &p.scene, accel: accel.as_ref(), emitters: &p.emitters, max_depth, seed };
-    let threads = p.pool.current_num_threads();
+    let threads = renderer.threads();
     eprintln!(
         "pir study: {} at {}×{}, {} lines × {budget_text} on {} threads, output in {}",
         a.scene.display(),
@@ -305,7 +229,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
             break;
         }
         eprintln!("pir study: racing {} for {budget_text} …", run.label);
-        let r = p.pool.install(|| run_one(&ctx, run, &schedule, &reference, &interrupted))?;
+        let r = run_one(&renderer, run, &schedule, &reference, &interrupted)?;
         if let Some(l) = r.snapshots.last() {
             eprintln!(
                 "pir study: {:<22} {:>6} it in {:6.2} s: RMSE {:.4e}, relative MSE {:.4e}, HDR-FLIP {:.4}, \
@@ -346,10 +270,10 @@ pub fn run(a: StudyArgs) -> Result<()> {
         first_snapshot: schedule.base,
         hdr_flip_exposures: pir::study::flip::exposures(&reference),
         target_rel_mse: a.target_rel_mse,
-        seed,
-        max_depth,
+        seed: renderer.seed(),
+        max_depth: renderer.max_depth(),
         threads,
-        accel: accel.describe(),
+        accel: renderer.accel_description().to_string(),
         pir_version: env!("CARGO_PKG_VERSION").into(),
     };
     let files = write_all(&out, &info, &results, &reference)?;

@@ -1,13 +1,24 @@
-//! The rendering methods by name, and how a method with its parameters becomes an integrator:
-//! the one place that `pir render`, `pir study` and the tests share.
+//! A rendering method's configuration, the one source that `pir render`, `pir study`, the
+//! resume identity of a checkpoint ([`crate::render::state`]) and the tests share: the methods
+//! by name ([`Method`]), their parameters ([`MethodParams`], the `--vpls`, `--clamp`,
+//! `--radius` and `--alpha` flags with their defaults), the checks of those parameters
+//! ([`MethodConfig::validate`]), and how a method with its parameters becomes an integrator
+//! ([`MethodConfig::integrator`]).
+//!
+//! The types are clap arguments (flattened into every command that renders) and serde values
+//! (a study's JSON, a checkpoint's identity).
 
+use anyhow::{Result, bail};
+use clap::Args;
+use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-use super::{Clamping, InstantRadiosity, Integrator, PathTracer, Radius, VirtualLights};
+use super::schedule::DEFAULT_ALPHA;
+use super::{Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, Radius, VirtualLights};
 
 /// A rendering method (`--method`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Path tracer with next-event estimation and MIS: the ground truth.
@@ -53,6 +64,14 @@ impl Method {
     pub fn uses_radius(self) -> bool {
         matches!(self, Method::Vsl | Method::PirVsl)
     }
+    /// Whether the method uses the parameter.
+    pub fn uses(self, parameter: Parameter) -> bool {
+        match parameter {
+            Parameter::Alpha => self.uses_alpha(),
+            Parameter::Clamp => self.uses_clamp(),
+            Parameter::Radius => self.uses_radius(),
+        }
+    }
 }
 
 impl fmt::Display for Method {
@@ -71,36 +90,188 @@ impl FromStr for Method {
     }
 }
 
-/// A method with its parameters; unset ones take their documented defaults.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MethodConfig {
-    pub method: Method,
-    /// Light paths per iteration (VPL methods).
+/// A method's parameters (each flag names the methods that use it); unset ones take their
+/// documented defaults.
+#[derive(Args, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MethodParams {
+    /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
+    /// vertex).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
     pub vpls: usize,
-    /// b (ir-clamp) or b_1 (pir-clamp); `None`: [`Clamping::default_bound`] of the scene.
+    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length² [default:
+    /// 100 / scene diagonal², the G of facing surfaces a tenth of the scene apart].
+    #[arg(long, value_name = "B", allow_negative_numbers = true)]
     pub clamp: Option<f32>,
-    /// r (vsl) or r_1 (pir-vsl); `None`: per light, by VPL density.
+    /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
+    /// [default: per light, the distance to its 4th nearest VPL, at most 4 % of the scene
+    /// diagonal].
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
-    /// The schedules' exponent (pir-clamp, pir-vsl).
+    /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
+    /// r_i = r_1 · i^((α−1)/2), in (0, 1).
+    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
 }
 
+impl Default for MethodParams {
+    fn default() -> Self {
+        MethodParams { vpls: DEFAULT_PATHS, clamp: None, radius: None, alpha: DEFAULT_ALPHA }
+    }
+}
+
+/// Most light paths per iteration (`--vpls`).
+pub const MAX_VPLS: usize = 1 << 24;
+
+impl MethodParams {
+    /// Checks every parameter; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        if self.vpls == 0 || self.vpls > MAX_VPLS {
+            bail!("--vpls {}: must be 1 to {MAX_VPLS}", self.vpls);
+        }
+        for (parameter, value) in [(Parameter::Clamp, self.clamp), (Parameter::Radius, self.radius)] {
+            if let Some(v) = value
+                && !parameter.accepts(v)
+            {
+                bail!("--{} {v}: must be a positive number", parameter.key());
+            }
+        }
+        if !Parameter::Alpha.accepts(self.alpha) {
+            bail!("--alpha {}: must lie strictly between 0 and 1", self.alpha);
+        }
+        Ok(())
+    }
+
+    /// Sets a parameter (a study's sweep).
+    pub fn set(&mut self, parameter: Parameter, value: f32) {
+        match parameter {
+            Parameter::Alpha => self.alpha = value,
+            Parameter::Clamp => self.clamp = Some(value),
+            Parameter::Radius => self.radius = Some(value),
+        }
+    }
+}
+
+/// A parameter given by a number that a study can sweep (`--sweep KEY=V1,V2,…`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Parameter {
+    Alpha,
+    Clamp,
+    Radius,
+}
+
+impl Parameter {
+    /// The flag's name without dashes, as in `--sweep alpha=…`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Parameter::Alpha => "alpha",
+            Parameter::Clamp => "clamp",
+            Parameter::Radius => "radius",
+        }
+    }
+
+    /// The symbol in labels ("pir-clamp α=0.3").
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Parameter::Alpha => "α",
+            Parameter::Clamp => "b",
+            Parameter::Radius => "r",
+        }
+    }
+
+    /// The parameter of a key (`alpha` or `α`, `clamp`, `radius`).
+    pub fn from_key(key: &str) -> Option<Parameter> {
+        match key {
+            "alpha" | "α" => Some(Parameter::Alpha),
+            "clamp" => Some(Parameter::Clamp),
+            "radius" => Some(Parameter::Radius),
+            _ => None,
+        }
+    }
+
+    /// Whether `value` is in the parameter's range ([`Parameter::range`]).
+    pub fn accepts(self, value: f32) -> bool {
+        match self {
+            Parameter::Alpha => value > 0.0 && value < 1.0,
+            Parameter::Clamp | Parameter::Radius => value.is_finite() && value > 0.0,
+        }
+    }
+
+    /// The range in words.
+    pub fn range(self) -> &'static str {
+        match self {
+            Parameter::Alpha => "0 < α < 1",
+            Parameter::Clamp | Parameter::Radius => "must be positive",
+        }
+    }
+}
+
+/// A method with its parameters (`--method` and the flags of [`MethodParams`]).
+#[derive(Args, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MethodConfig {
+    /// Rendering method: pt (path tracer, the ground truth), ir (plain VPLs: unbiased, spiky),
+    /// ir-clamp (geometry term clamped at a constant --clamp: biased), pir-clamp (progressive
+    /// clamp b_i = b_1 · i^α: consistent), vsl (virtual spherical lights of constant --radius:
+    /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent).
+    #[arg(long, default_value_t = Method::Pt, value_name = "METHOD")]
+    pub method: Method,
+    #[command(flatten)]
+    #[serde(flatten)]
+    pub params: MethodParams,
+}
+
 impl MethodConfig {
+    /// The method with the default parameters.
+    pub fn new(method: Method) -> MethodConfig {
+        MethodConfig { method, params: MethodParams::default() }
+    }
+
+    /// Checks every parameter; the error names the flag.
+    pub fn validate(&self) -> Result<()> {
+        self.params.validate()
+    }
+
+    /// Light paths traced per iteration: `--vpls` for the VPL methods, 0 for the path tracer.
+    pub fn light_paths(&self) -> usize {
+        if self.method.uses_vpls() { self.params.vpls } else { 0 }
+    }
+
+    /// The configuration as it decides the image, for a scene whose bounding box has this
+    /// diagonal: the clamp bound's default made explicit and the parameters the method does not
+    /// use set to their defaults. Two configurations render the same image exactly when their
+    /// identities are equal (the resume identity of [`crate::render::state`]).
+    pub fn identity(&self, scene_diagonal: f32) -> MethodConfig {
+        let m = self.method;
+        let p = &self.params;
+        let default = MethodParams::default();
+        MethodConfig {
+            method: m,
+            params: MethodParams {
+                vpls: if m.uses_vpls() { p.vpls } else { default.vpls },
+                clamp: m
+                    .uses_clamp()
+                    .then(|| p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal))),
+                radius: if m.uses_radius() { p.radius } else { None },
+                alpha: if m.uses_alpha() { p.alpha } else { default.alpha },
+            },
+        }
+    }
+
     /// The integrator for a scene whose bounding box has this diagonal.
     pub fn integrator(&self, scene_diagonal: f32) -> Box<dyn Integrator> {
-        let bound = self.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal));
-        let paths = self.vpls;
+        let p = &self.params;
+        let bound = p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal));
+        let paths = p.vpls;
         match self.method {
             Method::Pt => Box::new(PathTracer),
             Method::Ir => Box::new(InstantRadiosity::points(Clamping::None, paths)),
             Method::IrClamp => Box::new(InstantRadiosity::points(Clamping::Constant { b: bound }, paths)),
-            Method::PirClamp => Box::new(InstantRadiosity::points(
-                Clamping::Progressive { b1: bound, alpha: self.alpha },
-                paths,
-            )),
+            Method::PirClamp => {
+                Box::new(InstantRadiosity::points(Clamping::Progressive { b1: bound, alpha: p.alpha }, paths))
+            }
             Method::Vsl | Method::PirVsl => {
-                let radius = self.radius.map_or(Radius::Density, Radius::Global);
-                let alpha = (self.method == Method::PirVsl).then_some(self.alpha);
+                let radius = p.radius.map_or(Radius::Density, Radius::Global);
+                let alpha = (self.method == Method::PirVsl).then_some(p.alpha);
                 Box::new(InstantRadiosity::new(VirtualLights::Spheres { radius, alpha }, paths))
             }
         }
@@ -115,9 +286,60 @@ mod tests {
     fn names_round_trip_and_integrators_carry_them() {
         for m in Method::ALL {
             assert_eq!(m.name().parse::<Method>(), Ok(m));
-            let c = MethodConfig { method: m, vpls: 4, clamp: None, radius: None, alpha: 0.6 };
+            let c = MethodConfig { method: m, params: MethodParams { vpls: 4, ..MethodParams::default() } };
             assert_eq!(c.integrator(3.0).name(), m.name());
         }
         assert!("photon".parse::<Method>().unwrap_err().contains("pir-vsl"));
+    }
+
+    #[test]
+    fn validate_names_the_flag() {
+        let ok = MethodParams::default();
+        assert!(ok.validate().is_ok());
+        for (bad, flag) in [
+            (MethodParams { vpls: 0, ..ok }, "--vpls 0"),
+            (MethodParams { clamp: Some(-2.0), ..ok }, "--clamp -2"),
+            (MethodParams { radius: Some(f32::NAN), ..ok }, "--radius NaN"),
+            (MethodParams { alpha: 1.0, ..ok }, "--alpha 1"),
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.starts_with(flag), "{e}");
+        }
+    }
+
+    #[test]
+    fn identity_keeps_what_decides_the_image() {
+        let mut a = MethodConfig::new(Method::Pt);
+        let mut b = a;
+        b.params.alpha = 0.3;
+        b.params.vpls = 9;
+        assert_eq!(a.identity(2.0), b.identity(2.0));
+        a.method = Method::PirClamp;
+        let c = a.identity(2.0);
+        assert_eq!(c.params.clamp, Some(Clamping::default_bound(2.0)));
+        assert_eq!(c.integrator(2.0).parameters(), a.integrator(2.0).parameters());
+        b.method = Method::PirClamp;
+        assert_ne!(a.identity(2.0), b.identity(2.0));
+    }
+
+    #[test]
+    fn configs_round_trip_through_json_exactly() {
+        // Every f32 survives serde_json: the identity of a checkpoint compares them exactly.
+        let mut x: u32 = 0x9E37_79B9;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let v = f32::from_bits(x);
+            if !v.is_finite() {
+                continue;
+            }
+            let c = MethodConfig {
+                method: Method::PirVsl,
+                params: MethodParams { clamp: Some(v), radius: Some(v.abs()), alpha: v, vpls: 7 },
+            };
+            let back: MethodConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
+            assert_eq!(back, c, "{v:e}");
+        }
     }
 }

@@ -14,7 +14,8 @@
 //! - [`direct`]: direct light from the real emitters (light sampling, MIS weights);
 //! - `path.rs`: `pt`, the walker with no hook;
 //! - [`many_light`]: the VPL methods, the walker with the gather as its hook;
-//! - `method.rs`: the methods by name and their configuration.
+//! - `method.rs`: the methods by name and their one configuration ([`MethodConfig`]: flags,
+//!   defaults, `validate()`, serde).
 
 pub mod direct;
 pub mod many_light;
@@ -25,7 +26,7 @@ pub mod walker;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights, schedule};
-pub use method::{Method, MethodConfig};
+pub use method::{MAX_VPLS, Method, MethodConfig, MethodParams, Parameter};
 pub use path::PathTracer;
 
 use glam::Vec3;

@@ -9,10 +9,10 @@
 //! reported (with the first pixel) so that a bug shows instead of hiding.
 //!
 //! [`render_from`] continues a film (a resumed render) and renders a shard's share of the
-//! global iterations (see [`super::state`]); [`render`] is the plain case.
+//! global iterations (see [`super::state`]); [`render`] is the plain case. Progress display
+//! belongs to the caller's per-iteration callback.
 
 use glam::Vec2;
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -29,15 +29,14 @@ pub struct Budget {
     pub time: Option<Duration>,
 }
 
+/// Square tile edge in pixels: the unit of work spread over the threads.
+pub const TILE_SIZE: usize = 16;
+
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
     pub width: usize,
     pub height: usize,
     pub budget: Budget,
-    /// Square tile edge in pixels.
-    pub tile_size: usize,
-    /// Draw a progress bar on a terminal.
-    pub progress: bool,
 }
 
 /// What a per-iteration callback tells the driver.
@@ -123,9 +122,8 @@ pub fn render_from(
     let (w, h) = (settings.width, settings.height);
     assert_eq!((film.width, film.height), (w, h), "the film must have the render's size");
     let camera = ctx.scene.camera.with_resolution(w as u32, h as u32);
-    let tiles = tiles(w, h, settings.tile_size);
+    let tiles = tiles(w, h, TILE_SIZE);
     let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
-    let bar = progress_bar(settings);
     let start = Instant::now();
 
     loop {
@@ -180,43 +178,10 @@ pub fn render_from(
         stats.prepare_time += t1 - t0;
         stats.pixel_time += t1.elapsed();
         stats.elapsed = start.elapsed();
-        update_progress(&bar, settings, &stats);
         if on_iteration(&film, &stats) == Control::Stop {
             break;
         }
     }
     stats.elapsed = start.elapsed();
-    bar.finish_and_clear();
     (film, stats)
-}
-
-fn progress_bar(settings: &RenderSettings) -> ProgressBar {
-    if !settings.progress {
-        return ProgressBar::hidden();
-    }
-    let (len, unit) = match (settings.budget.iterations, settings.budget.time) {
-        (Some(n), _) => (n, "it"),
-        (None, Some(t)) => (t.as_millis() as u64, "ms"),
-        (None, None) => (0, "it"),
-    };
-    let bar = ProgressBar::new(len);
-    let template = format!("{{elapsed_precise}} [{{bar:40.cyan/blue}}] {{pos}}/{{len}} {unit}  {{msg}}");
-    if let Ok(style) = ProgressStyle::with_template(&template) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
-}
-
-fn update_progress(bar: &ProgressBar, settings: &RenderSettings, stats: &RenderStats) {
-    let secs = stats.elapsed.as_secs_f64().max(1e-9);
-    match settings.budget.iterations {
-        Some(_) => bar.set_position(stats.iterations),
-        None => bar.set_position(stats.elapsed.as_millis() as u64),
-    }
-    bar.set_message(format!(
-        "{} it, {:.2} it/s, {:.1} Mrays/s",
-        stats.iterations,
-        stats.rendered as f64 / secs,
-        stats.rays_per_second() / 1e6
-    ));
 }

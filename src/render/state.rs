@@ -3,8 +3,12 @@
 //!
 //! The EXR's R, G, B channels hold the image (the running mean) as always; a resumable EXR
 //! adds the film's exact per-pixel sums and sums of squares (f64, each stored as two u32
-//! channels of its bits, so nothing is rounded) and `pir.job.*` text attributes describing
-//! the job. Progressive iterations are independent given the seed (iteration i draws from
+//! channels of its bits, so nothing is rounded) and two text attributes: `pir.job.format`
+//! (the version of this layout) and `pir.job.state`, the JSON of the job (a typed value: the
+//! scene's fingerprint, the [`MethodConfig`] as it decides the image, path length, seed,
+//! resolution), the shard and the iterations done. Format 1, written by older pirs, stored
+//! the method's parameters as formatted text; it is refused with a message that says so.
+//! Progressive iterations are independent given the seed (iteration i draws from
 //! `Sampler::new(seed, i, …)`), so a render can continue from any iteration with the same
 //! random numbers, and the iterations of a render can be split into shards: shard K of N
 //! renders the global iterations K+1, K+1+N, K+1+2N, … (the progressive schedules b_i, r_i
@@ -12,15 +16,20 @@
 
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
 use super::Film;
 use crate::image::{RgbImage, read_exr_with_channels, write_exr_with_channels};
+use crate::integrator::MethodConfig;
+use crate::scene::Scene;
 
 /// Which share of a render's iterations this process renders: shard `index` of `count`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Serialized as its text, "K/N", and checked when read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
 pub struct Shard {
     pub index: u64,
     pub count: u64,
@@ -61,44 +70,68 @@ impl FromStr for Shard {
     }
 }
 
+impl TryFrom<String> for Shard {
+    type Error = String;
+    fn try_from(s: String) -> Result<Shard, String> {
+        s.parse()
+    }
+}
+
+impl From<Shard> for String {
+    fn from(s: Shard) -> String {
+        s.to_string()
+    }
+}
+
 /// Everything that decides a render's image except how many iterations were done: two
 /// renders of equal jobs can be continued and merged.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Job {
     /// [`crate::scene::Scene::fingerprint`] of the scene as loaded.
     pub scene_fingerprint: String,
-    pub method: String,
-    /// The method's parameters, as the integrator reports them.
-    pub parameters: Vec<(String, String)>,
+    /// The method as it decides the image ([`MethodConfig::identity`]).
+    pub config: MethodConfig,
     pub max_depth: u32,
     pub seed: u64,
     pub width: usize,
     pub height: usize,
 }
 
-const PREFIX: &str = "pir.job.";
-const FORMAT: &str = "1";
+const FORMAT_KEY: &str = "pir.job.format";
+const STATE_KEY: &str = "pir.job.state";
+/// The layout this pir writes and reads; format 1 stored the job as formatted text.
+const FORMAT: &str = "2";
+
+/// What `pir.job.state` holds.
+#[derive(Serialize, Deserialize)]
+struct StoredState {
+    job: Job,
+    shard: Shard,
+    iterations: u64,
+}
 
 impl Job {
-    /// The job as EXR text attributes, with the shard and the iterations done.
-    fn attributes(&self, shard: Shard, iterations: u64) -> Vec<(String, String)> {
-        let mut a = vec![
-            (format!("{PREFIX}format"), FORMAT.to_string()),
-            (format!("{PREFIX}scene"), self.scene_fingerprint.clone()),
-            (format!("{PREFIX}method"), self.method.clone()),
-            (format!("{PREFIX}max_depth"), self.max_depth.to_string()),
-            (format!("{PREFIX}seed"), self.seed.to_string()),
-            (format!("{PREFIX}resolution"), format!("{} {}", self.width, self.height)),
-            (format!("{PREFIX}shard"), shard.to_string()),
-            (format!("{PREFIX}iterations"), iterations.to_string()),
-        ];
-        for (k, v) in &self.parameters {
-            a.push((format!("{PREFIX}param.{k}"), v.clone()));
+    /// The job of rendering `scene` with `config`.
+    pub fn new(
+        scene: &Scene,
+        config: &MethodConfig,
+        max_depth: u32,
+        seed: u64,
+        width: usize,
+        height: usize,
+    ) -> Job {
+        Job {
+            scene_fingerprint: scene.fingerprint(),
+            config: config.identity(scene.bounds.diagonal()),
+            max_depth,
+            seed,
+            width,
+            height,
         }
-        a
     }
 
-    /// What differs between two jobs, for a message ("method: pt here, ir in the file").
+    /// What differs between two jobs, for a message ("method: pt here, ir in the file"). The
+    /// parameters are compared when the methods are the same.
     pub fn differences(&self, other: &Job) -> Vec<String> {
         let mut d = Vec::new();
         let mut cmp = |what: &str, a: String, b: String| {
@@ -107,8 +140,13 @@ impl Job {
             }
         };
         cmp("scene (contents)", self.scene_fingerprint.clone(), other.scene_fingerprint.clone());
-        cmp("method", self.method.clone(), other.method.clone());
-        cmp("parameters", fmt_params(&self.parameters), fmt_params(&other.parameters));
+        cmp("method", self.config.method.to_string(), other.config.method.to_string());
+        if self.config.method == other.config.method && self.config.params != other.config.params {
+            let (a, b) = (parameter_texts(&self.config), parameter_texts(&other.config));
+            for ((key, a), (_, b)) in a.into_iter().zip(b) {
+                cmp(&key, a, b);
+            }
+        }
         cmp("max_depth", self.max_depth.to_string(), other.max_depth.to_string());
         cmp("seed", self.seed.to_string(), other.seed.to_string());
         cmp(
@@ -120,14 +158,17 @@ impl Job {
     }
 }
 
-/// The parameters in a canonical (sorted) order: the EXR stores attributes sorted by name.
-fn fmt_params(p: &[(String, String)]) -> String {
-    if p.is_empty() {
-        return "none".into();
-    }
-    let mut p: Vec<String> = p.iter().map(|(k, v)| format!("{k}={v}")).collect();
-    p.sort();
-    p.join(" ")
+/// The parameters of a configuration as (name, value) texts, by name; an
+/// unset one (the method's default) reads "default".
+fn parameter_texts(config: &MethodConfig) -> Vec<(String, String)> {
+    // Through the JSON text, which writes each f32 in its shortest form ("0.6").
+    let text = serde_json::to_string(&config.params).unwrap_or_default();
+    let value: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+    let Some(fields) = value.as_object() else { return Vec::new() };
+    fields
+        .iter()
+        .map(|(k, v)| (k.clone(), if v.is_null() { "default".to_string() } else { v.to_string() }))
+        .collect()
 }
 
 /// A resumable render as stored in its EXR.
@@ -148,8 +189,13 @@ pub fn write_state(
     shard: Shard,
     film: &Film,
 ) -> Result<()> {
+    let state = StoredState { job: job.clone(), shard, iterations: film.iterations() };
     let mut attrs = attributes.to_vec();
-    attrs.extend(job.attributes(shard, film.iterations()));
+    attrs.push((FORMAT_KEY.to_string(), FORMAT.to_string()));
+    attrs.push((
+        STATE_KEY.to_string(),
+        serde_json::to_string(&state).context("cannot encode the render's state")?,
+    ));
     let mut channels = Vec::with_capacity(12);
     for (k, name) in CHANNELS.iter().enumerate() {
         let source = if k < 3 { film.sums() } else { film.sums_of_squares() };
@@ -164,45 +210,31 @@ pub fn write_state(
 pub fn read_state(path: &Path) -> Result<Saved> {
     let r = read_exr_with_channels(path)?;
     let get = |k: &str| -> Result<&str> {
-        r.attributes.iter().find(|(a, _)| a == &format!("{PREFIX}{k}")).map(|(_, v)| v.as_str()).with_context(
-            || {
-                format!(
-                    "{}: not a resumable pir render (no {PREFIX}{k}); render with --checkpoint, --shard or \
-                     --resume to write one",
-                    path.display()
-                )
-            },
-        )
+        r.attributes.iter().find(|(a, _)| a == k).map(|(_, v)| v.as_str()).with_context(|| {
+            format!(
+                "{}: not a resumable pir render (no {k}); render with --checkpoint, --shard or --resume to \
+                 write one",
+                path.display()
+            )
+        })
     };
-    let bad = |k: &str| format!("{}: malformed {PREFIX}{k}", path.display());
-    if get("format")? != FORMAT {
-        bail!(
-            "{}: resumable-state format {} is not the one this pir reads ({FORMAT})",
-            path.display(),
-            get("format")?
-        );
+    match get(FORMAT_KEY)? {
+        FORMAT => {}
+        "1" => bail!(
+            "{}: written by an older pir (resumable-state format 1), which this pir cannot resume or \
+             merge (it reads format {FORMAT}): render it again with this pir",
+            path.display()
+        ),
+        other => bail!(
+            "{}: resumable-state format {other} is not the one this pir reads ({FORMAT})",
+            path.display()
+        ),
     }
-    let (w, h) = get("resolution")?.split_once(' ').with_context(|| bad("resolution"))?;
-    let job = Job {
-        scene_fingerprint: get("scene")?.to_string(),
-        method: get("method")?.to_string(),
-        parameters: r
-            .attributes
-            .iter()
-            .filter_map(|(k, v)| {
-                k.strip_prefix(&format!("{PREFIX}param.")).map(|k| (k.to_string(), v.clone()))
-            })
-            .collect(),
-        max_depth: get("max_depth")?.parse().with_context(|| bad("max_depth"))?,
-        seed: get("seed")?.parse().with_context(|| bad("seed"))?,
-        width: w.parse().with_context(|| bad("resolution"))?,
-        height: h.parse().with_context(|| bad("resolution"))?,
-    };
-    let shard: Shard =
-        get("shard")?.parse().map_err(|e: String| anyhow::anyhow!("{}: {e}", path.display()))?;
-    let iterations: u64 = get("iterations")?.parse().with_context(|| bad("iterations"))?;
+    let StoredState { job, shard, iterations } = serde_json::from_str(get(STATE_KEY)?)
+        .with_context(|| format!("{}: malformed {STATE_KEY}", path.display()))?;
+    job.config.validate().with_context(|| format!("{}: malformed {STATE_KEY}", path.display()))?;
     if (job.width, job.height) != (r.image.width, r.image.height) {
-        bail!("{}: the image size does not match {PREFIX}resolution", path.display());
+        bail!("{}: the image size does not match the resolution in {STATE_KEY}", path.display());
     }
     let n = job.width * job.height;
     let channel =
@@ -230,6 +262,8 @@ pub fn read_state(path: &Path) -> Result<Saved> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::integrator::{Clamping, Method};
 
     #[test]
     fn shards_partition_the_iterations() {
@@ -259,10 +293,10 @@ mod tests {
             film.add(i, glam::Vec3::new(*v, v * 2.0, v / 3.0));
         }
         film.end_iteration();
+        let config = MethodConfig::new(Method::PirClamp);
         let job = Job {
             scene_fingerprint: "abc".into(),
-            method: "pir-clamp".into(),
-            parameters: vec![("alpha".into(), "0.6".into())],
+            config: config.identity(2.0),
             max_depth: 8,
             seed: 3,
             width: 3,
@@ -276,20 +310,39 @@ mod tests {
         assert_eq!(saved.film.iterations(), 1);
         assert_eq!(saved.film.sums(), film.sums());
         assert_eq!(saved.film.sums_of_squares(), film.sums_of_squares());
-        // Parameter order does not matter.
-        let mut reordered = job.clone();
-        reordered.parameters = vec![("z".into(), "1".into()), ("alpha".into(), "0.6".into())];
-        let mut sorted = job.clone();
-        sorted.parameters = vec![("alpha".into(), "0.6".into()), ("z".into(), "1".into())];
-        assert!(reordered.differences(&sorted).is_empty());
-        let other = Job { seed: 4, method: "pt".into(), ..job.clone() };
+        // An explicit default is the same job; another method or parameter is not.
+        let mut explicit = config;
+        explicit.params.clamp = Some(Clamping::default_bound(2.0));
+        assert!(Job { config: explicit.identity(2.0), ..job.clone() }.differences(&job).is_empty());
+        let other = Job { seed: 4, config: MethodConfig::new(Method::Pt).identity(2.0), ..job.clone() };
         let d = job.differences(&other);
         assert_eq!(d.len(), 2, "{d:?}");
         assert!(d[0].contains("method: pir-clamp here, pt in the file"));
+        let mut alpha = config;
+        alpha.params.alpha = 0.25;
+        let d = Job { config: alpha.identity(2.0), ..job.clone() }.differences(&job);
+        assert_eq!(d, ["alpha: 0.25 here, 0.6 in the file"]);
         // A plain EXR is not resumable, with a message that says so.
         let plain = dir.path().join("p.exr");
         crate::image::write_exr(&plain, &film.image(), &[]).unwrap();
         let e = read_state(&plain).err().unwrap().to_string();
         assert!(e.contains("not a resumable pir render"), "{e}");
+        // A checkpoint of format 1 (older pirs): refused, saying so.
+        let old = dir.path().join("old.exr");
+        let attrs =
+            [("pir.job.format".to_string(), "1".to_string()), ("pir.job.seed".to_string(), "3".to_string())];
+        write_exr_with_channels(&old, &film.image(), &attrs, Vec::new()).unwrap();
+        let e = read_state(&old).err().unwrap().to_string();
+        assert!(e.contains("old.exr") && e.contains("written by an older pir"), "{e}");
+        // A damaged state is an error, not a panic.
+        let bad = dir.path().join("bad.exr");
+        let text = format!(
+            "{{\"job\":{},\"shard\":\"1/0\",\"iterations\":1}}",
+            serde_json::to_string(&job).unwrap()
+        );
+        let attrs = [(FORMAT_KEY.to_string(), FORMAT.to_string()), (STATE_KEY.to_string(), text)];
+        write_exr_with_channels(&bad, &film.image(), &attrs, Vec::new()).unwrap();
+        let e = format!("{:#}", read_state(&bad).err().unwrap());
+        assert!(e.contains("malformed pir.job.state") && e.contains("K/N"), "{e}");
     }
 }

@@ -24,35 +24,39 @@ use std::time::{Duration, Instant};
 
 use crate::image::{RgbImage, metrics};
 pub use crate::integrator::Method;
-use crate::integrator::{Integrator, MethodConfig, RenderContext};
-use crate::render::{Budget, Control, RenderSettings, render};
+use crate::integrator::{MethodConfig, Parameter};
+use crate::render::{Budget, Control, Renderer};
 
 /// One line of a study: a method with its parameters.
 #[derive(Clone, Debug, Serialize)]
 pub struct Run {
-    pub method: Method,
     /// The line's name in charts and tables, e.g. "pir-clamp α=0.3".
     pub label: String,
-    pub alpha: f32,
-    /// ir-clamp, pir-clamp: the bound b (b_1); `None` = the default for the scene.
-    pub clamp: Option<f32>,
-    /// vsl, pir-vsl: the radius r (r_1); `None` = per light, by density.
-    pub radius: Option<f32>,
-    pub vpls: usize,
-    /// In a parameter sweep, the swept parameter ("alpha", "clamp" or "radius") and its value.
-    pub sweep: Option<(String, f32)>,
+    #[serde(flatten)]
+    pub config: MethodConfig,
+    /// In a parameter sweep, the swept parameter and its value.
+    pub sweep: Option<(Parameter, f32)>,
 }
 
 impl Run {
-    pub fn integrator(&self, scene_diagonal: f32) -> Box<dyn Integrator> {
-        let config = MethodConfig {
-            method: self.method,
-            vpls: self.vpls,
-            clamp: self.clamp,
-            radius: self.radius,
-            alpha: self.alpha,
-        };
-        config.integrator(scene_diagonal)
+    /// The line of a method with its parameters, labelled by the method's name.
+    pub fn new(config: MethodConfig) -> Run {
+        Run { label: config.method.name().to_string(), config, sweep: None }
+    }
+
+    /// This line with `parameter` set to `value`, labelled by both ("pir-clamp α=0.3").
+    pub fn swept(&self, parameter: Parameter, value: f32) -> Run {
+        let mut config = self.config;
+        config.params.set(parameter, value);
+        Run {
+            label: format!("{} {}={value}", config.method.name(), parameter.symbol()),
+            config,
+            sweep: Some((parameter, value)),
+        }
+    }
+
+    pub fn method(&self) -> Method {
+        self.config.method
     }
 }
 
@@ -136,11 +140,11 @@ impl Schedule {
     }
 }
 
-/// Renders one run against `reference` (whose size the render takes) and measures it.
-/// Runs on the current rayon pool. When `stop` is set the run ends after the running
-/// iteration, with a final snapshot of what it has (an interrupted study).
+/// Renders one run against `reference` (of the renderer's size) and measures it, on the
+/// renderer's threads. When `stop` is set the run ends after the running iteration, with a
+/// final snapshot of what it has (an interrupted study).
 pub fn run_one(
-    ctx: &RenderContext,
+    renderer: &Renderer,
     run: &Run,
     schedule: &Schedule,
     reference: &RgbImage,
@@ -149,23 +153,19 @@ pub fn run_one(
     if schedule.base.is_nan() || schedule.base <= 0.0 {
         bail!("the first snapshot must be positive");
     }
-    let mut integrator = run.integrator(ctx.scene.bounds.diagonal());
+    let (w, h) = renderer.resolution();
+    if (w as usize, h as usize) != (reference.width, reference.height) {
+        bail!("the renderer's size {w}×{h} is not the reference's");
+    }
     let parameters: Vec<String> =
-        integrator.parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
+        renderer.integrator(&run.config).parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
     let parameters = parameters.join(";");
-    let settings = RenderSettings {
-        width: reference.width,
-        height: reference.height,
-        budget: Budget { iterations: None, time: None },
-        tile_size: 16,
-        progress: false,
-    };
     let marks = schedule.marks();
     let end = schedule.end();
     let mut next = 0usize;
     let mut overhead = Duration::ZERO;
     let mut taken: Vec<(f64, u64, RgbImage)> = Vec::new();
-    let (film, _) = render(ctx, integrator.as_mut(), &settings, |film, stats| {
+    let (film, _) = renderer.render(&run.config, Budget::default(), |film, stats| {
         let t = (stats.elapsed.saturating_sub(overhead)).as_secs_f64();
         let progress = match schedule.budget {
             StudyBudget::Time(_) => t,
@@ -189,24 +189,26 @@ pub fn run_one(
         }
     });
     let exposures = flip::exposures(reference);
-    let measured: Vec<Result<Snapshot>> = taken
-        .par_iter()
-        .map(|(t, it, img)| {
-            let m = metrics(img, reference)?;
-            Ok(Snapshot {
-                label: run.label.clone(),
-                method: run.method,
-                parameters: parameters.clone(),
-                time_s: *t,
-                iterations: *it,
-                rmse: m.rmse,
-                rel_mse: m.rel_mse,
-                hdr_flip: flip::hdr_flip(img, reference, &exposures),
-                max_rel_se: m.max_rel_se,
-                mean_rel_diff: m.mean_rel_diff().iter().sum::<f64>() / 3.0,
+    let measured: Vec<Result<Snapshot>> = renderer.install(|| {
+        taken
+            .par_iter()
+            .map(|(t, it, img)| {
+                let m = metrics(img, reference)?;
+                Ok(Snapshot {
+                    label: run.label.clone(),
+                    method: run.method(),
+                    parameters: parameters.clone(),
+                    time_s: *t,
+                    iterations: *it,
+                    rmse: m.rmse,
+                    rel_mse: m.rel_mse,
+                    hdr_flip: flip::hdr_flip(img, reference, &exposures),
+                    max_rel_se: m.max_rel_se,
+                    mean_rel_diff: m.mean_rel_diff().iter().sum::<f64>() / 3.0,
+                })
             })
-        })
-        .collect();
+            .collect()
+    });
     let snapshots = measured.into_iter().collect::<Result<Vec<_>>>()?;
     Ok(RunResult { run: run.clone(), snapshots, image: film.image() })
 }

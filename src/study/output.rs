@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use super::chart::{self, Metric};
 use super::sheet::{self, Region};
-use super::{RunResult, Snapshot};
+use super::{Run, RunResult, Snapshot};
 use crate::image::{RgbImage, write_atomically, write_exr};
 
 /// What the study was: recorded in the JSON and the report.
@@ -41,6 +41,8 @@ pub struct StudyInfo {
 #[derive(Serialize)]
 struct Json<'a> {
     study: &'a StudyInfo,
+    /// Each line's method and parameters, in the order raced.
+    lines: Vec<&'a Run>,
     hardest_region: Region,
     metrics: [&'static str; 5],
     hdr_flip: &'static str,
@@ -110,6 +112,7 @@ pub fn write_all(
 
     let json = Json {
         study: info,
+        lines: results.iter().map(|r| &r.run).collect(),
         hardest_region: region,
         metrics: ["rmse", "rel_mse", "hdr_flip", "max_rel_se", "mean_rel_diff"],
         hdr_flip: FLIP_NOTE,
@@ -148,7 +151,7 @@ pub fn write_all(
         let p = dir.join(format!("final-{}.exr", slug(&r.run.label)));
         let last = r.snapshots.last();
         let attrs = vec![
-            ("pir.method".to_string(), r.run.method.name().to_string()),
+            ("pir.method".to_string(), r.run.method().name().to_string()),
             ("pir.study.label".to_string(), r.run.label.replace('α', "alpha")),
             ("pir.iterations".to_string(), last.map_or(0, |s| s.iterations).to_string()),
             ("pir.render_time_s".to_string(), format!("{:.3}", last.map_or(0.0, |s| s.time_s))),
@@ -172,8 +175,8 @@ fn sweep_lines(results: &[RunResult]) -> Option<SweepLines<'_>> {
     let mut lines: Vec<(String, Vec<(f64, &Snapshot)>)> = Vec::new();
     for r in results {
         let (Some((k, v)), Some(last)) = (&r.run.sweep, r.snapshots.last()) else { continue };
-        key.get_or_insert_with(|| k.clone());
-        let name = r.run.method.name().to_string();
+        key.get_or_insert_with(|| k.key().to_string());
+        let name = r.run.method().name().to_string();
         match lines.iter_mut().find(|(n, _)| *n == name) {
             Some((_, pts)) => pts.push((*v as f64, last)),
             None => lines.push((name, vec![(*v as f64, last)])),

@@ -165,8 +165,6 @@ impl Job {
             width,
             height,
             budget: Budget { iterations: Some(self.iterations), time: None },
-            tile_size: 16,
-            progress: false,
         };
         let pool = rayon::ThreadPoolBuilder::new().num_threads(self.threads).build().unwrap();
         let mut iteration_means = Vec::new();

@@ -1,0 +1,83 @@
+//! The options every rendering command takes (`--seed`, `--threads`, `--max-depth`,
+//! `--resolution`, `--accel`), each defaulting to the scene file's value, and the resolution
+//! limit.
+
+use anyhow::{Result, bail};
+use clap::Args;
+
+use crate::accel::Backend;
+use crate::scene::Scene;
+
+/// Largest accepted image side, and pixel count (refused before anything is allocated).
+pub const MAX_SIDE: u32 = 65_536;
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Options every rendering command takes; each defaults to the scene file's value.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SceneOptions {
+    /// Random seed [default: the scene's render.seed]. The same seed gives the same image for
+    /// any number of threads.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Largest number of path segments from the camera to an emitter [default: the scene's
+    /// render.max_depth]; 1 = emitters only, 2 = direct light, 3 = one bounce, …
+    #[arg(long, value_name = "D")]
+    pub max_depth: Option<u32>,
+    /// Image size in pixels [default: the scene's camera.resolution; for `pir study`, the
+    /// reference's, or the reference's divided by a whole factor, which box-downsamples it].
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub resolution: Option<Vec<u32>>,
+    /// Ray-query backend: embree (Intel Embree, when pir was built with it), bvh (pir's own
+    /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].
+    #[arg(long, value_name = "BACKEND")]
+    pub accel: Option<Backend>,
+}
+
+impl SceneOptions {
+    /// The checks that need no scene.
+    pub fn check(&self) -> Result<()> {
+        if self.threads == Some(0) {
+            bail!("--threads must be at least 1");
+        }
+        if self.max_depth == Some(0) {
+            bail!("--max-depth must be at least 1");
+        }
+        if let Some(r) = &self.resolution {
+            check_resolution(r[0], r[1])?;
+        }
+        Ok(())
+    }
+
+    pub fn seed(&self, scene: &Scene) -> u64 {
+        self.seed.unwrap_or(scene.render.seed)
+    }
+
+    pub fn max_depth(&self, scene: &Scene) -> u32 {
+        self.max_depth.unwrap_or(scene.render.max_depth)
+    }
+
+    /// The image size: --resolution, else the scene camera's.
+    pub fn resolution(&self, scene: &Scene) -> (u32, u32) {
+        match &self.resolution {
+            Some(r) => (r[0], r[1]),
+            None => (scene.camera.width, scene.camera.height),
+        }
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.accel.unwrap_or_else(Backend::default_available)
+    }
+}
+
+/// Refuses an image with a side of 0 or above [`MAX_SIDE`], or more than [`MAX_PIXELS`].
+pub fn check_resolution(w: u32, h: u32) -> Result<()> {
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || w as u64 * h as u64 > MAX_PIXELS {
+        bail!(
+            "resolution {w}×{h}: each side must be 1 to {MAX_SIDE} and the total at most {MAX_PIXELS} pixels"
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,210 @@
+//! The [`Renderer`]: what `pir render`, `pir reference` and `pir study` drive, and the API of a
+//! program that embeds pir.
+//!
+//! A renderer holds everything a render needs besides the method: the scene (borrowed, since
+//! the accelerator borrows its triangles), its emitters, the worker pool, the accelerator, the
+//! resolution, seed and path length, and what the EXR metadata records. It renders a
+//! [`MethodConfig`] for a [`Budget`], calling back after every iteration (for progress,
+//! checkpoints, snapshots, interruption), and writes the EXR with its PNG preview.
+//!
+//! ```no_run
+//! # fn main() -> anyhow::Result<()> {
+//! use pir::integrator::{Method, MethodConfig};
+//! use pir::render::{Budget, Control, Renderer, SceneOptions};
+//!
+//! let scene = pir::scene::load("scenes/cornell-box/scene.toml".as_ref())?;
+//! let renderer = Renderer::new(&scene, &SceneOptions::default())?;
+//! let config = MethodConfig::new(Method::PirVsl);
+//! let budget = Budget { iterations: Some(16), time: None };
+//! let (film, stats) = renderer.render(&config, budget, |_, _| Control::Continue);
+//! let attributes = renderer.attributes(&config, &stats);
+//! renderer.write("out.exr".as_ref(), &film, &attributes, None, Some(("out.png".as_ref(), 0.0)))?;
+//! # Ok(())
+//! # }
+//! ```
+
+use anyhow::{Context, Result};
+use std::path::Path;
+
+use super::options::{SceneOptions, check_resolution};
+use super::state::{Job, Shard, write_state};
+use super::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
+use crate::accel::{Accelerator, build_accelerator, set_flush_denormals};
+use crate::image::{RgbImage, write_exr, write_preview};
+use crate::integrator::{Integrator, MethodConfig, RenderContext};
+use crate::light::Emitters;
+use crate::scene::Scene;
+
+/// A scene ready to render: emitters, worker pool, accelerator and render settings.
+pub struct Renderer<'s> {
+    scene: &'s Scene,
+    emitters: Emitters,
+    pool: rayon::ThreadPool,
+    accel: Box<dyn Accelerator + 's>,
+    accel_description: String,
+    width: u32,
+    height: u32,
+    seed: u64,
+    max_depth: u32,
+}
+
+impl<'s> Renderer<'s> {
+    /// Checks the options, finds the scene's emitters, starts the worker pool and builds the
+    /// accelerator. The resolution, seed and path length are the options', else the scene's.
+    pub fn new(scene: &'s Scene, options: &SceneOptions) -> Result<Renderer<'s>> {
+        options.check()?;
+        let emitters = Emitters::new(scene).with_context(|| {
+            format!("{}: the scene has no emitter with positive power", scene.path.display())
+        })?;
+        let (width, height) = options.resolution(scene);
+        check_resolution(width, height)?;
+        // Embree asks for flush-to-zero on every thread that traces rays.
+        set_flush_denormals();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(options.threads.unwrap_or(0))
+            .start_handler(|_| set_flush_denormals())
+            .build()
+            .context("cannot start the worker threads")?;
+        let accel = build_accelerator(options.backend(), &scene.positions, &scene.indices)
+            .map_err(anyhow::Error::msg)?;
+        Ok(Renderer {
+            scene,
+            emitters,
+            pool,
+            accel_description: accel.describe(),
+            accel,
+            width,
+            height,
+            seed: options.seed(scene),
+            max_depth: options.max_depth(scene),
+        })
+    }
+
+    pub fn scene(&self) -> &Scene {
+        self.scene
+    }
+
+    pub fn emitters(&self) -> &Emitters {
+        &self.emitters
+    }
+
+    /// The image size in pixels.
+    pub fn resolution(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    pub fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    /// Worker threads.
+    pub fn threads(&self) -> usize {
+        self.pool.current_num_threads()
+    }
+
+    /// The accelerator's description for summaries and metadata.
+    pub fn accel_description(&self) -> &str {
+        &self.accel_description
+    }
+
+    /// Runs `op` on the renderer's worker pool (e.g. work to spread over the same threads).
+    pub fn install<R: Send>(&self, op: impl FnOnce() -> R + Send) -> R {
+        self.pool.install(op)
+    }
+
+    /// The integrator of a method for this scene.
+    pub fn integrator(&self, config: &MethodConfig) -> Box<dyn Integrator> {
+        config.integrator(self.scene.bounds.diagonal())
+    }
+
+    /// What a render of `config` is, for resuming and merging it.
+    pub fn job(&self, config: &MethodConfig) -> Job {
+        let (w, h) = (self.width as usize, self.height as usize);
+        Job::new(self.scene, config, self.max_depth, self.seed, w, h)
+    }
+
+    /// Renders `config` from an empty film until the budget is spent or `on_iteration` (called
+    /// after every iteration with the film and the statistics so far) says stop.
+    pub fn render(
+        &self,
+        config: &MethodConfig,
+        budget: Budget,
+        on_iteration: impl FnMut(&Film, &RenderStats) -> Control + Send,
+    ) -> (Film, RenderStats) {
+        let film = Film::new(self.width as usize, self.height as usize);
+        self.resume(config, budget, film, Shard::ALL, on_iteration)
+    }
+
+    /// As [`Renderer::render`], continuing `film` (of this resolution) with the shard's next
+    /// global iterations; `budget.iterations` counts the film's own.
+    pub fn resume(
+        &self,
+        config: &MethodConfig,
+        budget: Budget,
+        film: Film,
+        shard: Shard,
+        on_iteration: impl FnMut(&Film, &RenderStats) -> Control + Send,
+    ) -> (Film, RenderStats) {
+        let ctx = RenderContext {
+            scene: self.scene,
+            accel: self.accel.as_ref(),
+            emitters: &self.emitters,
+            max_depth: self.max_depth,
+            seed: self.seed,
+        };
+        let settings = RenderSettings { width: self.width as usize, height: self.height as usize, budget };
+        let mut integrator = self.integrator(config);
+        self.pool.install(|| render_from(&ctx, integrator.as_mut(), &settings, film, shard, on_iteration))
+    }
+
+    /// The EXR metadata of a render of `config` with these statistics: pir's version, the
+    /// scene, method and its parameters, path length, seed, sample count, resolution, time,
+    /// accelerator, threads and dropped samples.
+    pub fn attributes(&self, config: &MethodConfig, stats: &RenderStats) -> Vec<(String, String)> {
+        let integrator = self.integrator(config);
+        let mut attrs: Vec<(String, String)> = vec![
+            ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
+            ("pir.scene".into(), self.scene.path.display().to_string()),
+            ("pir.method".into(), integrator.name().into()),
+            ("pir.max_depth".into(), self.max_depth.to_string()),
+            ("pir.seed".into(), self.seed.to_string()),
+            ("pir.iterations".into(), stats.iterations.to_string()),
+            ("pir.spp".into(), stats.iterations.to_string()),
+            ("pir.resolution".into(), format!("{} {}", self.width, self.height)),
+            ("pir.render_time_s".into(), format!("{:.3}", stats.elapsed.as_secs_f64())),
+            ("pir.accel".into(), self.accel_description.clone()),
+            ("pir.threads".into(), self.threads().to_string()),
+            ("pir.dropped_samples".into(), stats.dropped.to_string()),
+        ];
+        for (k, v) in integrator.parameters() {
+            attrs.push((format!("pir.param.{k}"), v));
+        }
+        attrs
+    }
+
+    /// Writes the film's image to `out` (atomically) with `attributes`, resumable when `state`
+    /// gives its job and shard, and the PNG preview at `preview` (path, exposure in stops).
+    /// Returns the image.
+    pub fn write(
+        &self,
+        out: &Path,
+        film: &Film,
+        attributes: &[(String, String)],
+        state: Option<(&Job, Shard)>,
+        preview: Option<(&Path, f32)>,
+    ) -> Result<RgbImage> {
+        let image = film.image();
+        match state {
+            Some((job, shard)) => write_state(out, &image, attributes, job, shard, film)?,
+            None => write_exr(out, &image, attributes)?,
+        }
+        if let Some((path, exposure)) = preview {
+            write_preview(path, &image, exposure)?;
+        }
+        Ok(image)
+    }
+}
