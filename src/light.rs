@@ -35,7 +35,7 @@ impl Emitters {
     pub fn new(scene: &Scene) -> Option<Self> {
         let mut prims = Vec::new();
         let mut weights = Vec::new();
-        for prim in 0..scene.indices.len() as u32 {
+        for prim in 0..scene.indices().len() as u32 {
             let m = scene.material_of(prim);
             if m.is_emitter() {
                 let area = scene.area(prim);
@@ -47,7 +47,7 @@ impl Emitters {
             }
         }
         let dist = Distribution1D::new(&weights)?;
-        let mut pdf_area = vec![0.0f32; scene.indices.len()];
+        let mut pdf_area = vec![0.0f32; scene.indices().len()];
         for (i, &prim) in prims.iter().enumerate() {
             pdf_area[prim as usize] = dist.pmf(i) / scene.area(prim);
         }

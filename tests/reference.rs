@@ -65,7 +65,7 @@ fn check(scene_path: &std::path::Path, reference_path: &std::path::Path, spp: u6
         height: h,
         iterations: spp,
         seed: 2024,
-        max_depth: scene.render.max_depth,
+        max_depth: scene.defaults().max_depth,
         threads,
         snapshot_at: vec![quarter],
     };

@@ -66,7 +66,7 @@ fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
         height: c.reference.height,
         iterations,
         seed: 77,
-        max_depth: c.scene.render.max_depth,
+        max_depth: c.scene.defaults().max_depth,
         threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
         snapshot_at: vec![iterations / 4],
     };
@@ -117,7 +117,10 @@ const QUICK: u64 = 400;
 const LONG: u64 = 8_000;
 
 fn pir_clamp(c: &Case) -> InstantRadiosity {
-    InstantRadiosity::points(Clamping::progressive(Clamping::default_bound(c.scene.bounds.diagonal())), PATHS)
+    InstantRadiosity::points(
+        Clamping::progressive(Clamping::default_bound(c.scene.bounds().diagonal())),
+        PATHS,
+    )
 }
 
 fn pir_vsl() -> InstantRadiosity {
@@ -152,7 +155,7 @@ fn pir_vsl_converges_on_the_mirror_and_glass_box() {
 #[test]
 fn constant_clamp_stays_too_dark_on_the_cornell_box() {
     let Some(c) = cornell() else { return };
-    let b = 0.02 * Clamping::default_bound(c.scene.bounds.diagonal());
+    let b = 0.02 * Clamping::default_bound(c.scene.bounds().diagonal());
     let o = run(&c, &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), QUICK);
     for k in 0..3 {
         assert!(o.z[k] < -Z, "ir-clamp must stay darker than the reference: channel {k} z = {:.2}", o.z[k]);
@@ -182,7 +185,7 @@ fn long_progressive_methods_within_half_a_percent() {
 #[ignore = "long: about a minute"]
 fn long_default_constant_clamp_keeps_its_bias() {
     let Some(c) = cornell() else { return };
-    let b = Clamping::default_bound(c.scene.bounds.diagonal());
+    let b = Clamping::default_bound(c.scene.bounds().diagonal());
     let o = run(&c, &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), LONG);
     assert!(o.rel_mse > 0.5 * o.rel_mse_quarter, "ir-clamp's error must stop falling");
     for k in 0..3 {

@@ -76,7 +76,7 @@ fn close(a: Vec3, b: Vec3) -> bool {
 #[test]
 fn camera_fields_are_read() {
     let s = ok(LIGHT, &[]);
-    let c = s.camera;
+    let c = s.camera();
     assert_eq!(c.eye, Vec3::new(0.0, 1.0, 3.9));
     assert_eq!(c.target, Vec3::new(0.0, 1.0, 0.0));
     assert_eq!(c.up, Vec3::Y);
@@ -96,8 +96,8 @@ fn integers_are_accepted_where_numbers_are_expected() {
         ("q.mtl", QUAD_MTL),
     ]);
     let s = f.load("s.toml").unwrap();
-    assert_eq!(s.camera.fov_deg, 40.0);
-    assert_eq!(s.camera.eye, Vec3::new(0.0, 1.0, 4.0));
+    assert_eq!(s.camera().fov_deg, 40.0);
+    assert_eq!(s.camera().eye, Vec3::new(0.0, 1.0, 4.0));
 }
 
 #[test]
@@ -116,11 +116,11 @@ fn camera_fields_are_required() {
 #[test]
 fn render_defaults_and_values() {
     let s = ok(LIGHT, &[]);
-    assert_eq!((s.render.max_depth, s.render.seed), (8, 0));
+    assert_eq!((s.defaults().max_depth, s.defaults().seed), (8, 0));
     let s = ok(&format!("[render]\nmax_depth = 3\nseed = 42\n{LIGHT}"), &[]);
-    assert_eq!((s.render.max_depth, s.render.seed), (3, 42));
+    assert_eq!((s.defaults().max_depth, s.defaults().seed), (3, 42));
     let s = ok(&format!("[render]\nseed = 7\n{LIGHT}"), &[]);
-    assert_eq!((s.render.max_depth, s.render.seed), (8, 7));
+    assert_eq!((s.defaults().max_depth, s.defaults().seed), (8, 7));
 }
 
 #[test]
@@ -217,7 +217,7 @@ fn missing_files_are_named() {
 fn quads_and_pentagons_are_fans() {
     let pent = "mtllib q.mtl\nusemtl light\nv 0 0 0\nv 1 0 0\nv 2 0 1\nv 1 0 2\nv 0 0 2\nf 1 2 3 4 5\n";
     let s = ok("[[mesh]]\nobj = \"p.obj\"\n", &[("p.obj", pent)]);
-    let tris: Vec<[Vec3; 3]> = (0..s.indices.len() as u32).map(|i| s.triangle(i)).collect();
+    let tris: Vec<[Vec3; 3]> = (0..s.indices().len() as u32).map(|i| s.triangle(i)).collect();
     let v = [
         Vec3::ZERO,
         Vec3::new(1.0, 0.0, 0.0),
@@ -228,7 +228,7 @@ fn quads_and_pentagons_are_fans() {
     assert_eq!(tris, vec![[v[0], v[1], v[2]], [v[0], v[2], v[3]], [v[0], v[3], v[4]]]);
     let s = ok(LIGHT, &[]);
     let q = [Vec3::ZERO, Vec3::Z, Vec3::new(1.0, 0.0, 1.0), Vec3::X];
-    let tris: Vec<[Vec3; 3]> = (0..s.indices.len() as u32).map(|i| s.triangle(i)).collect();
+    let tris: Vec<[Vec3; 3]> = (0..s.indices().len() as u32).map(|i| s.triangle(i)).collect();
     assert_eq!(tris, vec![[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
 }
 
@@ -253,15 +253,15 @@ fn vertex_normals_are_shading_normals_and_absent_ones_are_zero() {
     let want = Vec3::new(1.0, 1.0, 0.0).normalize();
     assert!(close(sp.frame.n, want), "{}", sp.frame.n);
     assert!(close(sp.ng, Vec3::Y));
-    assert!(s.normals.iter().all(|n| close(*n, want)));
+    assert!(s.normals().iter().all(|n| close(*n, want)));
     // Without vn: zero normals, and shading uses the geometric normal.
     let s = ok(LIGHT, &[]);
-    assert!(s.normals.iter().all(|n| *n == Vec3::ZERO));
+    assert!(s.normals().iter().all(|n| *n == Vec3::ZERO));
     assert!(close(s.surface_at(0, Vec2::new(0.2, 0.3)).frame.n, Vec3::Y));
     // A material whose faces have vn only in part is shaded flat (as the reference does).
     let part = "mtllib q.mtl\nv 0 0 0\nv 0 0 1\nv 1 0 1\nvn 1 1 0\nusemtl light\nf 1//1 2//1 3//1\nf 1 3 2\n";
     let s = ok("[[mesh]]\nobj = \"n.obj\"\n", &[("n.obj", part)]);
-    assert!(s.normals.iter().all(|n| *n == Vec3::ZERO));
+    assert!(s.normals().iter().all(|n| *n == Vec3::ZERO));
 }
 
 #[test]
@@ -270,8 +270,8 @@ fn texture_coordinates_are_ignored() {
                    usemtl light\nf 1/1 2/2 3/3 4/1\n";
     let a = ok("[[mesh]]\nobj = \"t.obj\"\n", &[("t.obj", with_vt)]);
     let b = ok(LIGHT, &[]);
-    assert_eq!(a.indices.len(), b.indices.len());
-    for i in 0..a.indices.len() as u32 {
+    assert_eq!(a.indices().len(), b.indices().len());
+    for i in 0..a.indices().len() as u32 {
         assert_eq!(a.triangle(i), b.triangle(i));
     }
 }
@@ -299,8 +299,8 @@ fn transforms_apply_scale_then_rotate_y_then_translate() {
     // Uniform scale as a number.
     let s = ok("[[mesh]]\nobj = \"t.obj\"\nscale = 2.0\n", &files);
     assert!(close(s.triangle(0)[2], Vec3::new(0.0, 2.0, 0.0)));
-    assert_eq!(s.bounds.min, Vec3::ZERO);
-    assert_eq!(s.bounds.max, Vec3::splat(2.0));
+    assert_eq!(s.bounds().min, Vec3::ZERO);
+    assert_eq!(s.bounds().max, Vec3::splat(2.0));
 }
 
 #[test]
@@ -312,7 +312,7 @@ fn normals_transform_by_the_inverse_transpose() {
     );
     // Divide by the scale: (0.5, 1, 0); rotate 90° about +Y: (0, 1, −0.5); normalise.
     let want = Vec3::new(0.0, 1.0, -0.5).normalize();
-    assert!(close(s.normals[0], want), "{}", s.normals[0]);
+    assert!(close(s.normals()[0], want), "{}", s.normals()[0]);
     // It stays perpendicular to the transformed surface.
     let [a, b, c] = s.triangle(0);
     assert!((b - a).dot(want).abs() < 1e-5 && (c - a).dot(want).abs() < 1e-5);
@@ -322,19 +322,19 @@ fn normals_transform_by_the_inverse_transpose() {
 fn degenerate_triangles_are_dropped_and_counted() {
     let obj = "mtllib q.mtl\nusemtl light\nv 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 0 1\nf 1 2 3\nf 1 4 2\nf 1 1 4\n";
     let s = ok("[[mesh]]\nobj = \"d.obj\"\n", &[("d.obj", obj)]);
-    assert_eq!(s.indices.len(), 1);
-    assert_eq!(s.degenerate_dropped, 2);
-    assert_eq!(s.tri_material.len(), 1);
+    assert_eq!(s.indices().len(), 1);
+    assert_eq!(s.degenerate_dropped(), 2);
+    assert_eq!(s.triangle_count(), 1);
 }
 
 #[test]
 fn several_meshes_merge_with_their_own_offsets() {
     let s = ok(&format!("{LIGHT}{LIGHT}translate = [0, 5, 0]\n"), &[]);
-    assert_eq!(s.indices.len(), 4);
-    assert_eq!(s.positions.len(), 8);
+    assert_eq!(s.indices().len(), 4);
+    assert_eq!(s.positions().len(), 8);
     assert!(close(s.triangle(2)[0], Vec3::new(0.0, 5.0, 0.0)));
-    assert_eq!(s.materials.len(), 1, "equal materials are stored once");
-    assert_eq!(s.bounds.max, Vec3::new(1.0, 5.0, 1.0));
+    assert_eq!(s.materials().len(), 1, "equal materials are stored once");
+    assert_eq!(s.bounds().max, Vec3::new(1.0, 5.0, 1.0));
 }
 
 // ---------------------------------------------------------------- OBJ errors
@@ -398,7 +398,7 @@ fn tri_with(mtl: &str) -> Scene {
 }
 
 fn material_named<'a>(s: &'a Scene, name: &str) -> &'a pir::material::Material {
-    s.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("no material {name}"))
+    s.materials().iter().find(|m| m.name == name).unwrap_or_else(|| panic!("no material {name}"))
 }
 
 #[test]
@@ -446,7 +446,7 @@ fn scene_materials_replace_mtl_materials_whole() {
     // Whole replacement: Kd of the MTL (0.5) is not kept; glossy albedo defaults to 0.
     assert_eq!(m.bsdf, Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.2), roughness: 0.3 });
     assert_eq!(m.emission, Vec3::splat(5.0));
-    assert_eq!(s.materials.len(), 1);
+    assert_eq!(s.materials().len(), 1);
     // Replacing without emission removes the emitter (and then the scene has none).
     err(
         &format!("{LIGHT}[materials.light]\nkind = \"diffuse\"\nalbedo = [1, 1, 1]\n"),
@@ -466,10 +466,10 @@ fn mesh_material_applies_to_every_face() {
         ),
         &[("m.obj", obj), ("m.mtl", mtl)],
     );
-    assert_eq!(s.indices.len(), 4);
+    assert_eq!(s.indices().len(), 4);
     assert_eq!(s.material_of(2).name, "red");
     assert_eq!(s.material_of(3).name, "red");
-    assert!(s.materials.iter().all(|m| m.name != "a" && m.name != "b"));
+    assert!(s.materials().iter().all(|m| m.name != "a" && m.name != "b"));
     // `material` may name a material of the OBJ's own MTL.
     let s = ok(
         &format!("{LIGHT}[[mesh]]\nobj = \"m.obj\"\nmaterial = \"b\"\n"),
@@ -631,8 +631,8 @@ fn paths_are_relative_to_the_scene_file() {
         ("scenes/meshes/q.mtl", QUAD_MTL),
     ]);
     let s = f.load("scenes/deep/s.toml").unwrap();
-    assert_eq!(s.indices.len(), 2);
-    assert_eq!(s.path, f.path("scenes/deep/s.toml"));
+    assert_eq!(s.indices().len(), 2);
+    assert_eq!(s.path(), f.path("scenes/deep/s.toml"));
 }
 
 // ---------------------------------------------------------------- real scenes
@@ -657,28 +657,28 @@ fn load_ok(p: &Path) -> Scene {
 
 fn check_original(s: &Scene) {
     // 18 quads (CRLF line ends, some with trailing blanks).
-    assert_eq!(s.indices.len(), 18 * 2);
-    assert_eq!(s.degenerate_dropped, 0);
+    assert_eq!(s.indices().len(), 18 * 2);
+    assert_eq!(s.degenerate_dropped(), 0);
     let light = material_named(s, "light");
     assert_eq!(light.emission, Vec3::new(17.0, 12.0, 4.0));
     assert_eq!(light.bsdf, Bsdf::Diffuse { albedo: Vec3::splat(0.78) });
     let left = material_named(s, "leftWall");
     assert_eq!(left.bsdf, Bsdf::Diffuse { albedo: Vec3::new(0.63, 0.065, 0.05) });
-    assert_eq!(s.materials.len(), 8);
-    assert!(close(s.bounds.min, Vec3::new(-1.02, 0.0, -1.04)), "{:?}", s.bounds);
-    assert!(close(s.bounds.max, Vec3::new(1.0, 1.99, 0.99)), "{:?}", s.bounds);
+    assert_eq!(s.materials().len(), 8);
+    assert!(close(s.bounds().min, Vec3::new(-1.02, 0.0, -1.04)), "{:?}", s.bounds());
+    assert!(close(s.bounds().max, Vec3::new(1.0, 1.99, 0.99)), "{:?}", s.bounds());
     // The light faces down, into the box.
-    let li = (0..s.indices.len() as u32).find(|&i| s.material_of(i).is_emitter()).unwrap();
+    let li = (0..s.indices().len() as u32).find(|&i| s.material_of(i).is_emitter()).unwrap();
     assert!(s.surface_at(li, Vec2::new(0.3, 0.3)).ng.y < -0.99);
 }
 
 fn check_sphere(s: &Scene) {
-    assert_eq!(s.indices.len() + s.degenerate_dropped, 2188);
+    assert_eq!(s.indices().len() + s.degenerate_dropped(), 2188);
     assert_eq!(material_named(s, "leftSphere").bsdf, Bsdf::Mirror { specular: Vec3::splat(0.95) });
     assert_eq!(material_named(s, "rightSphere").bsdf, Bsdf::Glass { ior: 2.5 });
     assert_eq!(material_named(s, "light").emission, Vec3::splat(10.0));
     // The spheres carry vertex normals.
-    assert!(s.normals.iter().filter(|n| **n != Vec3::ZERO).count() > 1000);
+    assert!(s.normals().iter().filter(|n| **n != Vec3::ZERO).count() > 1000);
 }
 
 #[test]
@@ -686,24 +686,24 @@ fn shared_example_scenes_load() {
     let Some(dir) = shared() else { return };
     let s = load_ok(&dir.join("cornell-box/original.toml"));
     check_original(&s);
-    assert_eq!((s.camera.width, s.camera.height, s.render.max_depth), (256, 256, 8));
+    assert_eq!((s.camera().width, s.camera().height, s.defaults().max_depth), (256, 256, 8));
     let s = load_ok(&dir.join("cornell-box/sphere.toml"));
     check_sphere(&s);
-    assert_eq!(s.camera.eye, Vec3::new(0.0, 0.795, 3.2));
+    assert_eq!(s.camera().eye, Vec3::new(0.0, 0.795, 3.2));
     let t = std::time::Instant::now();
     let s = load_ok(&dir.join("bunny/cornell-bunny.toml"));
     eprintln!(
         "cornell-bunny: {} triangles, {} degenerate dropped, {} materials, bounds {:?}, {:?}",
-        s.indices.len(),
-        s.degenerate_dropped,
-        s.materials.len(),
-        s.bounds,
+        s.indices().len(),
+        s.degenerate_dropped(),
+        s.materials().len(),
+        s.bounds(),
         t.elapsed()
     );
-    assert_eq!(s.indices.len() + s.degenerate_dropped, 6 * 2 + 69451);
+    assert_eq!(s.indices().len() + s.degenerate_dropped(), 6 * 2 + 69451);
     assert_eq!(material_named(&s, "bunny").bsdf, Bsdf::Diffuse { albedo: Vec3::new(0.725, 0.71, 0.68) });
     assert_eq!(material_named(&s, "light").emission, Vec3::new(17.0, 12.0, 4.0));
-    assert!(s.bounds.min.y < 0.0 + 1e-6 && s.bounds.max.y > 1.98);
+    assert!(s.bounds().min.y < 0.0 + 1e-6 && s.bounds().max.y > 1.98);
 }
 
 #[test]
@@ -722,12 +722,12 @@ fn repo_scenes_load_without_shared() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box");
     let s = load_ok(&dir.join("scene.toml"));
     check_original(&s);
-    assert_eq!((s.camera.width, s.camera.height, s.render.max_depth), (512, 512, 8));
-    assert_eq!(s.camera.eye, Vec3::new(0.0, 1.0, 3.9));
+    assert_eq!((s.camera().width, s.camera().height, s.defaults().max_depth), (512, 512, 8));
+    assert_eq!(s.camera().eye, Vec3::new(0.0, 1.0, 3.9));
     let s = load_ok(&dir.join("sphere.toml"));
     check_sphere(&s);
-    assert_eq!((s.camera.width, s.camera.height, s.render.max_depth), (512, 512, 8));
-    assert_eq!(s.camera.eye, Vec3::new(0.0, 0.795, 3.2));
+    assert_eq!((s.camera().width, s.camera().height, s.defaults().max_depth), (512, 512, 8));
+    assert_eq!(s.camera().eye, Vec3::new(0.0, 0.795, 3.2));
 }
 
 #[test]

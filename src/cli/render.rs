@@ -143,7 +143,7 @@ fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<()> {
     let need = memory::Estimate::new(
         width as u64,
         height as u64,
-        scene.indices.len() as u64,
+        scene.indices().len() as u64,
         a.config.light_paths() as u64,
         a.options.max_depth(scene) as u64,
     );
@@ -183,7 +183,7 @@ fn print_header(a: &RenderArgs, renderer: &Renderer) {
     eprintln!(
         "pir: {} ({} triangles, {} emitting), {}×{}, method {}, max_depth {}, seed {}, {} threads",
         a.scene.display(),
-        scene.indices.len(),
+        scene.indices().len(),
         renderer.emitters().len(),
         width,
         height,
@@ -192,10 +192,10 @@ fn print_header(a: &RenderArgs, renderer: &Renderer) {
         renderer.seed(),
         renderer.threads()
     );
-    if scene.degenerate_dropped > 0 {
+    if scene.degenerate_dropped() > 0 {
         eprintln!(
             "pir: warning: {} zero-area triangles were dropped (common in scanned meshes)",
-            scene.degenerate_dropped
+            scene.degenerate_dropped()
         );
     }
     eprintln!("pir: accelerator {}", renderer.accel_description());

@@ -113,7 +113,7 @@ pub fn walk<H: VertexHook>(
         depth += 1;
         let sp = ctx.scene.surface_of_hit(&hit);
         let wo = -ray.dir.normalize();
-        let material = &ctx.scene.materials[sp.material as usize];
+        let material = ctx.scene.material(sp.material);
 
         // ---- Emission found by the camera ray or the BSDF sample.
         radiance += beta * emission(ctx, material, &sp, wo, &how);

@@ -52,18 +52,18 @@ impl SceneOptions {
     }
 
     pub fn seed(&self, scene: &Scene) -> u64 {
-        self.seed.unwrap_or(scene.render.seed)
+        self.seed.unwrap_or(scene.defaults().seed)
     }
 
     pub fn max_depth(&self, scene: &Scene) -> u32 {
-        self.max_depth.unwrap_or(scene.render.max_depth)
+        self.max_depth.unwrap_or(scene.defaults().max_depth)
     }
 
     /// The image size: --resolution, else the scene camera's.
     pub fn resolution(&self, scene: &Scene) -> (u32, u32) {
         match &self.resolution {
             Some(r) => (r[0], r[1]),
-            None => (scene.camera.width, scene.camera.height),
+            None => (scene.camera().width, scene.camera().height),
         }
     }
 

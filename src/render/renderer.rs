@@ -54,7 +54,7 @@ impl<'s> Renderer<'s> {
     pub fn new(scene: &'s Scene, options: &SceneOptions) -> Result<Renderer<'s>> {
         options.check()?;
         let emitters = Emitters::new(scene).with_context(|| {
-            format!("{}: the scene has no emitter with positive power", scene.path.display())
+            format!("{}: the scene has no emitter with positive power", scene.path().display())
         })?;
         let (width, height) = options.resolution(scene);
         check_resolution(width, height)?;
@@ -65,7 +65,7 @@ impl<'s> Renderer<'s> {
             .start_handler(|_| set_flush_denormals())
             .build()
             .context("cannot start the worker threads")?;
-        let accel = build_accelerator(options.backend(), &scene.positions, &scene.indices)
+        let accel = build_accelerator(options.backend(), scene.positions(), scene.indices())
             .map_err(anyhow::Error::msg)?;
         Ok(Renderer {
             scene,
@@ -118,7 +118,7 @@ impl<'s> Renderer<'s> {
 
     /// The integrator of a method for this scene.
     pub fn integrator(&self, config: &MethodConfig) -> Box<dyn Integrator> {
-        config.integrator(self.scene.bounds.diagonal())
+        config.integrator(self.scene.bounds().diagonal())
     }
 
     /// What a render of `config` is, for resuming and merging it.
@@ -168,7 +168,7 @@ impl<'s> Renderer<'s> {
         let integrator = self.integrator(config);
         let mut attrs: Vec<(String, String)> = vec![
             ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
-            ("pir.scene".into(), self.scene.path.display().to_string()),
+            ("pir.scene".into(), self.scene.path().display().to_string()),
             ("pir.method".into(), integrator.name().into()),
             ("pir.max_depth".into(), self.max_depth.to_string()),
             ("pir.seed".into(), self.seed.to_string()),

@@ -122,7 +122,7 @@ impl Job {
     ) -> Job {
         Job {
             scene_fingerprint: scene.fingerprint(),
-            config: config.identity(scene.bounds.diagonal()),
+            config: config.identity(scene.bounds().diagonal()),
             max_depth,
             seed,
             width,

@@ -33,6 +33,10 @@ pub enum SceneError {
         .path.display()
     )]
     NoEmitter { path: PathBuf },
+    /// The scene's data break an invariant of [`super::Scene`] (a program building a scene
+    /// with [`super::Scene::new`]; the loader's own checks come first).
+    #[error("{}: {problem}", .path.display())]
+    Invalid { path: PathBuf, problem: String },
 }
 
 struct LineNo(Option<usize>);

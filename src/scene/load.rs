@@ -19,8 +19,7 @@ use glam::Vec3;
 
 pub use super::error::SceneError;
 use super::error::read_text;
-use super::{Scene, format, mtl, obj};
-use crate::geometry::Aabb;
+use super::{Geometry, Scene, format, mtl, obj};
 use crate::material::Material;
 
 /// Loads the scene file `path` and everything it names.
@@ -141,19 +140,14 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     if !b.tri_material.iter().any(|&m| b.materials[m as usize].is_emitter()) {
         return Err(SceneError::NoEmitter { path: path.to_path_buf() });
     }
-    let bounds = Aabb::from_points(&b.positions);
-    Ok(Scene {
-        path: path.to_path_buf(),
-        camera,
-        render,
-        positions: b.positions.into(),
+    let geometry = Geometry {
+        positions: b.positions,
         normals: b.normals,
         indices: b.indices,
         tri_material: b.tri_material,
-        materials: b.materials,
-        bounds,
         degenerate_dropped: b.degenerate_dropped,
-    })
+    };
+    Scene::new(path.to_path_buf(), camera, render, geometry, b.materials)
 }
 
 #[derive(Default)]

@@ -35,26 +35,143 @@ impl Default for RenderDefaults {
 }
 
 /// A loaded scene, all meshes merged into one triangle list in world space.
+///
+/// Its fields are private so that every scene holds the invariants that shading and the
+/// accelerators rely on, checked once by [`Scene::new`]: finite vertices, one (zero or unit)
+/// shading normal per vertex, triangles of non-zero area with indices in range, and a valid
+/// material for every triangle.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// The scene file it was read from.
-    pub path: PathBuf,
-    pub camera: Camera,
-    pub render: RenderDefaults,
-    /// World-space vertex positions (padded so that Embree can share them without a copy).
-    pub positions: VertexBuffer,
+    path: PathBuf,
+    camera: Camera,
+    render: RenderDefaults,
+    positions: VertexBuffer,
+    normals: Vec<Vec3>,
+    indices: Vec<[u32; 3]>,
+    tri_material: Vec<u32>,
+    materials: Vec<Material>,
+    bounds: Aabb,
+    degenerate_dropped: usize,
+}
+
+/// The triangles of a scene, as [`Scene::new`] takes them.
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    /// World-space vertex positions.
+    pub positions: Vec<Vec3>,
     /// World-space unit shading normals aligned with `positions`; `Vec3::ZERO` where a vertex
     /// has none. A triangle is smooth-shaded only when all three of its vertices have one.
     pub normals: Vec<Vec3>,
     /// Triangles as indices into `positions`.
     pub indices: Vec<[u32; 3]>,
-    /// Material index (into `materials`) of every triangle.
+    /// Material index (into the scene's materials) of every triangle.
     pub tri_material: Vec<u32>,
-    pub materials: Vec<Material>,
-    /// Bounds of all vertices.
-    pub bounds: Aabb,
-    /// Zero-area triangles dropped while loading.
+    /// Zero-area triangles dropped while loading (reported, not stored).
     pub degenerate_dropped: usize,
+}
+
+impl Scene {
+    /// A scene read from `path` (the name its errors carry), checking its invariants.
+    pub fn new(
+        path: PathBuf,
+        camera: Camera,
+        render: RenderDefaults,
+        geometry: Geometry,
+        materials: Vec<Material>,
+    ) -> Result<Scene, SceneError> {
+        let invalid = |problem: String| SceneError::Invalid { path: path.clone(), problem };
+        let Geometry { positions, normals, indices, tri_material, degenerate_dropped } = geometry;
+        if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+            return Err(invalid(format!("vertex {p} is not finite")));
+        }
+        if normals.len() != positions.len() {
+            return Err(invalid(format!("{} normals for {} vertices", normals.len(), positions.len())));
+        }
+        if let Some(n) = normals.iter().find(|n| **n != Vec3::ZERO && !n.is_normalized()) {
+            return Err(invalid(format!("shading normal {n} is neither zero nor unit")));
+        }
+        if indices.is_empty() {
+            return Err(invalid("no triangles".into()));
+        }
+        if tri_material.len() != indices.len() {
+            return Err(invalid(format!(
+                "{} material slots for {} triangles",
+                tri_material.len(),
+                indices.len()
+            )));
+        }
+        for (t, (tri, &m)) in indices.iter().zip(&tri_material).enumerate() {
+            if let Some(i) = tri.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(invalid(format!(
+                    "triangle {t}: index {i} is out of range ({} vertices)",
+                    positions.len()
+                )));
+            }
+            let [a, b, c] = tri.map(|i| positions[i as usize]);
+            if !(b - a).cross(c - a).normalize().is_finite() {
+                return Err(invalid(format!("triangle {t} is degenerate")));
+            }
+            if m as usize >= materials.len() {
+                return Err(invalid(format!("triangle {t}: material {m} of {}", materials.len())));
+            }
+        }
+        let bounds = Aabb::from_points(&positions);
+        Ok(Scene {
+            path,
+            camera,
+            render,
+            positions: positions.into(),
+            normals,
+            indices,
+            tri_material,
+            materials,
+            bounds,
+            degenerate_dropped,
+        })
+    }
+
+    /// The scene file it was read from.
+    pub fn path(&self) -> &std::path::Path {
+        &self.path
+    }
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+    /// The `[render]` defaults of the scene file.
+    pub fn defaults(&self) -> RenderDefaults {
+        self.render
+    }
+    /// World-space vertex positions (padded so that Embree can share them without a copy).
+    pub fn positions(&self) -> &VertexBuffer {
+        &self.positions
+    }
+    /// Per-vertex shading normals (`Vec3::ZERO` where a vertex has none).
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+    /// Triangles as indices into [`Scene::positions`].
+    pub fn indices(&self) -> &[[u32; 3]] {
+        &self.indices
+    }
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+    /// A material by index (a [`SurfacePoint::material`]).
+    #[inline]
+    pub fn material(&self, index: u32) -> &Material {
+        &self.materials[index as usize]
+    }
+    /// Bounds of all vertices.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+    /// Zero-area triangles dropped while loading.
+    pub fn degenerate_dropped(&self) -> usize {
+        self.degenerate_dropped
+    }
 }
 
 /// A point on a surface with everything shading needs.
@@ -121,5 +238,53 @@ impl Scene {
     /// The surface point of a ray's hit; the position is recomputed from the barycentrics.
     pub fn surface_of_hit(&self, hit: &Hit) -> SurfacePoint {
         self.surface_at(hit.prim, Vec2::new(hit.u, hit.v))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::Bsdf;
+
+    fn parts() -> (Geometry, Vec<Material>) {
+        let geometry = Geometry {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: vec![Vec3::ZERO; 3],
+            indices: vec![[0, 1, 2]],
+            tri_material: vec![0],
+            degenerate_dropped: 0,
+        };
+        let m = Material { name: "m".into(), bsdf: Bsdf::Diffuse { albedo: Vec3::ONE }, emission: Vec3::ONE };
+        (geometry, vec![m])
+    }
+
+    fn build(geometry: Geometry, materials: Vec<Material>) -> Result<Scene, String> {
+        let camera =
+            Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };
+        Scene::new("t.toml".into(), camera, RenderDefaults::default(), geometry, materials)
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn new_checks_every_invariant_and_names_the_scene() {
+        let (g, m) = parts();
+        let s = build(g.clone(), m.clone()).unwrap();
+        assert_eq!((s.triangle_count(), s.bounds().max), (1, Vec3::new(1.0, 1.0, 0.0)));
+        let broken: [(&str, fn(&mut Geometry)); 6] = [
+            ("not finite", |g| g.positions[1].x = f32::NAN),
+            ("2 normals for 3 vertices", |g| g.normals.truncate(2)),
+            ("neither zero nor unit", |g| g.normals[0] = Vec3::splat(2.0)),
+            ("index 3 is out of range", |g| g.indices[0][2] = 3),
+            ("degenerate", |g| g.positions[2] = Vec3::X * 2.0),
+            ("material 1 of 1", |g| g.tri_material[0] = 1),
+        ];
+        for (want, breaks) in broken {
+            let mut g = g.clone();
+            breaks(&mut g);
+            let e = build(g, m.clone()).unwrap_err();
+            assert!(e.starts_with("t.toml: ") && e.contains(want), "{e:?} lacks {want:?}");
+        }
+        let e = build(Geometry { indices: vec![], tri_material: vec![], ..g }, m).unwrap_err();
+        assert!(e.contains("no triangles"), "{e}");
     }
 }

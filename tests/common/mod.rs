@@ -9,13 +9,12 @@ use glam::Vec3;
 use std::path::PathBuf;
 
 use pir::accel::{Accelerator, Backend, build_accelerator};
-use pir::geometry::Aabb;
 use pir::image::RgbImage;
 use pir::integrator::{Integrator, RenderContext};
 use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render};
-use pir::scene::{Camera, RenderDefaults, Scene};
+use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
 
 /// `../shared` beside the checkout, when present.
 pub fn shared_dir() -> Option<PathBuf> {
@@ -58,25 +57,23 @@ pub fn closed_cube(material: Material) -> Scene {
         }
     }
     let n = indices.len();
-    Scene {
-        path: PathBuf::from("closed-cube"),
-        camera: Camera {
-            eye: Vec3::ZERO,
-            target: Vec3::new(0.0, 0.0, -1.0),
-            up: Vec3::Y,
-            fov_deg: 60.0,
-            width: 16,
-            height: 16,
-        },
-        render: RenderDefaults::default(),
+    let camera = Camera {
+        eye: Vec3::ZERO,
+        target: Vec3::new(0.0, 0.0, -1.0),
+        up: Vec3::Y,
+        fov_deg: 60.0,
+        width: 16,
+        height: 16,
+    };
+    let geometry = Geometry {
         normals: vec![Vec3::ZERO; positions.len()],
-        bounds: Aabb::from_points(&positions),
-        positions: positions.into(),
+        positions,
         indices,
         tri_material: vec![0; n],
-        materials: vec![material],
         degenerate_dropped: 0,
-    }
+    };
+    Scene::new(PathBuf::from("closed-cube"), camera, RenderDefaults::default(), geometry, vec![material])
+        .expect("the closed cube is a valid scene")
 }
 
 pub fn diffuse(albedo: f32, emission: f32) -> Material {
@@ -147,7 +144,7 @@ impl Job {
     /// Renders `scene` with the default backend (Embree when built in, else pir's BVH).
     pub fn run(&self, scene: &Scene, integrator: &mut dyn Integrator) -> Rendered {
         let accel =
-            build_accelerator(Backend::default_available(), &scene.positions, &scene.indices).unwrap();
+            build_accelerator(Backend::default_available(), &scene.positions(), &scene.indices()).unwrap();
         self.run_with(scene, accel.as_ref(), integrator)
     }
 

@@ -95,7 +95,7 @@ impl SphereLights {
             if vpl.depth > max_vpl_depth {
                 continue;
             }
-            let bsdf_p = &ctx.scene.materials[vpl.material as usize].bsdf;
+            let bsdf_p = &ctx.scene.material(vpl.material).bsdf;
             let c = self.contribution(j, &gx, sp.p, v.bsdf, v.wo, bsdf_p, sampler);
             if c != Vec3::ZERO {
                 batch.push(shadow_segment(&x, &self.ends[j]), c);

@@ -99,7 +99,7 @@ fn trace_path(
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
         let sp = ctx.scene.surface_of_hit(&hit);
         let w_in = -ray.dir.normalize();
-        let bsdf = &ctx.scene.materials[sp.material as usize].bsdf;
+        let bsdf = &ctx.scene.material(sp.material).bsdf;
         if !bsdf.is_delta() {
             out.push(Vpl {
                 p: sp.p,

@@ -32,7 +32,7 @@ impl PointLights {
         let emitting: Vec<PreparedBsdf> = vpls
             .iter()
             .map(|v| {
-                let bsdf = ctx.scene.materials[v.material as usize].bsdf;
+                let bsdf = ctx.scene.material(v.material).bsdf;
                 PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance)
             })
             .collect();
@@ -65,7 +65,7 @@ impl LightSet {
                 radius,
                 alpha,
                 iteration,
-                ctx.scene.bounds.diagonal(),
+                ctx.scene.bounds().diagonal(),
             )),
         }
     }
