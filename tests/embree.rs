@@ -22,9 +22,10 @@ fn no_embree_build_reports_how_to_get_it() {
 #[cfg(pir_embree)]
 mod with_embree {
     use glam::Vec3;
-    use pir::accel::embree::{Embree, EmbreeSettings, PacketWidth, flush_denormals_enabled};
+    use pir::accel::embree::{Embree, EmbreeSettings, PacketWidth};
     use pir::accel::{
-        Accelerator, Backend, BruteForce, Hit, build_accelerator, embree_status, set_flush_denormals,
+        Accelerator, Backend, BruteForce, Hit, build_accelerator, embree_status, flush_denormals_enabled,
+        set_flush_denormals,
     };
     use pir::geometry::{Ray, VertexBuffer};
     use pir::sampling::{Domain, Sampler};
