@@ -17,7 +17,9 @@ mod denormals;
 // The FFI wrapper: the one module built on `unsafe` code.
 #[allow(unsafe_code)]
 pub mod embree;
-#[doc(hidden)]
+// Test support (the BVH's unit tests, tests/, benches/), not shipped: see Cargo.toml's
+// `testmesh` feature.
+#[cfg(any(test, feature = "testmesh"))]
 pub mod testmesh;
 
 pub use brute::BruteForce;
