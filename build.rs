@@ -13,7 +13,9 @@
 //! no pkg-config file. Bindings are generated from the installed headers, never checked in:
 //! a header/library mismatch silently corrupts the ray/hit structs.
 //!
-//! When found: `cargo:rustc-cfg=pir_embree`, `PIR_EMBREE_VERSION=<x.y.z>`. When not found:
+//! When found: `cargo:rustc-cfg=pir_embree`, `PIR_EMBREE_VERSION=<x.y.z>`. With
+//! `PIR_NO_EMBREE=1`: `cargo:rustc-cfg=pir_no_embree` (without Embree on purpose; the tests
+//! that need Embree then skip even on CI). When not found:
 //! one `cargo:warning=` with the install hint, and the crate builds without Embree — unless
 //! `PIR_REQUIRE_EMBREE=1`, which turns a missing Embree into a build error.
 //! Either way `PIR_EMBREE_STATUS` describes the outcome for `pir::accel::embree_status()`.
@@ -44,9 +46,11 @@ fn main() {
         println!("cargo:rerun-if-env-changed={v}");
     }
     println!("cargo:rustc-check-cfg=cfg(pir_embree)");
+    println!("cargo:rustc-check-cfg=cfg(pir_no_embree)");
 
     let require = flag("PIR_REQUIRE_EMBREE");
     let result = if flag("PIR_NO_EMBREE") {
+        println!("cargo:rustc-cfg=pir_no_embree");
         Err("disabled by PIR_NO_EMBREE=1".to_string())
     } else {
         find_embree().and_then(|found| build_embree(&found).map(|()| found))

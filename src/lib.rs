@@ -2,6 +2,11 @@
 //!
 //! A renderer that converges to the exact image of a scene with virtual point lights whose
 //! bias shrinks progressively, with a path tracer as its ground truth.
+//!
+//! `unsafe` code is denied outside the Embree FFI wrapper ([`accel::embree`]) and the two
+//! MXCSR instructions behind [`accel::set_flush_denormals`].
+
+#![deny(unsafe_code)]
 
 pub mod accel;
 pub mod geometry;

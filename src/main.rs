@@ -1,5 +1,7 @@
 //! The `pir` command line: `pir render`, `pir compare`.
 
+#![deny(unsafe_code)]
+
 mod cli;
 
 use clap::Parser;

@@ -12,8 +12,7 @@ use pir::accel::{Backend, build_accelerator};
 use pir::integrator::{Clamping, InstantRadiosity, Integrator, PathTracer};
 
 fn compare(make: &dyn Fn() -> Box<dyn Integrator>) {
-    if !Backend::Embree.is_available() {
-        eprintln!("skipping: pir was built without Embree ({})", pir::accel::embree_status());
+    if !common::embree_available("embree_and_bvh_render_the_same_image") {
         return;
     }
     let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/sphere.toml");

@@ -1,5 +1,5 @@
 //! The path tracer converges to the Mitsuba 3 references in `../shared/references/`
-//! (skipped, with a message, when `../shared` is absent).
+//! (skipped, with a message, when `../shared` is absent; a failure on CI: `common::require`).
 //!
 //! Two statistical checks per scene, at 256×256 (the references' size):
 //!
@@ -45,10 +45,7 @@ fn relmse_z(img: &RgbImage, var: &[DVec3], reference: &RgbImage, n: f64) -> (f64
 }
 
 fn check_scene(scene_rel: &str, reference_rel: &str, spp: u64) {
-    let Some(shared) = shared_dir() else {
-        eprintln!("skipping {scene_rel}: ../shared is absent");
-        return;
-    };
+    let Some(shared) = shared_dir(scene_rel) else { return };
     check(&shared.join(scene_rel), &shared.join(reference_rel), spp);
 }
 
@@ -117,12 +114,9 @@ fn check(scene_path: &std::path::Path, reference_path: &std::path::Path, spp: u6
 /// its Mitsuba reference (`tests/data/README.md`), same checks as above at 64×64.
 #[test]
 fn path_tracer_converges_to_mitsuba_mori_knob() {
-    let Some(shared) = shared_dir() else {
-        eprintln!("skipping the Mori knob: ../shared is absent");
-        return;
-    };
+    let Some(shared) = shared_dir("the Mori knob") else { return };
     if !shared.join("scenes/mori-knob/testObj.obj").exists() {
-        eprintln!("skipping the Mori knob: ../shared/scenes/mori-knob is absent");
+        common::require::skip_or_fail("the Mori knob: ../shared/scenes/mori-knob is absent");
         return;
     }
     let data = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");

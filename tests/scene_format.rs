@@ -1,6 +1,8 @@
 //! The scene format contract (`shared/scene-format.md`), one test per rule, plus bad inputs.
 //! Fixtures are written inline into temporary directories.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
@@ -638,17 +640,7 @@ fn paths_are_relative_to_the_scene_file() {
 // ---------------------------------------------------------------- real scenes
 
 fn shared() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
-    if p.is_dir() {
-        return Some(p);
-    }
-    let p = Path::new("/work/shared/scenes");
-    if p.is_dir() {
-        Some(p.to_path_buf())
-    } else {
-        eprintln!("skipped: no ../shared/scenes");
-        None
-    }
+    common::shared_dir("the shared example scenes").map(|d| d.join("scenes"))
 }
 
 fn load_ok(p: &Path) -> Scene {

@@ -11,15 +11,23 @@
 
 mod brute;
 mod bvh;
+// FTZ/DAZ needs two MXCSR instructions, which only inline assembly can issue.
+#[allow(unsafe_code)]
+mod denormals;
+// The FFI wrapper: the one module built on `unsafe` code.
+#[allow(unsafe_code)]
 pub mod embree;
-#[doc(hidden)]
+// Test support (the BVH's unit tests, tests/, benches/), not shipped: see Cargo.toml's
+// `testmesh` feature.
+#[cfg(any(test, feature = "testmesh"))]
 pub mod testmesh;
 
 pub use brute::BruteForce;
 pub use bvh::Bvh;
+pub use denormals::{flush_denormals_enabled, set_flush_denormals};
 #[cfg(pir_embree)]
 pub use embree::Embree;
-pub use embree::{embree_status, set_flush_denormals};
+pub use embree::embree_status;
 
 use std::fmt;
 use std::str::FromStr;

@@ -1,9 +1,13 @@
-//! Helpers shared by the integration tests: scenes built in code, in-process renders, and the
-//! location of the optional `../shared` material.
+//! Helpers shared by the integration tests: scenes built in code, in-process renders, and
+//! what a test needs that may be absent (`../shared`, the Embree backend: see [`require`]).
 #![allow(dead_code)]
 
 pub mod binary;
+pub mod require;
 pub mod study_csv;
+
+#[allow(unused_imports)]
+pub use require::{embree_available, shared_dir};
 
 use glam::Vec3;
 use std::path::PathBuf;
@@ -15,12 +19,6 @@ use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render};
 use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
-
-/// `../shared` beside the checkout, when present.
-pub fn shared_dir() -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared");
-    p.is_dir().then_some(p)
-}
 
 /// The inside of the cube [-1, 1]³, every face facing inwards, all of one material; the
 /// camera sits at the centre looking down −z.

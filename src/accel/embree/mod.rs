@@ -1,18 +1,25 @@
 //! The Embree backend: Intel's ray-tracing kernels through FFI.
 //!
-//! This module is the only place in pir with `unsafe` code; every `unsafe` block carries a
-//! `// SAFETY:` comment and every `unsafe impl Send/Sync` cites the Embree rule it relies on.
+//! This module is where pir's `unsafe` code lives (the crate denies `unsafe_code` everywhere
+//! else, except the two MXCSR instructions of [`set_flush_denormals`](super::set_flush_denormals));
+//! every `unsafe` block carries a `// SAFETY:` comment and every `unsafe impl Send/Sync` cites
+//! the Embree rule it relies on.
 //!
-//! Layout:
+//! Layout, one concern per file:
 //! - `sys`: bindgen output over the installed Embree headers and the `ffi/pir_embree.c` shim
-//!   (which hides the Embree 3/4 differences: context/arguments initialisation and the
-//!   argument order of `rtcIntersect*`/`rtcOccluded*`).
+//!   (which hides the Embree 3/4 differences: context/arguments initialisation, the argument
+//!   order of `rtcIntersect*`/`rtcOccluded*`, and `RTC_INVALID_GEOMETRY_ID`).
 //! - `device`: [`Device`], one Embree device with an error callback, RAII release.
-//! - `scene`: [`Embree`], a committed triangle scene implementing
-//!   [`Accelerator`](super::Accelerator), with single-ray and 4/8/16-wide packet queries.
+//! - `settings`: [`EmbreeSettings`] (build quality, packet width) and their defaults.
+//! - `scene`: [`Embree`], the public type: mesh checks, constructors, accessors.
+//! - `build`: the committed scene and every call that creates, changes or releases Embree
+//!   scene state (buffers shared or copied, commit); its `Sync` argument.
+//! - `query`: the ray and packet setup and the only calls on a committed scene,
+//!   `rtcIntersect*`/`rtcOccluded*` (single rays and 4/8/16-wide packets).
+//! - `accelerator`: [`Embree`] behind [`Accelerator`](super::Accelerator).
 //!
-//! Parts that exist whether or not Embree was found at build time: [`embree_status`] (for the
-//! render summary) and [`set_flush_denormals`] (for rayon's `start_handler`).
+//! Parts that exist whether or not Embree was found at build time: [`AVAILABLE`] and
+//! [`embree_status`] (for the render summary).
 //!
 //! Building: `build.rs` looks for Embree 4, then 3 (`EMBREE_DIR`, else `/usr/include`,
 //! `/usr/local/include`). `PIR_NO_EMBREE=1` forces the pure-Rust build, `PIR_REQUIRE_EMBREE=1`
@@ -20,16 +27,26 @@
 //! `apt-get install libembree-dev libclang-dev`.
 
 #[cfg(pir_embree)]
+mod accelerator;
+#[cfg(pir_embree)]
+mod build;
+#[cfg(pir_embree)]
 mod device;
 #[cfg(pir_embree)]
+mod query;
+#[cfg(pir_embree)]
 mod scene;
+#[cfg(pir_embree)]
+mod settings;
 #[cfg(pir_embree)]
 mod sys;
 
 #[cfg(pir_embree)]
 pub use device::Device;
 #[cfg(pir_embree)]
-pub use scene::{BuildQuality, Embree, EmbreeSettings, PacketWidth};
+pub use scene::Embree;
+#[cfg(pir_embree)]
+pub use settings::{BuildQuality, EmbreeSettings, PacketWidth};
 
 /// True when pir was built with Embree.
 pub const AVAILABLE: bool = cfg!(pir_embree);
@@ -46,54 +63,6 @@ pub fn embree_build_version() -> Option<&'static str> {
     Some(env!("PIR_EMBREE_VERSION")).filter(|v| !v.is_empty())
 }
 
-/// MXCSR bit 15: flush denormal results to zero.
-#[cfg(target_arch = "x86_64")]
-const MXCSR_FTZ: u32 = 1 << 15;
-/// MXCSR bit 6: treat denormal inputs as zero.
-#[cfg(target_arch = "x86_64")]
-const MXCSR_DAZ: u32 = 1 << 6;
-
-#[cfg(target_arch = "x86_64")]
-fn read_mxcsr() -> u32 {
-    let mut csr: u32 = 0;
-    // SAFETY: `stmxcsr` stores the 32-bit MXCSR register into the 4 bytes at the given address,
-    // which is a valid, writable, 4-aligned `u32` on our stack. SSE is part of the x86_64
-    // baseline, so the instruction always exists. It touches no other state.
-    unsafe {
-        std::arch::asm!("stmxcsr [{}]", in(reg) &mut csr as *mut u32, options(nostack, preserves_flags));
-    }
-    csr
-}
-
-/// Sets flush-to-zero and denormals-are-zero (FTZ/DAZ) for the calling thread, as Embree asks
-/// of every thread that traces rays. Call it from rayon's `start_handler` and on the main
-/// thread. Denormals then read and compute as zero on this thread, for all code (pir's own
-/// float code included); nothing in pir depends on denormals. A no-op off x86_64.
-pub fn set_flush_denormals() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let csr = read_mxcsr() | MXCSR_FTZ | MXCSR_DAZ;
-        // SAFETY: `ldmxcsr` loads MXCSR from a valid, 4-aligned `u32` that was read from MXCSR
-        // just above with only the FTZ and DAZ bits added; reserved bits are unchanged, so the
-        // load cannot fault. Changing the rounding/denormal mode of this thread is the purpose.
-        unsafe {
-            std::arch::asm!("ldmxcsr [{}]", in(reg) &csr as *const u32, options(nostack, preserves_flags, readonly));
-        }
-    }
-}
-
-/// Whether FTZ and DAZ are both set on the calling thread (always false off x86_64).
-pub fn flush_denormals_enabled() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        read_mxcsr() & (MXCSR_FTZ | MXCSR_DAZ) == (MXCSR_FTZ | MXCSR_DAZ)
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,20 +76,5 @@ mod tests {
         } else {
             assert!(s.contains("libembree-dev"), "{s}");
         }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn flush_denormals_sets_ftz_daz_on_this_thread_only() {
-        std::thread::spawn(|| {
-            set_flush_denormals();
-            assert!(flush_denormals_enabled());
-            // DAZ: a denormal input reads as zero.
-            let tiny = std::hint::black_box(f32::from_bits(1));
-            assert_eq!(std::hint::black_box(tiny * 1.0), 0.0);
-        })
-        .join()
-        .unwrap();
-        std::thread::spawn(|| assert!(!flush_denormals_enabled())).join().unwrap();
     }
 }
