@@ -21,7 +21,7 @@ fn compare(make: &dyn Fn() -> Box<dyn Integrator>) {
     let images: Vec<_> = [Backend::Embree, Backend::Bvh]
         .into_iter()
         .map(|b| {
-            let accel = build_accelerator(b, &scene.positions(), &scene.indices()).unwrap();
+            let accel = build_accelerator(b, scene.positions(), scene.indices()).unwrap();
             job.run_with(&scene, accel.as_ref(), make().as_mut()).image()
         })
         .collect();

@@ -270,7 +270,8 @@ mod tests {
         let (g, m) = parts();
         let s = build(g.clone(), m.clone()).unwrap();
         assert_eq!((s.triangle_count(), s.bounds().max), (1, Vec3::new(1.0, 1.0, 0.0)));
-        let broken: [(&str, fn(&mut Geometry)); 6] = [
+        type Break = fn(&mut Geometry);
+        let broken: [(&str, Break); 6] = [
             ("not finite", |g| g.positions[1].x = f32::NAN),
             ("2 normals for 3 vertices", |g| g.normals.truncate(2)),
             ("neither zero nor unit", |g| g.normals[0] = Vec3::splat(2.0)),

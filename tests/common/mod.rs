@@ -142,7 +142,7 @@ impl Job {
     /// Renders `scene` with the default backend (Embree when built in, else pir's BVH).
     pub fn run(&self, scene: &Scene, integrator: &mut dyn Integrator) -> Rendered {
         let accel =
-            build_accelerator(Backend::default_available(), &scene.positions(), &scene.indices()).unwrap();
+            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
         self.run_with(scene, accel.as_ref(), integrator)
     }
 
