@@ -25,7 +25,7 @@ pub mod scatter;
 pub mod walker;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
-pub use many_light::{Clamping, DEFAULT_PATHS, InstantRadiosity, Radius, VirtualLights, schedule};
+pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
 pub use method::{MAX_VPLS, Method, MethodConfig, MethodParams, Parameter};
 pub use path::PathTracer;
 

@@ -6,14 +6,20 @@
 //! cone of a sphere ([`super::spheres`]). Both BSDFs are evaluated in full (a glossy VPL emits
 //! its lobe), Φ_j is already divided by the number of light paths, and the shadow rays go to
 //! the accelerator in batches ([`ShadowBatch`]), in VPL order.
+//!
+//! With a light tree ([`super::Gather::Tree`]) the sum is estimated instead from k lights
+//! drawn per receiver ([`super::tree_gather`]): each drawn light's contribution (the same
+//! function as above) divided by k and by its probability, one shadow ray each.
 
 use glam::Vec3;
 
 use super::lanes::{DiffuseReceiver, LANES, LaneKind};
 use super::light_paths::Vpl;
-use super::light_set::{LightSet, PointLights};
+use super::light_set::{LightSet, Lights, PointLights};
+use super::light_tree::LightTree;
 use super::shadow_batch::ShadowBatch;
 use super::spheres::SphereLights;
+use super::tree_gather::{Kernel, Pick, Receiver, stratified};
 use crate::geometry::OffsetPoint;
 use crate::integrator::direct::shadow_segment;
 use crate::integrator::walker::Vertex;
@@ -33,9 +39,16 @@ impl LightSet {
         counters: &mut Counters,
     ) -> Vec3 {
         let mut batch = ShadowBatch::new(ctx.accel);
-        let queued = match self {
-            LightSet::Points(p) => p.queue(v, max_vpl_depth, &mut batch),
-            LightSet::Spheres(s) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
+        let queued = match (&self.lights, &self.tree) {
+            (Lights::Points(p), None) => p.queue(v, max_vpl_depth, &mut batch),
+            (Lights::Spheres(s), None) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
+            (lights, Some((tree, k))) => {
+                let picks = sample_lights(tree, *k, lights, v, max_vpl_depth, sampler);
+                match lights {
+                    Lights::Points(p) => p.queue_sampled(v, &picks, *k, &mut batch),
+                    Lights::Spheres(s) => s.queue_sampled(ctx, v, &picks, *k, sampler, &mut batch),
+                }
+            }
         };
         if !queued {
             return Vec3::ZERO;
@@ -46,7 +59,54 @@ impl LightSet {
     }
 }
 
+/// Draws the k lights of the sampled gather at `v` (k numbers from `sampler`, always); none
+/// when the receiver reflects nothing towards `v.wo`.
+fn sample_lights(
+    tree: &LightTree,
+    k: usize,
+    lights: &Lights,
+    v: &Vertex,
+    max_vpl_depth: u32,
+    sampler: &mut Sampler,
+) -> Vec<Pick> {
+    let mut us = vec![0.0f64; k];
+    stratified(sampler, &mut us);
+    let sp = &v.sp;
+    let mut picks = Vec::with_capacity(k);
+    if !PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance).is_active() {
+        return picks;
+    }
+    let kernel = match lights {
+        Lights::Points(p) => Kernel::Point { bound: p.bound },
+        Lights::Spheres(_) => Kernel::Sphere,
+    };
+    let rx = Receiver { p: sp.p, ng: sp.ng, ns: sp.frame.n, max_depth: max_vpl_depth, kernel };
+    tree.sample(&rx, &mut us, &mut picks);
+    picks
+}
+
+/// A sampled light's contribution divided by k and its probability.
+#[inline]
+fn weighted(c: Vec3, pick: &Pick, k: usize) -> Vec3 {
+    (c.as_dvec3() / (k as f64 * pick.prob)).as_vec3()
+}
+
 impl PointLights {
+    /// Queues the sampled lights' weighted contributions with their shadow rays.
+    fn queue_sampled(&self, v: &Vertex, picks: &[Pick], k: usize, batch: &mut ShadowBatch) -> bool {
+        let sp = &v.sp;
+        let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
+        let x = OffsetPoint::new(sp.p, sp.ng);
+        for pick in picks {
+            let j = pick.light;
+            let c = point_contribution(sp.p, sp.frame.n, &fx, &self.vpls[j], &self.emitting[j], self.bound);
+            if c != Vec3::ZERO {
+                batch.push(shadow_segment(&x, self.lanes.end(j)), weighted(c, pick, k));
+            }
+        }
+        true
+    }
+
     /// Queues every light's contribution with its shadow ray; `false` when the receiver
     /// reflects nothing towards `v.wo`.
     fn queue(&self, v: &Vertex, max_vpl_depth: u32, batch: &mut ShadowBatch) -> bool {
@@ -79,6 +139,30 @@ impl PointLights {
 }
 
 impl SphereLights {
+    /// Queues the sampled spheres' weighted contributions with their shadow rays.
+    fn queue_sampled(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        picks: &[Pick],
+        k: usize,
+        sampler: &mut Sampler,
+        batch: &mut ShadowBatch,
+    ) -> bool {
+        let sp = &v.sp;
+        let gx = sp.geometry();
+        let x = OffsetPoint::new(sp.p, sp.ng);
+        for pick in picks {
+            let j = pick.light;
+            let bsdf_p = &ctx.scene.material(self.vpls[j].material).bsdf;
+            let c = self.contribution(j, &gx, sp.p, v.bsdf, v.wo, bsdf_p, sampler);
+            if c != Vec3::ZERO {
+                batch.push(shadow_segment(&x, &self.ends[j]), weighted(c, pick, k));
+            }
+        }
+        true
+    }
+
     /// Queues every sphere's contribution with its shadow ray to the centre.
     fn queue(
         &self,

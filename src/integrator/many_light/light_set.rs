@@ -1,16 +1,27 @@
 //! The light set of one iteration: the VPLs of its light paths as point lights (with this
 //! iteration's bound on G) or as spheres (with their radii), prepared once for all the
-//! receivers that gather from them.
+//! receivers that gather from them, and, for the sampled gather ([`Gather::Tree`]), the light
+//! tree over them.
+
+use glam::Vec3;
 
 use super::lanes::VplLanes;
 use super::light_paths::Vpl;
+use super::light_tree::{LightTree, TreeLight};
 use super::spheres::SphereLights;
-use super::{Clamping, VirtualLights};
+use super::{Clamping, Gather, VirtualLights};
 use crate::integrator::RenderContext;
-use crate::material::{PreparedBsdf, TransportMode};
+use crate::material::{Bsdf, PreparedBsdf, TransportMode};
+
+/// This iteration's virtual lights, and how receivers gather from them.
+pub struct LightSet {
+    pub lights: Lights,
+    /// The tree and the lights sampled per receiver ([`Gather::Tree`]); `None`: every light.
+    pub tree: Option<(LightTree, usize)>,
+}
 
 /// This iteration's virtual lights.
-pub enum LightSet {
+pub enum Lights {
     Points(PointLights),
     Spheres(SphereLights),
 }
@@ -44,37 +55,92 @@ impl PointLights {
 impl Default for LightSet {
     /// No lights (before the first iteration).
     fn default() -> Self {
-        LightSet::Points(PointLights {
-            vpls: Vec::new(),
-            emitting: Vec::new(),
-            lanes: VplLanes::default(),
-            bound: f32::INFINITY,
-        })
+        LightSet {
+            lights: Lights::Points(PointLights {
+                vpls: Vec::new(),
+                emitting: Vec::new(),
+                lanes: VplLanes::default(),
+                bound: f32::INFINITY,
+            }),
+            tree: None,
+        }
     }
 }
 
 impl LightSet {
-    /// The set of `lights` made from iteration `iteration`'s VPLs.
-    pub fn new(ctx: &RenderContext, lights: &VirtualLights, vpls: Vec<Vpl>, iteration: u64) -> Self {
-        match *lights {
+    /// The set of `lights` made from iteration `iteration`'s VPLs, with the light tree when
+    /// `gather` samples from one.
+    pub fn new(
+        ctx: &RenderContext,
+        lights: &VirtualLights,
+        vpls: Vec<Vpl>,
+        iteration: u64,
+        gather: Gather,
+    ) -> Self {
+        let lights = match *lights {
             VirtualLights::Points(clamping) => {
-                LightSet::Points(PointLights::new(vpls, clamping, iteration, ctx))
+                Lights::Points(PointLights::new(vpls, clamping, iteration, ctx))
             }
-            VirtualLights::Spheres { radius, alpha } => LightSet::Spheres(SphereLights::new(
+            VirtualLights::Spheres { radius, alpha } => Lights::Spheres(SphereLights::new(
                 vpls,
                 radius,
                 alpha,
                 iteration,
                 ctx.scene.bounds().diagonal(),
             )),
-        }
+        };
+        let tree = match gather {
+            Gather::All => None,
+            Gather::Tree { samples } => Some((LightTree::new(&lights.tree_lights(ctx)), samples.max(1))),
+        };
+        LightSet { lights, tree }
     }
 
     /// The VPLs of the set.
     pub fn vpls(&self) -> &[Vpl] {
-        match self {
-            LightSet::Points(p) => &p.vpls,
-            LightSet::Spheres(s) => &s.vpls,
+        match &self.lights {
+            Lights::Points(p) => &p.vpls,
+            Lights::Spheres(s) => &s.vpls,
         }
     }
+}
+
+impl Lights {
+    /// The lights as the tree sees them ([`tree_light`]).
+    pub fn tree_lights(&self, ctx: &RenderContext) -> Vec<TreeLight> {
+        use rayon::prelude::*;
+        let (vpls, radii) = match self {
+            Lights::Points(p) => (&p.vpls, None),
+            Lights::Spheres(s) => (&s.vpls, Some(&s.radii)),
+        };
+        vpls.par_iter()
+            .enumerate()
+            .map(|(j, v)| {
+                let bsdf = ctx.scene.material(v.material).bsdf;
+                let active = match self {
+                    Lights::Points(p) => p.emitting[j].is_active(),
+                    Lights::Spheres(_) => {
+                        PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance).is_active()
+                    }
+                };
+                tree_light(v, &bsdf, active, radii.map_or(0.0, |r| r[j]))
+            })
+            .collect()
+    }
+}
+
+/// VPL `v` as the tree sees it: position, geometric normal, depth, `radius` (0 for points),
+/// and the intensity Σ over RGB of Φ × the reflectance of its BSDF (diffuse albedo, plus the
+/// specular colour of a glossy one), or 0 when its BSDF is inactive for its incoming direction
+/// (`active`). Either way the intensity is 0 only when every channel of Φ ∘ f_p is 0 in every
+/// direction: the light contributes nothing anywhere.
+pub fn tree_light(v: &Vpl, bsdf: &Bsdf, active: bool, radius: f32) -> TreeLight {
+    let reflectance = match *bsdf {
+        Bsdf::Diffuse { albedo } => albedo,
+        Bsdf::Glossy { albedo, specular, .. } => albedo + specular,
+        Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
+    };
+    let intensity = if active { (v.flux * reflectance).max(Vec3::ZERO).element_sum() } else { 0.0 };
+    // Non-finite (never in practice): the largest intensity, still sampled.
+    TreeLight { p: v.p, ng: v.ng, intensity: intensity.min(f32::MAX), depth: v.depth, radius }
 }

@@ -33,7 +33,9 @@
 //! set, points or spheres), [`gather`] (one receiver against the set, shadow rays in
 //! batches: [`shadow_batch`]), [`lanes`] (the four-wide kernel of diffuse point lights),
 //! [`spheres`] (virtual spherical lights: radii and the cone integral, with [`knn`]),
-//! [`schedule`] (the progressive schedules). Measurements behind the defaults are in
+//! [`schedule`] (the progressive schedules), and for the sampled gather ([`Gather::Tree`]):
+//! [`light_tree`] (the per-iteration tree over the lights) and [`tree_gather`] (drawing k
+//! lights per receiver from it, unbiased). Measurements behind the defaults are in
 //! `docs/measurements.md`.
 
 pub mod gather;
@@ -41,9 +43,11 @@ pub mod knn;
 pub mod lanes;
 pub mod light_paths;
 pub mod light_set;
+pub mod light_tree;
 pub mod schedule;
 pub mod shadow_batch;
 pub mod spheres;
+pub mod tree_gather;
 
 pub use light_paths::{Vpl, trace_vpls};
 pub use light_set::LightSet;
@@ -114,16 +118,34 @@ pub enum VirtualLights {
     },
 }
 
+/// How a receiver gathers from the iteration's virtual lights.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Gather {
+    /// From every light, one shadow ray each ([`gather`]).
+    #[default]
+    All,
+    /// From `samples` lights drawn per receiver from a light tree in proportion to a bound on
+    /// their contribution, each weighted by its inverse probability: unbiased for the same
+    /// sum ([`light_tree`], [`tree_gather`]).
+    Tree { samples: usize },
+}
+
 /// A many-light method: its parameters, and the light set of the current iteration.
 pub struct InstantRadiosity {
     lights: VirtualLights,
     paths: usize,
+    gather: Gather,
     set: LightSet,
 }
 
 impl InstantRadiosity {
     pub fn new(lights: VirtualLights, paths: usize) -> Self {
-        InstantRadiosity { lights, paths, set: LightSet::default() }
+        InstantRadiosity { lights, paths, gather: Gather::All, set: LightSet::default() }
+    }
+
+    /// The same method gathering as `gather` says.
+    pub fn with_gather(self, gather: Gather) -> Self {
+        InstantRadiosity { gather, ..self }
     }
 
     /// Point lights with the given clamping.
@@ -167,6 +189,10 @@ impl Integrator for InstantRadiosity {
 
     fn parameters(&self) -> Vec<(String, String)> {
         let mut p = vec![("vpls".to_string(), self.paths.to_string())];
+        if let Gather::Tree { samples } = self.gather {
+            p.push(("gather".into(), "tree".into()));
+            p.push(("gather-samples".into(), samples.to_string()));
+        }
         match self.lights {
             VirtualLights::Points(Clamping::None) => {}
             VirtualLights::Points(Clamping::Constant { b }) => p.push(("clamp".into(), b.to_string())),
@@ -194,7 +220,7 @@ impl Integrator for InstantRadiosity {
         let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, max_vpl_depth);
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
-        self.set = LightSet::new(ctx, &self.lights, vpls, iteration);
+        self.set = LightSet::new(ctx, &self.lights, vpls, iteration, self.gather);
     }
 
     fn radiance(

@@ -1,0 +1,104 @@
+//! The many-light gather's cost per receiver as the number of VPLs grows: the exhaustive
+//! gather (`Gather::All`, linear in the count) and the tree gather (`Gather::Tree`, k = 16
+//! lights per receiver, growing with the tree's depth), shadow rays included; and the light
+//! tree's build time per VPL count.
+//!
+//! VPLs are traced in the Cornell box (`scenes/cornell-box/scene.toml`) with as many light
+//! paths as it takes, and cut to the count. Receivers: the camera's first hits through a 32×32
+//! grid of pixel centres. Point lights clamped at the default bound (`ir-clamp`'s kernel).
+//!
+//! Run: `cargo bench --bench gather -- --noplot` (add `--quick` for a fast pass).
+
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec2;
+use pir::accel::{Backend, build_accelerator};
+use pir::integrator::many_light::light_set::LightSet;
+use pir::integrator::many_light::light_tree::LightTree;
+use pir::integrator::many_light::{Vpl, trace_vpls};
+use pir::integrator::walker::Vertex;
+use pir::integrator::{Clamping, Counters, Gather, RenderContext, VirtualLights};
+use pir::light::Emitters;
+use pir::sampling::{Domain, Sampler};
+use pir::scene::{SurfacePoint, load};
+
+const COUNTS: [usize; 3] = [1_000, 10_000, 100_000];
+const SAMPLES: usize = 16;
+
+fn bench(c: &mut Criterion) {
+    let scene = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml")).unwrap();
+    let accel = build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+    let emitters = Emitters::new(&scene).unwrap();
+    let ctx =
+        RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth: 8, seed: 1 };
+    let max_vpl_depth = ctx.max_depth - 2;
+    let vpls_of = |n: usize| -> Vec<Vpl> {
+        let mut paths = n / 2 + 1;
+        loop {
+            let (mut v, _) = trace_vpls(&ctx, 1, paths, max_vpl_depth);
+            if v.len() >= n {
+                v.truncate(n);
+                return v;
+            }
+            paths *= 2;
+        }
+    };
+    // Receivers: first hits of the camera rays through a 32×32 grid.
+    let camera = scene.camera().with_resolution(32, 32);
+    let receivers: Vec<(SurfacePoint, glam::Vec3)> = (0..32 * 32)
+        .filter_map(|i| {
+            let ray = camera.generate_ray(Vec2::new((i % 32) as f32 + 0.5, (i / 32) as f32 + 0.5));
+            let hit = ctx.accel.intersect(&ray)?;
+            let sp = scene.surface_of_hit(&hit);
+            (!scene.material(sp.material).bsdf.is_delta()).then_some((sp, -ray.dir))
+        })
+        .collect();
+    let lights =
+        VirtualLights::Points(Clamping::Constant { b: Clamping::default_bound(scene.bounds().diagonal()) });
+
+    let mut build = c.benchmark_group("tree-build");
+    build.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
+    for n in COUNTS.into_iter().chain([1_000_000]) {
+        let set = LightSet::new(&ctx, &lights, vpls_of(n), 1, Gather::All);
+        let tree_lights = set.lights.tree_lights(&ctx);
+        build.throughput(Throughput::Elements(n as u64));
+        build.bench_with_input(BenchmarkId::from_parameter(n), &tree_lights, |b, l| {
+            b.iter(|| black_box(LightTree::new(l)))
+        });
+    }
+    build.finish();
+
+    let mut group = c.benchmark_group("gather");
+    group.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
+    group.throughput(Throughput::Elements(receivers.len() as u64));
+    for n in COUNTS {
+        let vpls = vpls_of(n);
+        let mut cases = vec![("tree-k16", Gather::Tree { samples: SAMPLES })];
+        if n <= 10_000 {
+            cases.push(("all", Gather::All));
+        }
+        for (name, gather) in cases {
+            let set = LightSet::new(&ctx, &lights, vpls.clone(), 1, gather);
+            group.bench_with_input(BenchmarkId::new(name, n), &set, |b, set| {
+                b.iter(|| {
+                    let mut counters = Counters::default();
+                    let mut sum = glam::Vec3::ZERO;
+                    for (i, (sp, wo)) in receivers.iter().enumerate() {
+                        let bsdf = &scene.material(sp.material).bsdf;
+                        let v = Vertex { sp: *sp, wo: *wo, bsdf, depth: 1 };
+                        let mut sampler = Sampler::new(1, 1, Domain::Camera, i as u64);
+                        sum += set.gather(&ctx, &v, max_vpl_depth, &mut sampler, &mut counters);
+                    }
+                    black_box((sum, counters))
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
