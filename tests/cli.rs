@@ -84,6 +84,22 @@ fn every_method_renders() {
         let (_, attrs) = pir::image::read_exr(&dir.path().join(&out)).unwrap();
         assert!(attrs.contains(&("pir.method".to_string(), m.to_string())), "{m}: {attrs:?}");
     }
+    // Every VPL method also gathers through the light tree, which the metadata records.
+    for m in ["ir", "pir-clamp", "pir-vsl"] {
+        let out = format!("{m}-tree.exr");
+        let args = ["render", s.to_str().unwrap(), "--method", m, "--spp", "2", "--vpls", "64"];
+        let tree = ["--gather", "tree", "--gather-samples", "3", "--resolution", "16", "16"];
+        let o = pir(
+            &args.into_iter().chain(tree).chain(["--out", &out, "--no-preview"]).collect::<Vec<_>>(),
+            dir.path(),
+        );
+        assert!(o.status.success(), "{m} tree: {}", stderr(&o));
+        let (img, attrs) = pir::image::read_exr(&dir.path().join(&out)).unwrap();
+        assert!(img.mean()[0] > 0.0, "{m} tree");
+        for (k, v) in [("gather", "tree"), ("gather-samples", "3")] {
+            assert!(attrs.iter().any(|(a, b)| a.ends_with(k) && b == v), "{m}: {k}={v} not in {attrs:?}");
+        }
+    }
 }
 
 #[test]
@@ -102,6 +118,9 @@ fn bad_arguments_fail_cleanly_before_any_output() {
         (&["render", s, "--alpha", "1.5"], &["--alpha"]),
         (&["render", s, "--clamp", "-2"], &["--clamp"]),
         (&["render", s, "--radius", "0"], &["--radius"]),
+        (&["render", s, "--gather", "cut"], &["--gather", "cut"]),
+        (&["render", s, "--gather-samples", "0"], &["--gather-samples"]),
+        (&["render", s, "--gather-samples", "1000"], &["--gather-samples"]),
         (&["render", s, "--threads", "0"], &["--threads"]),
         (&["render", s, "--max-depth", "0"], &["--max-depth"]),
         (&["render", s, "--out", "no/such/dir/x.exr"], &["no/such/dir", "does not exist"]),
@@ -216,6 +235,8 @@ fn help_documents_every_command() {
         "--clamp",
         "--radius",
         "--alpha",
+        "--gather",
+        "--gather-samples",
         "pir-vsl",
     ] {
         assert!(text.contains(flag), "render --help lacks {flag}");

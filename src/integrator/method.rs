@@ -1,7 +1,7 @@
 //! A rendering method's configuration, the one source that `pir render`, `pir study`, the
 //! resume identity of a checkpoint ([`crate::render::state`]) and the tests share: the methods
 //! by name ([`Method`]), their parameters ([`MethodParams`], the `--vpls`, `--clamp`,
-//! `--radius` and `--alpha` flags with their defaults), the checks of those parameters
+//! `--radius`, `--alpha`, `--gather` and `--gather-samples` flags with their defaults), the checks of those parameters
 //! ([`MethodConfig::validate`]), and how a method with its parameters becomes an integrator
 //! ([`MethodConfig::integrator`]).
 //!
@@ -15,7 +15,9 @@ use std::fmt;
 use std::str::FromStr;
 
 use super::schedule::DEFAULT_ALPHA;
-use super::{Clamping, DEFAULT_PATHS, InstantRadiosity, Integrator, PathTracer, Radius, VirtualLights};
+use super::{
+    Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Integrator, PathTracer, Radius, VirtualLights,
+};
 
 /// A rendering method (`--method`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -111,11 +113,49 @@ pub struct MethodParams {
     /// r_i = r_1 · i^((α−1)/2), in (0, 1).
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
+    /// VPL methods: how a camera vertex gathers from the iteration's VPLs: all (every VPL, one
+    /// shadow ray each) or tree (--gather-samples VPLs drawn from a light tree in proportion
+    /// to a bound on their contribution, weighted by 1/probability: unbiased for the same sum,
+    /// so for many more VPLs per iteration).
+    #[arg(long, value_enum, value_name = "HOW", default_value_t = GatherKind::All)]
+    #[serde(default)]
+    pub gather: GatherKind,
+    /// --gather tree: VPLs drawn per camera vertex (k), 1 to 64.
+    #[arg(long, value_name = "K", default_value_t = DEFAULT_GATHER_SAMPLES)]
+    #[serde(default = "default_gather_samples")]
+    pub gather_samples: usize,
+}
+
+/// How a camera vertex gathers (`--gather`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GatherKind {
+    /// Every VPL of the iteration.
+    #[default]
+    All,
+    /// `--gather-samples` VPLs drawn from a light tree.
+    Tree,
+}
+
+/// VPLs drawn per camera vertex with `--gather tree` when `--gather-samples` is not given.
+pub const DEFAULT_GATHER_SAMPLES: usize = 8;
+/// Most VPLs drawn per camera vertex (`--gather-samples`).
+pub const MAX_GATHER_SAMPLES: usize = 64;
+
+fn default_gather_samples() -> usize {
+    DEFAULT_GATHER_SAMPLES
 }
 
 impl Default for MethodParams {
     fn default() -> Self {
-        MethodParams { vpls: DEFAULT_PATHS, clamp: None, radius: None, alpha: DEFAULT_ALPHA }
+        MethodParams {
+            vpls: DEFAULT_PATHS,
+            clamp: None,
+            radius: None,
+            alpha: DEFAULT_ALPHA,
+            gather: GatherKind::All,
+            gather_samples: DEFAULT_GATHER_SAMPLES,
+        }
     }
 }
 
@@ -138,7 +178,18 @@ impl MethodParams {
         if !Parameter::Alpha.accepts(self.alpha) {
             bail!("--alpha {}: must lie strictly between 0 and 1", self.alpha);
         }
+        if self.gather_samples == 0 || self.gather_samples > MAX_GATHER_SAMPLES {
+            bail!("--gather-samples {}: must be 1 to {MAX_GATHER_SAMPLES}", self.gather_samples);
+        }
         Ok(())
+    }
+
+    /// The gather of the VPL methods.
+    pub fn gather(&self) -> Gather {
+        match self.gather {
+            GatherKind::All => Gather::All,
+            GatherKind::Tree => Gather::Tree { samples: self.gather_samples },
+        }
     }
 
     /// Sets a parameter (a study's sweep).
@@ -253,6 +304,12 @@ impl MethodConfig {
                     .then(|| p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal))),
                 radius: if m.uses_radius() { p.radius } else { None },
                 alpha: if m.uses_alpha() { p.alpha } else { default.alpha },
+                gather: if m.uses_vpls() { p.gather } else { default.gather },
+                gather_samples: if m.uses_vpls() && p.gather == GatherKind::Tree {
+                    p.gather_samples
+                } else {
+                    default.gather_samples
+                },
             },
         }
     }
@@ -262,19 +319,18 @@ impl MethodConfig {
         let p = &self.params;
         let bound = p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal));
         let paths = p.vpls;
-        match self.method {
-            Method::Pt => Box::new(PathTracer),
-            Method::Ir => Box::new(InstantRadiosity::points(Clamping::None, paths)),
-            Method::IrClamp => Box::new(InstantRadiosity::points(Clamping::Constant { b: bound }, paths)),
-            Method::PirClamp => {
-                Box::new(InstantRadiosity::points(Clamping::Progressive { b1: bound, alpha: p.alpha }, paths))
-            }
+        let lights = match self.method {
+            Method::Pt => return Box::new(PathTracer),
+            Method::Ir => VirtualLights::Points(Clamping::None),
+            Method::IrClamp => VirtualLights::Points(Clamping::Constant { b: bound }),
+            Method::PirClamp => VirtualLights::Points(Clamping::Progressive { b1: bound, alpha: p.alpha }),
             Method::Vsl | Method::PirVsl => {
                 let radius = p.radius.map_or(Radius::Density, Radius::Global);
                 let alpha = (self.method == Method::PirVsl).then_some(p.alpha);
-                Box::new(InstantRadiosity::new(VirtualLights::Spheres { radius, alpha }, paths))
+                VirtualLights::Spheres { radius, alpha }
             }
-        }
+        };
+        Box::new(InstantRadiosity::new(lights, paths).with_gather(p.gather()))
     }
 }
 
@@ -301,6 +357,8 @@ mod tests {
             (MethodParams { clamp: Some(-2.0), ..ok }, "--clamp -2"),
             (MethodParams { radius: Some(f32::NAN), ..ok }, "--radius NaN"),
             (MethodParams { alpha: 1.0, ..ok }, "--alpha 1"),
+            (MethodParams { gather_samples: 0, ..ok }, "--gather-samples 0"),
+            (MethodParams { gather_samples: 65, ..ok }, "--gather-samples 65"),
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.starts_with(flag), "{e}");
@@ -336,7 +394,14 @@ mod tests {
             }
             let c = MethodConfig {
                 method: Method::PirVsl,
-                params: MethodParams { clamp: Some(v), radius: Some(v.abs()), alpha: v, vpls: 7 },
+                params: MethodParams {
+                    clamp: Some(v),
+                    radius: Some(v.abs()),
+                    alpha: v,
+                    vpls: 7,
+                    gather: GatherKind::Tree,
+                    gather_samples: 5,
+                },
             };
             let back: MethodConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
             assert_eq!(back, c, "{v:e}");

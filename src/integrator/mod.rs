@@ -26,7 +26,10 @@ pub mod walker;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
-pub use method::{MAX_VPLS, Method, MethodConfig, MethodParams, Parameter};
+pub use method::{
+    DEFAULT_GATHER_SAMPLES, GatherKind, MAX_GATHER_SAMPLES, MAX_VPLS, Method, MethodConfig, MethodParams,
+    Parameter,
+};
 pub use path::PathTracer;
 
 use glam::Vec3;
