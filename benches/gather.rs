@@ -1,7 +1,10 @@
 //! The many-light gather's cost per receiver as the number of VPLs grows: the exhaustive
 //! gather (`Gather::All`, linear in the count) and the tree gather (`Gather::Tree`, k = 16
-//! lights per receiver, growing with the tree's depth), shadow rays included; and the light
-//! tree's build time per VPL count.
+//! lights per receiver, growing with the tree's depth), shadow rays included; the light
+//! tree's build time per VPL count; and the tree's descent alone (`descent`: drawing k = 4 and
+//! 16 lights per receiver, no contributions, no shadow rays). Before the descent group, the mean
+//! probability of a dead end (a descent that ends without a pick) over the receivers is printed
+//! per VPL count.
 //!
 //! VPLs are traced in the Cornell box (`scenes/cornell-box/scene.toml`) with as many light
 //! paths as it takes, and cut to the count. Receivers: the camera's first hits through a 32×32
@@ -18,6 +21,7 @@ use glam::Vec2;
 use pir::accel::{Backend, build_accelerator};
 use pir::integrator::many_light::light_set::LightSet;
 use pir::integrator::many_light::light_tree::LightTree;
+use pir::integrator::many_light::tree_gather::{Kernel, Pick, Receiver, stratified};
 use pir::integrator::many_light::{Vpl, trace_vpls};
 use pir::integrator::walker::Vertex;
 use pir::integrator::{Clamping, Counters, Gather, RenderContext, VirtualLights};
@@ -98,6 +102,55 @@ fn bench(c: &mut Criterion) {
         }
     }
     group.finish();
+
+    // The descent alone, receivers as the gather builds them.
+    let bound = match lights {
+        VirtualLights::Points(c) => c.bound(1),
+        VirtualLights::Spheres { .. } => unreachable!(),
+    };
+    let rxs: Vec<Receiver> = receivers
+        .iter()
+        .map(|(sp, _)| Receiver {
+            p: sp.p,
+            ng: sp.ng,
+            ns: sp.frame.n,
+            max_depth: max_vpl_depth,
+            kernel: Kernel::Point { bound },
+        })
+        .collect();
+    let trees: Vec<(usize, LightTree)> = COUNTS
+        .iter()
+        .map(|&n| {
+            let set = LightSet::new(&ctx, &lights, vpls_of(n), 1, Gather::All);
+            (n, LightTree::new(&set.lights.tree_lights(&ctx)))
+        })
+        .collect();
+    for (n, tree) in &trees {
+        let dead: f64 = rxs.iter().map(|rx| tree.leaf_probabilities(rx).1).sum::<f64>() / rxs.len() as f64;
+        eprintln!("{n} VPLs: mean probability of a dead end {dead:.4}");
+    }
+    let mut descent = c.benchmark_group("descent");
+    descent.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
+    descent.throughput(Throughput::Elements(rxs.len() as u64));
+    for (n, tree) in &trees {
+        for k in [4usize, SAMPLES] {
+            descent.bench_with_input(BenchmarkId::new(format!("k{k}"), n), tree, |b, tree| {
+                b.iter(|| {
+                    let mut picks = 0usize;
+                    for (i, rx) in rxs.iter().enumerate() {
+                        let mut sampler = Sampler::new(1, 1, Domain::Camera, i as u64);
+                        let mut us = vec![0.0f64; k];
+                        stratified(&mut sampler, &mut us);
+                        let mut out: Vec<Pick> = Vec::with_capacity(k);
+                        tree.sample(rx, &mut us, &mut out);
+                        picks += out.len();
+                    }
+                    black_box(picks)
+                })
+            });
+        }
+    }
+    descent.finish();
 }
 
 criterion_group!(benches, bench);

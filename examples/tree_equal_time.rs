@@ -1,8 +1,10 @@
-//! Equal-time comparison of the exhaustive gather and the tree gather on the Cornell box at
-//! 128×128: relative MSE against the Mitsuba reference of `../shared/references` (256×256,
-//! box-downsampled), one render per configuration for the same wall-clock budget.
+//! Equal-time comparison of the exhaustive gather and the tree gather at 128×128: relative MSE
+//! against a Mitsuba reference, one render per configuration for the same wall-clock budget.
+//! By default the Cornell box against `../shared/references/cornell-box-original.exr`
+//! (256×256, box-downsampled); or any scene and reference (box-downsampled to 128 wide).
 //!
-//! Run: `cargo run --release --example tree_equal_time -- [SECONDS] [THREADS]`.
+//! Run: `cargo run --release --example tree_equal_time -- [SECONDS] [THREADS] [SCENE REFERENCE]`,
+//! e.g. `… -- 20 2 scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr`.
 
 use std::path::Path;
 use std::time::Duration;
@@ -19,9 +21,16 @@ fn main() {
     let seconds: f64 = args.get(1).map_or(30.0, |s| s.parse().unwrap());
     let threads: usize = args.get(2).map_or(2, |s| s.parse().unwrap());
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = load(&root.join("scenes/cornell-box/scene.toml")).unwrap();
-    let (reference, _) = read_exr(&root.join("../shared/references/cornell-box-original.exr")).unwrap();
-    let reference = reference.downsample(2).unwrap();
+    let (scene_path, reference_path) = match (args.get(3), args.get(4)) {
+        (Some(s), Some(r)) => (root.join(s), root.join(r)),
+        _ => (
+            root.join("scenes/cornell-box/scene.toml"),
+            root.join("../shared/references/cornell-box-original.exr"),
+        ),
+    };
+    let scene = load(&scene_path).unwrap();
+    let (reference, _) = read_exr(&reference_path).unwrap();
+    let reference = reference.downsample(reference.width / 128).unwrap();
     let accel = build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
     let emitters = Emitters::new(&scene).unwrap();
     let ctx = RenderContext {
@@ -47,7 +56,7 @@ fn main() {
         }
     }
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    println!("{seconds} s each, {threads} threads, seed 3, 128×128");
+    println!("{}: {seconds} s each, {threads} threads, seed 3, 128×128", scene_path.display());
     println!("| configuration | iterations | VPLs/iteration | prepare s | pixel s | shadow rays | rel MSE |");
     println!("|---|---|---|---|---|---|---|");
     for (name, mut integrator) in configs {

@@ -25,8 +25,14 @@
 //!   set uses Σ over RGB of flux × reflectance, zero only for a light that emits nothing);
 //! - the box of the lights' positions, each grown by its sphere's radius (zero for points);
 //! - a cone (axis, cos θ) containing every light's geometric normal, merged as in pbrt-v4's
-//!   `DirectionCone` union with a small angular margin against rounding;
+//!   `DirectionCone` union with a small angular margin against rounding, and sin θ (so that the
+//!   importance of [`super::tree_gather`] needs no trigonometry: pbrt-v4's
+//!   `CompactLightBounds` stores cos θ the same way);
+//! - the half-diagonal |h| of the box (the radius of its bounding sphere about the centre);
 //! - the smallest depth (segments from the emitter) and the smallest radius of its lights.
+//!
+//! A node is 64 bytes, aligned to 64: a node is one cache line, and the two children a
+//! descent evaluates together (2i and 2i + 1) are two adjacent lines.
 //!
 //! Building costs a parallel sort of n keys and O(n) merges, level by level in parallel.
 
@@ -105,9 +111,14 @@ fn angle_between(a: Vec3, b: Vec3) -> f32 {
 
 /// What a node knows of the lights below it (see the module docs).
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 pub struct Node {
     pub bounds: Aabb,
     pub cone: Cone,
+    /// sin θ of the cone's half-angle θ (cos θ clamped to [−1, 1]; 0 for an empty cone).
+    pub sin_theta: f32,
+    /// |h|, h the box's half-extent (0 for an empty box).
+    pub half_diagonal: f32,
     pub intensity: f32,
     pub min_depth: u32,
     pub min_radius: f32,
@@ -118,6 +129,8 @@ impl Node {
     pub const EMPTY: Node = Node {
         bounds: Aabb::EMPTY,
         cone: Cone::EMPTY,
+        sin_theta: 0.0,
+        half_diagonal: 0.0,
         intensity: 0.0,
         min_depth: u32::MAX,
         min_radius: f32::INFINITY,
@@ -125,23 +138,34 @@ impl Node {
 
     fn leaf(l: &TreeLight) -> Node {
         let r = Vec3::splat(l.radius);
-        Node {
+        Node::with_derived(Node {
             bounds: Aabb { min: l.p - r, max: l.p + r },
             cone: Cone { axis: l.ng, cos_theta: 1.0 },
             intensity: l.intensity,
             min_depth: l.depth,
             min_radius: l.radius,
-        }
+            ..Node::EMPTY
+        })
     }
 
     fn merge(a: &Node, b: &Node) -> Node {
-        Node {
+        Node::with_derived(Node {
             bounds: a.bounds.union(b.bounds),
             cone: Cone::union(a.cone, b.cone),
             intensity: a.intensity + b.intensity,
             min_depth: a.min_depth.min(b.min_depth),
             min_radius: a.min_radius.min(b.min_radius),
-        }
+            ..Node::EMPTY
+        })
+    }
+
+    /// The node with sin θ and |h| computed from its cone and box.
+    fn with_derived(self) -> Node {
+        let c = self.cone.cos_theta.clamp(-1.0, 1.0);
+        let sin_theta = if self.cone.is_empty() { 0.0 } else { (1.0 - c * c).max(0.0).sqrt() };
+        let half_diagonal =
+            if self.bounds.is_empty() { 0.0 } else { (0.5 * (self.bounds.max - self.bounds.min)).length() };
+        Node { sin_theta, half_diagonal, ..self }
     }
 }
 

@@ -105,18 +105,18 @@ pub struct Receiver {
 }
 
 /// cos(θ_a − θ_b) for θ_a − θ_b clamped at 0 (from the sines and cosines; pbrt-v4's form).
-#[inline]
+#[inline(always)]
 fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
     if cos_a > cos_b { 1.0 } else { cos_a * cos_b + sin_a * sin_b }
 }
 
 /// sin(θ_a − θ_b) for θ_a − θ_b clamped at 0.
-#[inline]
+#[inline(always)]
 fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
     if cos_a > cos_b { 0.0 } else { sin_a * cos_b - cos_a * sin_b }
 }
 
-#[inline]
+#[inline(always)]
 fn safe_sqrt(x: f32) -> f32 {
     x.max(0.0).sqrt()
 }
@@ -126,6 +126,62 @@ impl Receiver {
     /// contributes nothing here (see the module docs).
     #[inline]
     pub fn importance(&self, node: &Node) -> Option<f32> {
+        Prepared::new(self).importance(node)
+    }
+}
+
+/// The kernel as the importance uses it.
+#[derive(Clone, Copy, Debug)]
+enum Bound {
+    /// Points clamped at a finite bound.
+    Clamped(f32),
+    /// Points, unclamped.
+    Unclamped,
+    Sphere,
+}
+
+/// A receiver with what every importance evaluation shares computed once per gather.
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    p: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    ng_abs: Vec3,
+    ns_abs: Vec3,
+    max_depth: u32,
+    bound: Bound,
+}
+
+impl Prepared {
+    #[inline]
+    fn new(rx: &Receiver) -> Prepared {
+        let bound = match rx.kernel {
+            Kernel::Point { bound } if bound.is_finite() => Bound::Clamped(bound),
+            Kernel::Point { .. } => Bound::Unclamped,
+            Kernel::Sphere => Bound::Sphere,
+        };
+        Prepared {
+            p: rx.p,
+            ng: rx.ng,
+            ns: rx.ns,
+            ng_abs: rx.ng.abs(),
+            ns_abs: rx.ns.abs(),
+            max_depth: rx.max_depth,
+            bound,
+        }
+    }
+
+    /// [`Receiver::importance`]. No trigonometry: with d the distance from x to the box centre
+    /// c, r = |h| the node's stored half-diagonal and w = (c − x)/d, sin θ_b = r/d and
+    /// cos θ_b = √(d² − r²)/d; cos θ_i = n_s·w and cos θ_w = −axis·w, with their sines
+    /// √(1 − cos²) (both angles lie in [0, π], where the sine is ≥ 0); the cone's cos θ_n and
+    /// sin θ_n are stored in the node. The clamped differences θ_w − θ_n − θ_b and
+    /// θ_i − θ_b then follow from cos(a − b) = cos a cos b + sin a sin b and
+    /// sin(a − b) = sin a cos b − cos a sin b, 1 and 0 when a ≤ b (a − b ≤ 0 clamps to 0;
+    /// a ≤ b ⟺ cos a ≥ cos b on [0, π]). The light-side bound is evaluated first, so a node
+    /// culled by it costs no receiver-side work.
+    #[inline(always)]
+    fn importance(&self, node: &Node) -> Option<f32> {
         if node.intensity <= 0.0 || node.min_depth > self.max_depth {
             return None;
         }
@@ -134,31 +190,30 @@ impl Receiver {
         let dc = 0.5 * (b.max + b.min) - self.p;
         // Behind either plane of the receiver (with a margin against rounding).
         let tol = PLANE_TOL * (dc.abs() + h).element_sum();
-        if self.ng.dot(dc) + self.ng.abs().dot(h) < -tol || self.ns.dot(dc) + self.ns.abs().dot(h) < -tol {
+        if self.ng.dot(dc) + self.ng_abs.dot(h) < -tol || self.ns.dot(dc) + self.ns_abs.dot(h) < -tol {
             return None;
         }
         let dist2 = dc.length_squared();
-        let r2 = h.length_squared();
+        let r = node.half_diagonal;
+        let r2 = r * r;
         let (cos_x, cos_p) = if dist2 > r2 {
-            let dist = dist2.sqrt();
-            let w = dc / dist;
-            let sin_b = (r2 / dist2).sqrt();
-            let cos_b = safe_sqrt(1.0 - sin_b * sin_b);
-            // At the receiver.
-            let cos_i = self.ns.dot(w);
-            let cos_x = cos_sub_clamped(safe_sqrt(1.0 - cos_i * cos_i), cos_i, sin_b, cos_b);
+            let inv = dist2.sqrt().recip();
+            let w = dc * inv;
+            let sin_b = (r * inv).min(1.0);
+            let cos_b = safe_sqrt(dist2 - r2) * inv;
             // At the lights: the cone's axis against the direction from the box to x.
-            let cone = &node.cone;
-            let cos_w = -cone.axis.dot(w);
+            let cos_w = -node.cone.axis.dot(w);
             let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-            let cos_n = cone.cos_theta.clamp(-1.0, 1.0);
-            let sin_n = safe_sqrt(1.0 - cos_n * cos_n);
+            let (cos_n, sin_n) = (node.cone.cos_theta.clamp(-1.0, 1.0), node.sin_theta);
             let cos_t = cos_sub_clamped(sin_w, cos_w, sin_n, cos_n);
             let sin_t = sin_sub_clamped(sin_w, cos_w, sin_n, cos_n);
             let cos_p = cos_sub_clamped(sin_t, cos_t, sin_b, cos_b);
             if cos_p < -CONE_TOL {
                 return None;
             }
+            // At the receiver.
+            let cos_i = self.ns.dot(w);
+            let cos_x = cos_sub_clamped(safe_sqrt(1.0 - cos_i * cos_i), cos_i, sin_b, cos_b);
             (cos_x.max(0.0), cos_p.max(0.0))
         } else {
             (1.0, 1.0)
@@ -166,16 +221,16 @@ impl Receiver {
         let d = (dc.abs() - h).max(Vec3::ZERO);
         let dmin2 = d.length_squared();
         let cc = cos_x * cos_p;
-        let g = match self.kernel {
-            Kernel::Point { bound } if bound.is_finite() => {
+        let g = match self.bound {
+            Bound::Clamped(bound) => {
                 if dmin2 > 0.0 {
                     (cc / dmin2).min(bound)
                 } else {
                     bound
                 }
             }
-            Kernel::Point { .. } => cc / dmin2.max(0.25 * r2),
-            Kernel::Sphere => {
+            Bound::Unclamped => cc / dmin2.max(0.25 * r2),
+            Bound::Sphere => {
                 let near = 2.0 / (node.min_radius * node.min_radius);
                 if dmin2 > 0.0 { (cc / dmin2).min(near) } else { near }
             }
@@ -209,40 +264,95 @@ pub struct Pick {
     pub prob: f64,
 }
 
+/// Entries of the descent's stack: at most one pending right child per level below the root,
+/// L ≤ 32 levels for fewer than 2³² lights, and the node being expanded.
+const STACK: usize = 34;
+
+/// Numbers u_j drawn and descended together by [`LightTree::sample_stratified`].
+pub const CHUNK: usize = 32;
+
 impl LightTree {
     /// Draws k = `us.len()` lights for the receiver: `us` are the k starting numbers u_j,
     /// sorted ascending (see the module docs). The picks come out in tree order; descents that
     /// end in a subtree of provably zero contribution make no pick.
     pub fn sample(&self, rx: &Receiver, us: &mut [f64], picks: &mut Vec<Pick>) {
+        self.sample_with(rx, us, |p| picks.push(p));
+    }
+
+    /// [`Self::sample`], each pick handed to `pick` in tree order (nothing is allocated).
+    ///
+    /// The descent is iterative: a stack of (node, range of `us`, probability), children
+    /// pushed right then left, so the subtrees are visited in tree order. Which leaf a u_j
+    /// reaches depends on u_j alone (the partition and the rescaling act on each number by
+    /// itself), so descending the numbers together, in groups or one by one gives the same
+    /// picks; together, a node's two children are evaluated once for all the numbers that
+    /// reach it.
+    pub fn sample_with(&self, rx: &Receiver, us: &mut [f64], mut pick: impl FnMut(Pick)) {
+        let rx = Prepared::new(rx);
         if us.is_empty() || rx.importance(self.node(1)).is_none() {
             return;
         }
-        self.descend(rx, 1, 1.0, us, picks);
+        let first_leaf = self.first_leaf();
+        let mut stack = [(0usize, 0usize, 0usize, 0.0f64); STACK];
+        stack[0] = (1, 0, us.len(), 1.0);
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (node, lo, hi, prob) = stack[top];
+            if node >= first_leaf {
+                if let Some(light) = self.light_of(node) {
+                    for _ in lo..hi {
+                        pick(Pick { light, prob });
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (2 * node, 2 * node + 1);
+            let Some(pa) = branch(rx.importance(self.node(a)), rx.importance(self.node(b))) else {
+                continue;
+            };
+            let range = &mut us[lo..hi];
+            let split = range.partition_point(|&u| u < pa);
+            let (left, right) = range.split_at_mut(split);
+            if !right.is_empty() {
+                let pb = 1.0 - pa;
+                for u in right.iter_mut() {
+                    *u = ((*u - pa) / pb).clamp(0.0, ONE_BELOW);
+                }
+                stack[top] = (b, lo + split, hi, prob * pb);
+                top += 1;
+            }
+            if !left.is_empty() {
+                for u in left.iter_mut() {
+                    *u = (*u / pa).min(ONE_BELOW);
+                }
+                stack[top] = (a, lo, lo + split, prob * pa);
+                top += 1;
+            }
+        }
     }
 
-    fn descend(&self, rx: &Receiver, node: usize, prob: f64, us: &mut [f64], picks: &mut Vec<Pick>) {
-        if node >= self.first_leaf() {
-            if let Some(light) = self.light_of(node) {
-                picks.extend(us.iter().map(|_| Pick { light, prob }));
+    /// The k-descent draw with its numbers: the same picks as [`stratified`] into k numbers
+    /// followed by [`Self::sample`], the same k numbers taken from `sampler` (always k, even
+    /// when nothing can be picked), but with no allocation: the u_j are drawn and descended
+    /// [`CHUNK`] at a time from an array on the stack. The strata are ordered, so each group
+    /// is sorted, and the picks of consecutive groups follow each other in tree order.
+    pub fn sample_stratified(
+        &self,
+        rx: &Receiver,
+        k: usize,
+        sampler: &mut Sampler,
+        mut pick: impl FnMut(Pick),
+    ) {
+        let mut us = [0.0f64; CHUNK];
+        let mut j = 0;
+        while j < k {
+            let n = CHUNK.min(k - j);
+            for (i, u) in us[..n].iter_mut().enumerate() {
+                *u = stratum(j + i, k, sampler);
             }
-            return;
-        }
-        let (a, b) = (2 * node, 2 * node + 1);
-        let Some(pa) = branch(rx.importance(self.node(a)), rx.importance(self.node(b))) else { return };
-        let split = us.partition_point(|&u| u < pa);
-        let (left, right) = us.split_at_mut(split);
-        if !left.is_empty() {
-            for u in left.iter_mut() {
-                *u = (*u / pa).min(ONE_BELOW);
-            }
-            self.descend(rx, a, prob * pa, left, picks);
-        }
-        if !right.is_empty() {
-            let pb = 1.0 - pa;
-            for u in right.iter_mut() {
-                *u = ((*u - pa) / pb).clamp(0.0, ONE_BELOW);
-            }
-            self.descend(rx, b, prob * pb, right, picks);
+            self.sample_with(rx, &mut us[..n], &mut pick);
+            j += n;
         }
     }
 
@@ -251,17 +361,18 @@ impl LightTree {
     /// the dead ends: nodes reached whose children are both found to contribute nothing (a
     /// descent there makes no pick). The two sum to 1. For tests.
     pub fn leaf_probabilities(&self, rx: &Receiver) -> (Vec<Pick>, f64) {
+        let rx = Prepared::new(rx);
         let mut out = Vec::new();
         let mut dead = 0.0;
         if rx.importance(self.node(1)).is_some() {
-            self.enumerate(rx, 1, 1.0, &mut out, &mut dead);
+            self.enumerate(&rx, 1, 1.0, &mut out, &mut dead);
         } else {
             dead = 1.0;
         }
         (out, dead)
     }
 
-    fn enumerate(&self, rx: &Receiver, node: usize, prob: f64, out: &mut Vec<Pick>, dead: &mut f64) {
+    fn enumerate(&self, rx: &Prepared, node: usize, prob: f64, out: &mut Vec<Pick>, dead: &mut f64) {
         if node >= self.first_leaf() {
             match self.light_of(node) {
                 Some(light) => out.push(Pick { light, prob }),
@@ -285,11 +396,17 @@ impl LightTree {
 
 /// The k sorted starting numbers u_j = (j + ξ_j)/k, one draw from `sampler` each.
 pub fn stratified(sampler: &mut Sampler, us: &mut [f64]) {
-    let k = us.len() as f64;
+    let k = us.len();
     for (j, u) in us.iter_mut().enumerate() {
-        let xi = (sampler.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
-        *u = ((j as f64 + xi) / k).min(ONE_BELOW);
+        *u = stratum(j, k, sampler);
     }
+}
+
+/// u_j = (j + ξ_j)/k of k, ξ_j one draw from `sampler`.
+#[inline]
+fn stratum(j: usize, k: usize, sampler: &mut Sampler) -> f64 {
+    let xi = (sampler.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+    ((j as f64 + xi) / k as f64).min(ONE_BELOW)
 }
 
 #[cfg(test)]
@@ -589,5 +706,44 @@ mod tests {
         assert_eq!(pa, pb);
         assert_eq!(a.dimension(), 16);
         assert!(!pa.is_empty());
+    }
+
+    /// The allocation-free draw (numbers drawn and descended in groups of [`CHUNK`]) makes the
+    /// same picks from the same numbers as drawing all k first, for k below, at and above the
+    /// group size, and consumes k numbers even when nothing can be picked.
+    #[test]
+    fn the_chunked_draw_makes_the_same_picks() {
+        let mut s = Sampler::new(24, 0, Domain::Iteration, 0);
+        let lights = vpls(700, &mut s);
+        let (_, tree) = tree_of(&lights, &BSDFS[0], None);
+        for i in 0..20 {
+            let r = receiver(i, &mut s);
+            let rx = rx_of(&r, Kernel::Point { bound: 5.0 });
+            for k in [1usize, 5, CHUNK, CHUNK + 1, 3 * CHUNK + 7] {
+                let mut a = Sampler::new(1, i as u64, Domain::Camera, k as u64);
+                let mut b = a.clone();
+                let mut us = vec![0.0; k];
+                stratified(&mut a, &mut us);
+                let mut whole = Vec::new();
+                tree.sample(&rx, &mut us, &mut whole);
+                let mut chunked = Vec::new();
+                tree.sample_stratified(&rx, k, &mut b, |p| chunked.push(p));
+                assert_eq!(whole, chunked, "rx {i} k {k}");
+                assert_eq!(a.dimension(), b.dimension());
+            }
+        }
+        // A receiver facing away from every light: no pick, still k numbers.
+        let far = Receiver {
+            p: Vec3::new(0.5, -5.0, 0.5),
+            ng: -Vec3::Y,
+            ns: -Vec3::Y,
+            max_depth: 9,
+            kernel: Kernel::Sphere,
+        };
+        let mut c = Sampler::new(1, 0, Domain::Camera, 0);
+        let mut none = Vec::new();
+        tree.sample_stratified(&far, 40, &mut c, |p| none.push(p));
+        assert!(none.is_empty());
+        assert_eq!(c.dimension(), 40);
     }
 }
