@@ -19,7 +19,7 @@ use super::light_set::{LightSet, Lights, PointLights};
 use super::light_tree::LightTree;
 use super::shadow_batch::ShadowBatch;
 use super::spheres::SphereLights;
-use super::tree_gather::{Kernel, Pick, Receiver, stratified};
+use super::tree_gather::{Kernel, Pick, Receiver};
 use crate::geometry::OffsetPoint;
 use crate::integrator::direct::shadow_segment;
 use crate::integrator::walker::Vertex;
@@ -69,11 +69,13 @@ fn sample_lights(
     max_vpl_depth: u32,
     sampler: &mut Sampler,
 ) -> Vec<Pick> {
-    let mut us = vec![0.0f64; k];
-    stratified(sampler, &mut us);
     let sp = &v.sp;
     let mut picks = Vec::with_capacity(k);
     if !PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance).is_active() {
+        // The same k numbers are drawn whether or not the receiver reflects anything.
+        for _ in 0..k {
+            sampler.next_u64();
+        }
         return picks;
     }
     let kernel = match lights {
@@ -81,7 +83,7 @@ fn sample_lights(
         Lights::Spheres(_) => Kernel::Sphere,
     };
     let rx = Receiver { p: sp.p, ng: sp.ng, ns: sp.frame.n, max_depth: max_vpl_depth, kernel };
-    tree.sample(&rx, &mut us, &mut picks);
+    tree.sample_stratified(&rx, k, sampler, |p| picks.push(p));
     picks
 }
 
