@@ -37,22 +37,26 @@
 //! of the contributions.
 //!
 //! # Importance of a node at a receiver x
-//! w = I · G⁺ (with I the node's summed intensity), where G⁺ bounds the geometry kernel of
-//! every light below over the node's box B (grown by the sphere radii) and normal cone:
+//! w = I · G̃ (with I the node's summed intensity), where G̃ estimates the geometry kernel
+//! of the lights below from the node's box B (grown by the sphere radii) and normal cone:
 //! - cos at x: cos(max(0, θ_i − θ_b)) with θ_i the angle between x's shading normal and the
 //!   direction to the box centre and θ_b the half-angle of the box's bounding sphere seen
-//!   from x (1 inside that sphere);
+//!   from x (1 inside that sphere), a bound;
 //! - cos at the lights: cos(max(0, θ_w − θ_n − θ_b)), θ_w the angle between the cone's axis
 //!   and the direction from the box centre to x, θ_n the cone's half-angle (Conty Estevez and
-//!   Kulla 2018; pbrt-v4's `LightBounds::Importance`), clamped at 0;
-//! - distance: d_min, from x to the box (0 inside). Points clamped at b:
-//!   G⁺ = min(cos_x cos_p / d_min², b), the iteration's own kernel min(G, b_i), so near nodes
-//!   get at most b. Unclamped points (`ir`): cos_x cos_p / max(d_min², r²/4), r the box's
-//!   half-diagonal (0 at a leaf, which gets its exact 1/d²), a heuristic bound for boxes
-//!   around x. Spheres: a sphere of radius r at distance D from x subtends
-//!   Ω ≤ min(2π, π r²/(D² − r²)), and D² − r² = (D − r)(D + r) ≥ d_min² for the grown box,
-//!   so Φ/(π r²) · Ω ≤ Φ · min(2/r², 1/d_min²): G⁺ = min(cos_x cos_p / d_min², 2/r_min²).
+//!   Kulla 2018; pbrt-v4's `LightBounds::Importance`), clamped at 0, a bound;
+//! - distance: d² = max(|c − x|², r²), c the box's centre and r its half-diagonal (0 at a
+//!   leaf, which so gets its light's exact 1/d²), as Conty and Kulla and pbrt-v4 take it. It
+//!   is not a bound: the distance to the box's nearest point would be, but it is 0 for every
+//!   node around or touching x, which then all get the same clamp value and make the top of
+//!   the descent nearly uniform. Points clamped at b: G̃ = min(cos_x cos_p / d², b), the
+//!   iteration's own kernel min(G, b_i). Unclamped points (`ir`): cos_x cos_p / d². Spheres: a
+//!   sphere of radius ρ subtends at most the solid angle of a hemisphere, Φ/(π ρ²) · 2π, so
+//!   G̃ = min(cos_x cos_p / d², 2/ρ_min²).
 //!
+//! The estimate is unbiased whatever G̃ is, as long as no light that can contribute gets
+//! probability 0: G̃ only shapes the probabilities, and every viable child keeps at least ε/2.
+
 //! # Which children get probability 0 (not viable)
 //! Only these, each of which makes every light below contribute exactly zero:
 //! - zero intensity (empty leaves, lights whose BSDF emits nothing towards any direction);
@@ -218,21 +222,30 @@ impl Prepared {
         } else {
             (1.0, 1.0)
         };
-        let d = (dc.abs() - h).max(Vec3::ZERO);
-        let dmin2 = d.length_squared();
+        // The distance to the box's centre, at least its half-diagonal (Conty and Kulla; pbrt-v4
+        // floors it likewise): a leaf gets its light's exact G, and a node around or near the
+        // receiver does not get the bound of its nearest corner, which would make every such
+        // node equally important and the top of the descent nearly uniform.
+        let d2 = dist2.max(r2);
         let cc = cos_x * cos_p;
         let g = match self.bound {
             Bound::Clamped(bound) => {
-                if dmin2 > 0.0 {
-                    (cc / dmin2).min(bound)
+                if d2 > 0.0 {
+                    (cc / d2).min(bound)
                 } else {
                     bound
                 }
             }
-            Bound::Unclamped => cc / dmin2.max(0.25 * r2),
+            Bound::Unclamped => {
+                if d2 > 0.0 {
+                    cc / d2
+                } else {
+                    f32::MAX
+                }
+            }
             Bound::Sphere => {
                 let near = 2.0 / (node.min_radius * node.min_radius);
-                if dmin2 > 0.0 { (cc / dmin2).min(near) } else { near }
+                if d2 > 0.0 { (cc / d2).min(near) } else { near }
             }
         };
         let w = node.intensity * g;
