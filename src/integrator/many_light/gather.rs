@@ -43,9 +43,10 @@ impl LightSet {
             (Lights::Points(p), None) => p.queue(v, max_vpl_depth, &mut batch),
             (Lights::Spheres(s), None) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
             (lights, Some((tree, k))) => {
-                let picks = sample_lights(tree, *k, lights, v, max_vpl_depth, sampler);
+                let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+                let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
                 match lights {
-                    Lights::Points(p) => p.queue_sampled(v, &picks, *k, &mut batch),
+                    Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, &mut batch),
                     Lights::Spheres(s) => s.queue_sampled(ctx, v, &picks, *k, sampler, &mut batch),
                 }
             }
@@ -60,18 +61,19 @@ impl LightSet {
 }
 
 /// Draws the k lights of the sampled gather at `v` (k numbers from `sampler`, always); none
-/// when the receiver reflects nothing towards `v.wo`.
+/// unless the receiver is `active` (reflects anything towards `v.wo`).
 fn sample_lights(
     tree: &LightTree,
     k: usize,
     lights: &Lights,
     v: &Vertex,
+    active: bool,
     max_vpl_depth: u32,
     sampler: &mut Sampler,
 ) -> Vec<Pick> {
     let sp = &v.sp;
     let mut picks = Vec::with_capacity(k);
-    if !PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance).is_active() {
+    if !active {
         // The same k numbers are drawn whether or not the receiver reflects anything.
         for _ in 0..k {
             sampler.next_u64();
@@ -95,13 +97,19 @@ fn weighted(c: Vec3, pick: &Pick, k: usize) -> Vec3 {
 
 impl PointLights {
     /// Queues the sampled lights' weighted contributions with their shadow rays.
-    fn queue_sampled(&self, v: &Vertex, picks: &[Pick], k: usize, batch: &mut ShadowBatch) -> bool {
+    fn queue_sampled(
+        &self,
+        v: &Vertex,
+        fx: &PreparedBsdf,
+        picks: &[Pick],
+        k: usize,
+        batch: &mut ShadowBatch,
+    ) -> bool {
         let sp = &v.sp;
-        let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
         let x = OffsetPoint::new(sp.p, sp.ng);
         for pick in picks {
             let j = pick.light;
-            let c = point_contribution(sp.p, sp.frame.n, &fx, &self.vpls[j], &self.emitting[j], self.bound);
+            let c = point_contribution(sp.p, sp.frame.n, fx, &self.vpls[j], &self.emitting[j], self.bound);
             if c != Vec3::ZERO {
                 batch.push(shadow_segment(&x, self.lanes.end(j)), weighted(c, pick, k));
             }
@@ -151,16 +159,9 @@ impl SphereLights {
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
-        let sp = &v.sp;
-        let gx = sp.geometry();
-        let x = OffsetPoint::new(sp.p, sp.ng);
+        let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         for pick in picks {
-            let j = pick.light;
-            let bsdf_p = &ctx.scene.material(self.vpls[j].material).bsdf;
-            let c = self.contribution(j, &gx, sp.p, v.bsdf, v.wo, bsdf_p, sampler);
-            if c != Vec3::ZERO {
-                batch.push(shadow_segment(&x, &self.ends[j]), weighted(c, pick, k));
-            }
+            self.queue_one(ctx, v, &x, pick.light, |c| weighted(c, pick, k), sampler, batch);
         }
         true
     }
@@ -174,20 +175,34 @@ impl SphereLights {
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
-        let sp = &v.sp;
-        let gx = sp.geometry();
-        let x = OffsetPoint::new(sp.p, sp.ng);
+        let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         for (j, vpl) in self.vpls.iter().enumerate() {
-            if vpl.depth > max_vpl_depth {
-                continue;
-            }
-            let bsdf_p = &ctx.scene.material(vpl.material).bsdf;
-            let c = self.contribution(j, &gx, sp.p, v.bsdf, v.wo, bsdf_p, sampler);
-            if c != Vec3::ZERO {
-                batch.push(shadow_segment(&x, &self.ends[j]), c);
+            if vpl.depth <= max_vpl_depth {
+                self.queue_one(ctx, v, &x, j, |c| c, sampler, batch);
             }
         }
         true
+    }
+
+    /// Queues sphere j's contribution at `v` (`x` its offset point), as `weight` scales it,
+    /// unless it is zero.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn queue_one(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        x: &OffsetPoint,
+        j: usize,
+        weight: impl Fn(Vec3) -> Vec3,
+        sampler: &mut Sampler,
+        batch: &mut ShadowBatch,
+    ) {
+        let bsdf_p = &ctx.scene.material(self.vpls[j].material).bsdf;
+        let c = self.contribution(j, &v.sp.geometry(), v.sp.p, v.bsdf, v.wo, bsdf_p, sampler);
+        if c != Vec3::ZERO {
+            batch.push(shadow_segment(x, &self.ends[j]), weight(c));
+        }
     }
 }
 

@@ -95,14 +95,6 @@ impl LightSet {
         };
         LightSet { lights, tree }
     }
-
-    /// The VPLs of the set.
-    pub fn vpls(&self) -> &[Vpl] {
-        match &self.lights {
-            Lights::Points(p) => &p.vpls,
-            Lights::Spheres(s) => &s.vpls,
-        }
-    }
 }
 
 impl Lights {

@@ -152,11 +152,6 @@ impl InstantRadiosity {
     pub fn points(clamping: Clamping, paths: usize) -> Self {
         Self::new(VirtualLights::Points(clamping), paths)
     }
-
-    /// This iteration's light set.
-    pub fn light_set(&self) -> &LightSet {
-        &self.set
-    }
 }
 
 /// The many-light hook of the camera walker: at a non-delta vertex of d segments, the light

@@ -125,15 +125,6 @@ fn safe_sqrt(x: f32) -> f32 {
     x.max(0.0).sqrt()
 }
 
-impl Receiver {
-    /// The node's importance (finite, ≥ 0), or `None` when every light below it provably
-    /// contributes nothing here (see the module docs).
-    #[inline]
-    pub fn importance(&self, node: &Node) -> Option<f32> {
-        Prepared::new(self).importance(node)
-    }
-}
-
 /// The kernel as the importance uses it.
 #[derive(Clone, Copy, Debug)]
 enum Bound {
@@ -175,7 +166,8 @@ impl Prepared {
         }
     }
 
-    /// [`Receiver::importance`]. No trigonometry: with d the distance from x to the box centre
+    /// The node's importance (finite, ≥ 0), or `None` when every light below it provably
+    /// contributes nothing here (see the module docs). No trigonometry: with d the distance from x to the box centre
     /// c, r = |h| the node's stored half-diagonal and w = (c − x)/d, sin θ_b = r/d and
     /// cos θ_b = √(d² − r²)/d; cos θ_i = n_s·w and cos θ_w = −axis·w, with their sines
     /// √(1 − cos²) (both angles lie in [0, π], where the sine is ≥ 0); the cone's cos θ_n and
