@@ -84,20 +84,39 @@ fn every_method_renders() {
         let (_, attrs) = pir::image::read_exr(&dir.path().join(&out)).unwrap();
         assert!(attrs.contains(&("pir.method".to_string(), m.to_string())), "{m}: {attrs:?}");
     }
-    // Every VPL method also gathers through the light tree, which the metadata records.
+    // Every VPL method also gathers through the light tree and by resampling, which the
+    // metadata records.
+    type Gather<'a> = (&'a str, &'a [&'a str], &'a [(&'a str, &'a str)]);
+    let gathers: [Gather; 2] = [
+        (
+            "tree",
+            &["--gather", "tree", "--gather-samples", "3"],
+            &[("gather", "tree"), ("gather-samples", "3")],
+        ),
+        (
+            "resample",
+            &["--gather", "resample", "--gather-samples", "3", "--gather-candidates", "20"],
+            &[("gather", "resample"), ("gather-samples", "3"), ("gather-candidates", "20")],
+        ),
+    ];
     for m in ["ir", "pir-clamp", "pir-vsl"] {
-        let out = format!("{m}-tree.exr");
-        let args = ["render", s.to_str().unwrap(), "--method", m, "--spp", "2", "--vpls", "64"];
-        let tree = ["--gather", "tree", "--gather-samples", "3", "--resolution", "16", "16"];
-        let o = pir(
-            &args.into_iter().chain(tree).chain(["--out", &out, "--no-preview"]).collect::<Vec<_>>(),
-            dir.path(),
-        );
-        assert!(o.status.success(), "{m} tree: {}", stderr(&o));
-        let (img, attrs) = pir::image::read_exr(&dir.path().join(&out)).unwrap();
-        assert!(img.mean()[0] > 0.0, "{m} tree");
-        for (k, v) in [("gather", "tree"), ("gather-samples", "3")] {
-            assert!(attrs.iter().any(|(a, b)| a.ends_with(k) && b == v), "{m}: {k}={v} not in {attrs:?}");
+        for (how, flags, recorded) in gathers {
+            let out = format!("{m}-{how}.exr");
+            let args = ["render", s.to_str().unwrap(), "--method", m, "--spp", "2", "--vpls", "64"];
+            let o = pir(
+                &args
+                    .into_iter()
+                    .chain(flags.iter().copied())
+                    .chain(["--resolution", "16", "16", "--out", &out, "--no-preview"])
+                    .collect::<Vec<_>>(),
+                dir.path(),
+            );
+            assert!(o.status.success(), "{m} {how}: {}", stderr(&o));
+            let (img, attrs) = pir::image::read_exr(&dir.path().join(&out)).unwrap();
+            assert!(img.mean()[0] > 0.0, "{m} {how}");
+            for &(k, v) in recorded {
+                assert!(attrs.iter().any(|(a, b)| a.ends_with(k) && b == v), "{m}: {k}={v} not in {attrs:?}");
+            }
         }
     }
 }
@@ -121,6 +140,8 @@ fn bad_arguments_fail_cleanly_before_any_output() {
         (&["render", s, "--gather", "cut"], &["--gather", "cut"]),
         (&["render", s, "--gather-samples", "0"], &["--gather-samples"]),
         (&["render", s, "--gather-samples", "1000"], &["--gather-samples"]),
+        (&["render", s, "--gather-candidates", "0"], &["--gather-candidates"]),
+        (&["render", s, "--gather-candidates", "5000"], &["--gather-candidates"]),
         (&["render", s, "--threads", "0"], &["--threads"]),
         (&["render", s, "--max-depth", "0"], &["--max-depth"]),
         (&["render", s, "--out", "no/such/dir/x.exr"], &["no/such/dir", "does not exist"]),
@@ -237,6 +258,7 @@ fn help_documents_every_command() {
         "--alpha",
         "--gather",
         "--gather-samples",
+        "--gather-candidates",
         "pir-vsl",
     ] {
         assert!(text.contains(flag), "render --help lacks {flag}");

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
+use super::many_light::resample::MAX_CANDIDATES;
 use super::schedule::DEFAULT_ALPHA;
 use super::{
     Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Integrator, PathTracer, Radius, VirtualLights,
@@ -114,16 +115,25 @@ pub struct MethodParams {
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
     /// VPL methods: how a camera vertex gathers from the iteration's VPLs: all (every VPL, one
-    /// shadow ray each) or tree (--gather-samples VPLs drawn from a light tree in proportion
-    /// to a bound on their contribution, weighted by 1/probability: unbiased for the same sum,
-    /// so for many more VPLs per iteration).
+    /// shadow ray each), tree (--gather-samples VPLs drawn from a light tree in proportion
+    /// to a bound on their contribution, weighted by 1/probability) or resample (the
+    /// unoccluded light of --gather-candidates VPLs, a random window of the light paths, is
+    /// estimated without rays, and --gather-samples of them, picked in proportion to it, get
+    /// shadow rays). The sampled gathers are unbiased for the same sum, so they afford many
+    /// more VPLs per iteration.
     #[arg(long, value_enum, value_name = "HOW", default_value_t = GatherKind::All)]
     #[serde(default)]
     pub gather: GatherKind,
-    /// --gather tree: VPLs drawn per camera vertex (k), 1 to 64.
+    /// --gather tree or resample: VPLs drawn per camera vertex (k), 1 to 64.
     #[arg(long, value_name = "K", default_value_t = DEFAULT_GATHER_SAMPLES)]
     #[serde(default = "default_gather_samples")]
     pub gather_samples: usize,
+    /// --gather resample: candidate VPLs per camera vertex (m), a random window of the
+    /// iteration's light paths whose unoccluded contributions choose the k that get shadow
+    /// rays; 1 to 1024.
+    #[arg(long, value_name = "M", default_value_t = DEFAULT_GATHER_CANDIDATES)]
+    #[serde(default = "default_gather_candidates")]
+    pub gather_candidates: usize,
 }
 
 /// How a camera vertex gathers (`--gather`).
@@ -135,6 +145,8 @@ pub enum GatherKind {
     All,
     /// `--gather-samples` VPLs drawn from a light tree.
     Tree,
+    /// `--gather-samples` VPLs picked among `--gather-candidates` by their unoccluded light.
+    Resample,
 }
 
 /// VPLs drawn per camera vertex with `--gather tree` when `--gather-samples` is not given.
@@ -146,6 +158,14 @@ fn default_gather_samples() -> usize {
     DEFAULT_GATHER_SAMPLES
 }
 
+/// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
+/// given.
+pub const DEFAULT_GATHER_CANDIDATES: usize = 256;
+
+fn default_gather_candidates() -> usize {
+    DEFAULT_GATHER_CANDIDATES
+}
+
 impl Default for MethodParams {
     fn default() -> Self {
         MethodParams {
@@ -155,6 +175,7 @@ impl Default for MethodParams {
             alpha: DEFAULT_ALPHA,
             gather: GatherKind::All,
             gather_samples: DEFAULT_GATHER_SAMPLES,
+            gather_candidates: DEFAULT_GATHER_CANDIDATES,
         }
     }
 }
@@ -181,6 +202,9 @@ impl MethodParams {
         if self.gather_samples == 0 || self.gather_samples > MAX_GATHER_SAMPLES {
             bail!("--gather-samples {}: must be 1 to {MAX_GATHER_SAMPLES}", self.gather_samples);
         }
+        if self.gather_candidates == 0 || self.gather_candidates > MAX_CANDIDATES {
+            bail!("--gather-candidates {}: must be 1 to {MAX_CANDIDATES}", self.gather_candidates);
+        }
         Ok(())
     }
 
@@ -189,6 +213,9 @@ impl MethodParams {
         match self.gather {
             GatherKind::All => Gather::All,
             GatherKind::Tree => Gather::Tree { samples: self.gather_samples },
+            GatherKind::Resample => {
+                Gather::Resampled { candidates: self.gather_candidates, samples: self.gather_samples }
+            }
         }
     }
 
@@ -305,10 +332,15 @@ impl MethodConfig {
                 radius: if m.uses_radius() { p.radius } else { None },
                 alpha: if m.uses_alpha() { p.alpha } else { default.alpha },
                 gather: if m.uses_vpls() { p.gather } else { default.gather },
-                gather_samples: if m.uses_vpls() && p.gather == GatherKind::Tree {
+                gather_samples: if m.uses_vpls() && p.gather != GatherKind::All {
                     p.gather_samples
                 } else {
                     default.gather_samples
+                },
+                gather_candidates: if m.uses_vpls() && p.gather == GatherKind::Resample {
+                    p.gather_candidates
+                } else {
+                    default.gather_candidates
                 },
             },
         }
@@ -399,8 +431,9 @@ mod tests {
                     radius: Some(v.abs()),
                     alpha: v,
                     vpls: 7,
-                    gather: GatherKind::Tree,
+                    gather: GatherKind::Resample,
                     gather_samples: 5,
+                    gather_candidates: 77,
                 },
             };
             let back: MethodConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();

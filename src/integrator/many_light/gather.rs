@@ -11,12 +11,13 @@
 //! drawn per receiver ([`super::tree_gather`]): each drawn light's contribution (the same
 //! function as above) divided by k and by its probability, one shadow ray each.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use super::lanes::{DiffuseReceiver, LANES, LaneKind};
 use super::light_paths::Vpl;
-use super::light_set::{LightSet, Lights, PointLights};
+use super::light_set::{LightSet, Lights, PointLights, Selection};
 use super::light_tree::LightTree;
+use super::resample::{window, with_candidates};
 use super::shadow_batch::ShadowBatch;
 use super::spheres::SphereLights;
 use super::tree_gather::{Kernel, Pick, Receiver};
@@ -39,10 +40,17 @@ impl LightSet {
         counters: &mut Counters,
     ) -> Vec3 {
         let mut batch = ShadowBatch::new(ctx.accel);
-        let queued = match (&self.lights, &self.tree) {
-            (Lights::Points(p), None) => p.queue(v, max_vpl_depth, &mut batch),
-            (Lights::Spheres(s), None) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
-            (lights, Some((tree, k))) => {
+        let queued = match (&self.lights, &self.selection) {
+            (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, &mut batch),
+            (Lights::Spheres(s), Selection::All) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
+            (lights, &Selection::Resampled { candidates, samples }) => {
+                let (m, k) = (candidates, samples);
+                match lights {
+                    Lights::Points(p) => p.queue_resampled(v, max_vpl_depth, m, k, sampler, &mut batch),
+                    Lights::Spheres(s) => s.queue_resampled(ctx, v, max_vpl_depth, m, k, sampler, &mut batch),
+                }
+            }
+            (lights, Selection::Tree { tree, samples: k }) => {
                 let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
                 let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
                 match lights {
@@ -117,6 +125,65 @@ impl PointLights {
         true
     }
 
+    /// Queues the k lights picked from a window of about m candidates ([`super::resample`]);
+    /// `false` when the receiver reflects nothing towards `v.wo`. Draws two numbers, always.
+    fn queue_resampled(
+        &self,
+        v: &Vertex,
+        max_vpl_depth: u32,
+        m: usize,
+        k: usize,
+        sampler: &mut Sampler,
+        batch: &mut ShadowBatch,
+    ) -> bool {
+        let sp = &v.sp;
+        let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
+        let chunks = self.lanes.chunks();
+        let w = m.div_ceil(LANES).clamp(1, chunks.max(1));
+        let blocks = window(chunks, w, sampler);
+        let u = sampler.next_f32();
+        if !fx.is_active() || chunks == 0 {
+            return false;
+        }
+        let x = OffsetPoint::new(sp.p, sp.ng);
+        with_candidates(|cands| {
+            for chunk in blocks {
+                let p = self.lanes.estimates(chunk, sp.p, sp.ng, sp.frame.n, self.bound, max_vpl_depth);
+                cands.push(chunk * LANES, p);
+            }
+            let scale = chunks as f32 / w as f32;
+            // The picked lights' contributions: Lambertian pairs by the four-wide kernel, a
+            // chunk at a time (picks come in light order), the others one by one.
+            let receiver = DiffuseReceiver::new(sp, &fx);
+            let mut chunk_done: Option<(usize, [Vec3; LANES])> = None;
+            cands.pick(k, u, scale, |j, factor, _| {
+                let c = match (&receiver, self.lanes.kind(j)) {
+                    (Some(r), LaneKind::Diffuse) => {
+                        let chunk = j / LANES;
+                        let lanes = match chunk_done {
+                            Some((done, lanes)) if done == chunk => lanes,
+                            _ => self.lanes.diffuse_contributions(chunk, r, self.bound, max_vpl_depth),
+                        };
+                        chunk_done = Some((chunk, lanes));
+                        lanes[j % LANES]
+                    }
+                    _ => point_contribution(
+                        sp.p,
+                        sp.frame.n,
+                        &fx,
+                        &self.vpls[j],
+                        &self.emitting[j],
+                        self.bound,
+                    ),
+                };
+                if c != Vec3::ZERO {
+                    batch.push(shadow_segment(&x, self.lanes.end(j)), c * factor);
+                }
+            });
+        });
+        true
+    }
+
     /// Queues every light's contribution with its shadow ray; `false` when the receiver
     /// reflects nothing towards `v.wo`.
     fn queue(&self, v: &Vertex, max_vpl_depth: u32, batch: &mut ShadowBatch) -> bool {
@@ -163,6 +230,44 @@ impl SphereLights {
         for pick in picks {
             self.queue_one(ctx, v, &x, pick.light, |c| weighted(c, pick, k), sampler, batch);
         }
+        true
+    }
+
+    /// Queues the k spheres picked from a window of m candidates ([`super::resample`]). Draws
+    /// two numbers before the candidates' own.
+    #[allow(clippy::too_many_arguments)]
+    fn queue_resampled(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        max_vpl_depth: u32,
+        m: usize,
+        k: usize,
+        sampler: &mut Sampler,
+        batch: &mut ShadowBatch,
+    ) -> bool {
+        let n = self.vpls.len().div_ceil(LANES);
+        let w = m.div_ceil(LANES).clamp(1, n.max(1));
+        let blocks = window(n, w, sampler);
+        let u = sampler.next_f32();
+        let g = v.sp.geometry();
+        let x = OffsetPoint::new(v.sp.p, v.sp.ng);
+        with_candidates(|cands| {
+            for block in blocks {
+                let mut cs = [Vec3::ZERO; LANES];
+                for (i, c) in cs.iter_mut().enumerate() {
+                    let j = block * LANES + i;
+                    let Some(vpl) = self.vpls.get(j) else { break };
+                    if vpl.depth <= max_vpl_depth {
+                        let bsdf_p = &ctx.scene.material(vpl.material).bsdf;
+                        *c = self.contribution(j, &g, v.sp.p, v.bsdf, v.wo, bsdf_p, sampler);
+                    }
+                }
+                cands.push_values(block * LANES, [0, 1, 2].map(|k| Vec4::from_array(cs.map(|c| c[k]))));
+            }
+            let scale = n as f32 / w as f32;
+            cands.pick(k, u, scale, |j, factor, c| batch.push(shadow_segment(&x, &self.ends[j]), c * factor));
+        });
         true
     }
 

@@ -51,6 +51,11 @@ struct Chunk {
     /// not [`LaneKind::Diffuse`], so that the depth test masks them too.
     depth: Vec4,
     kind: [LaneKind; LANES],
+    /// Σ over RGB of Φ × the BSDF's reflectance ([`super::light_set::tree_light`]'s
+    /// intensity; 0 for a light that emits nothing), for the resampled gather's estimates.
+    power: Vec4,
+    /// Segments from the emitter, every non-empty lane; infinite in empty ones.
+    any_depth: Vec4,
 }
 
 const EMPTY_CHUNK: Chunk = Chunk {
@@ -63,6 +68,8 @@ const EMPTY_CHUNK: Chunk = Chunk {
     wo_cos_geometric: Vec4::ZERO,
     depth: Vec4::INFINITY,
     kind: [LaneKind::Empty; LANES],
+    power: Vec4::ZERO,
+    any_depth: Vec4::INFINITY,
 };
 
 /// A Lambertian receiver in radiance mode, the other end of every lane.
@@ -92,9 +99,11 @@ pub struct VplLanes {
 }
 
 impl VplLanes {
-    /// `emitting[j]` is VPL `j`'s BSDF prepared for its incoming direction (importance mode).
-    pub fn new(vpls: &[Vpl], emitting: &[PreparedBsdf]) -> Self {
+    /// `emitting[j]` is VPL `j`'s BSDF prepared for its incoming direction (importance mode),
+    /// `power[j]` its power for the estimates ([`Self::estimates`]).
+    pub fn new(vpls: &[Vpl], emitting: &[PreparedBsdf], power: &[f32]) -> Self {
         assert_eq!(vpls.len(), emitting.len());
+        assert_eq!(vpls.len(), power.len());
         let mut chunks = vec![EMPTY_CHUNK; vpls.len().div_ceil(LANES)];
         for (j, (v, e)) in vpls.iter().zip(emitting).enumerate() {
             let (c, i) = (&mut chunks[j / LANES], j % LANES);
@@ -113,6 +122,10 @@ impl VplLanes {
                 _ if e.is_active() => LaneKind::Other,
                 _ => LaneKind::Empty,
             };
+            if c.kind[i] != LaneKind::Empty {
+                c.power[i] = power[j];
+                c.any_depth[i] = v.depth as f32;
+            }
         }
         let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
         VplLanes { chunks, ends }
@@ -135,6 +148,44 @@ impl VplLanes {
         self.chunks[j / LANES].kind[j % LANES]
     }
 
+    /// Whether chunk `chunk` has a [`LaneKind::Other`] light, which the kernel leaves out.
+    #[inline]
+    pub fn has_other(&self, chunk: usize) -> bool {
+        self.chunks[chunk].kind.contains(&LaneKind::Other)
+    }
+
+    /// A cheap estimate p̂ of each lane's contribution at a receiver at `x` with geometric
+    /// normal `ng` and shading normal `ns`, for the resampled gather
+    /// ([`super::resample`]): power × min(G, `bound`), with G = cos_x cos_p / d² from the
+    /// shading normals, where both shading and both geometric cosines are positive and the
+    /// light has at most `max_depth` segments; zero elsewhere. It leaves out the BSDFs' shapes
+    /// (a glossy lobe, the adjoint correction), so it is not the contribution, but it is
+    /// positive wherever the contribution is (every BSDF of a VPL or a receiver reflects only
+    /// into the hemisphere of both its normals), which is all that unbiasedness needs.
+    #[inline]
+    pub fn estimates(&self, chunk: usize, x: Vec3, ng: Vec3, ns: Vec3, bound: f32, max_depth: u32) -> Vec4 {
+        let q = &self.chunks[chunk];
+        let s = Vec4::splat;
+        let zero = Vec4::ZERO;
+        let dx = q.p[0] - s(x.x);
+        let dy = q.p[1] - s(x.y);
+        let dz = q.p[2] - s(x.z);
+        let dist2 = dx * dx + dy * dy + dz * dz;
+        // Cosines times |d|.
+        let x_ng = dx * s(ng.x) + dy * s(ng.y) + dz * s(ng.z);
+        let x_ns = dx * s(ns.x) + dy * s(ns.y) + dz * s(ns.z);
+        let p_ng = -(dx * q.ng[0] + dy * q.ng[1] + dz * q.ng[2]);
+        let p_ns = -(dx * q.ns[0] + dy * q.ns[1] + dz * q.ns[2]);
+        let g = (x_ns * p_ns / (dist2 * dist2)).min(s(bound));
+        let active = q.any_depth.cmple(s(max_depth as f32))
+            & x_ng.cmpgt(zero)
+            & x_ns.cmpgt(zero)
+            & p_ng.cmpgt(zero)
+            & p_ns.cmpgt(zero)
+            & dist2.cmpgt(zero);
+        Vec4::select(active, q.power * g, zero)
+    }
+
     /// VPL `j`'s end of its shadow rays.
     pub fn end(&self, j: usize) -> &OffsetPoint {
         &self.ends[j]
@@ -151,6 +202,19 @@ impl VplLanes {
         bound: f32,
         max_depth: u32,
     ) -> [Vec3; LANES] {
+        let [r, g, b] = self.diffuse_channels(chunk, x, bound, max_depth);
+        std::array::from_fn(|i| Vec3::new(r[i], g[i], b[i]))
+    }
+
+    /// [`Self::diffuse_contributions`] channel by channel: red, green and blue of the lanes.
+    #[inline]
+    pub fn diffuse_channels(
+        &self,
+        chunk: usize,
+        x: &DiffuseReceiver,
+        bound: f32,
+        max_depth: u32,
+    ) -> [Vec4; 3] {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         let zero = Vec4::ZERO;
@@ -197,11 +261,10 @@ impl VplLanes {
         let g = x_ns.abs() * p_ns.abs() / dist2;
         let clamped = g.cmpgt(s(bound));
         let scale = s(bound) / g;
-        let [r, g, b] = [0, 1, 2].map(|k| {
+        [0, 1, 2].map(|k| {
             let c = q.flux[k] * fx[k] * fp[k] / dist2;
             Vec4::select(active, Vec4::select(clamped, c * scale, c), zero)
-        });
-        std::array::from_fn(|i| Vec3::new(r[i], g[i], b[i]))
+        })
     }
 }
 
@@ -261,7 +324,7 @@ mod tests {
                 .iter()
                 .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
                 .collect();
-            let lanes = VplLanes::new(&vpls, &emitting);
+            let lanes = VplLanes::new(&vpls, &emitting, &vec![1.0; vpls.len()]);
             let (ng, frame) = normals(&mut s);
             let sp = SurfacePoint { p: Vec3::ZERO, ng, frame, prim: 0, material: 0 };
             let gx = LocalGeometry { ng, frame };
@@ -284,5 +347,70 @@ mod tests {
             }
         }
         assert!(nonzero > 100, "{nonzero}");
+    }
+
+    /// The resampled gather's estimate is positive wherever the contribution is not zero, for
+    /// diffuse and glossy receivers and lights seen from either side.
+    #[test]
+    fn estimates_cover_every_contribution() {
+        let mut s = Sampler::new(11, 0, Domain::LightPath, 0);
+        let (mut nonzero, mut zero) = (0, 0);
+        for round in 0..600 {
+            let n = 1 + round % 23;
+            let glossy = |albedo| Bsdf::Glossy { albedo, specular: Vec3::splat(0.4), roughness: 0.1 };
+            let bsdf_p = if round % 3 == 0 {
+                glossy(Vec3::splat(0.2))
+            } else {
+                Bsdf::Diffuse { albedo: Vec3::splat(0.5) }
+            };
+            let vpls: Vec<Vpl> = (0..n)
+                .map(|j| {
+                    let (ng, frame) = normals(&mut s);
+                    Vpl {
+                        p: if j % 9 == 0 { 1e-3 * unit(&mut s) } else { 2.0 * unit(&mut s) },
+                        ng,
+                        frame,
+                        w_in: unit(&mut s),
+                        material: 0,
+                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.1),
+                        depth: (j % 4) as u32,
+                    }
+                })
+                .collect();
+            let emitting: Vec<PreparedBsdf> = vpls
+                .iter()
+                .map(|v| PreparedBsdf::new(bsdf_p, v.geometry(), v.w_in, TransportMode::Importance))
+                .collect();
+            let power: Vec<f32> = emitting.iter().map(|e| if e.is_active() { 1.0 } else { 0.0 }).collect();
+            let lanes = VplLanes::new(&vpls, &emitting, &power);
+            let (ng, frame) = normals(&mut s);
+            let bsdf_x =
+                if round % 2 == 0 { glossy(Vec3::splat(0.3)) } else { Bsdf::Diffuse { albedo: Vec3::ONE } };
+            let fx =
+                PreparedBsdf::new(bsdf_x, LocalGeometry { ng, frame }, unit(&mut s), TransportMode::Radiance);
+            let bound = [f32::INFINITY, 1.0][round % 2];
+            for c in 0..lanes.chunks() {
+                let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2);
+                for i in 0..LANES {
+                    let j = c * LANES + i;
+                    if j >= n {
+                        assert_eq!(est[i], 0.0);
+                        continue;
+                    }
+                    let want = point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], bound);
+                    if want != Vec3::ZERO && vpls[j].depth <= 2 {
+                        assert!(
+                            est[i] > 0.0 && est[i].is_finite(),
+                            "round {round} light {j}: {want} but {}",
+                            est[i]
+                        );
+                        nonzero += 1;
+                    } else {
+                        zero += 1;
+                    }
+                }
+            }
+        }
+        assert!(nonzero > 200 && zero > 200, "{nonzero} {zero}");
     }
 }

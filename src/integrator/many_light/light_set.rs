@@ -16,8 +16,18 @@ use crate::material::{Bsdf, PreparedBsdf, TransportMode};
 /// This iteration's virtual lights, and how receivers gather from them.
 pub struct LightSet {
     pub lights: Lights,
-    /// The tree and the lights sampled per receiver ([`Gather::Tree`]); `None`: every light.
-    pub tree: Option<(LightTree, usize)>,
+    /// Which lights a receiver gathers from.
+    pub selection: Selection,
+}
+
+/// Which of the iteration's lights a receiver gathers from ([`Gather`]).
+pub enum Selection {
+    /// Every light.
+    All,
+    /// `samples` lights drawn from the tree.
+    Tree { tree: LightTree, samples: usize },
+    /// `samples` lights picked from a window of `candidates` ([`super::resample`]).
+    Resampled { candidates: usize, samples: usize },
 }
 
 /// This iteration's virtual lights.
@@ -47,7 +57,12 @@ impl PointLights {
                 PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance)
             })
             .collect();
-        let lanes = VplLanes::new(&vpls, &emitting);
+        let power: Vec<f32> = vpls
+            .iter()
+            .zip(&emitting)
+            .map(|(v, e)| tree_light(v, &ctx.scene.material(v.material).bsdf, e.is_active(), 0.0).intensity)
+            .collect();
+        let lanes = VplLanes::new(&vpls, &emitting, &power);
         PointLights { vpls, emitting, lanes, bound: clamping.bound(iteration) }
     }
 }
@@ -62,7 +77,7 @@ impl Default for LightSet {
                 lanes: VplLanes::default(),
                 bound: f32::INFINITY,
             }),
-            tree: None,
+            selection: Selection::All,
         }
     }
 }
@@ -89,11 +104,16 @@ impl LightSet {
                 ctx.scene.bounds().diagonal(),
             )),
         };
-        let tree = match gather {
-            Gather::All => None,
-            Gather::Tree { samples } => Some((LightTree::new(&lights.tree_lights(ctx)), samples.max(1))),
+        let selection = match gather {
+            Gather::All => Selection::All,
+            Gather::Tree { samples } => {
+                Selection::Tree { tree: LightTree::new(&lights.tree_lights(ctx)), samples: samples.max(1) }
+            }
+            Gather::Resampled { candidates, samples } => {
+                Selection::Resampled { candidates: candidates.max(1), samples: samples.max(1) }
+            }
         };
-        LightSet { lights, tree }
+        LightSet { lights, selection }
     }
 }
 

@@ -44,6 +44,7 @@ pub mod lanes;
 pub mod light_paths;
 pub mod light_set;
 pub mod light_tree;
+pub mod resample;
 pub mod schedule;
 pub mod shadow_batch;
 pub mod spheres;
@@ -128,6 +129,10 @@ pub enum Gather {
     /// their contribution, each weighted by its inverse probability: unbiased for the same
     /// sum ([`light_tree`], [`tree_gather`]).
     Tree { samples: usize },
+    /// From `samples` lights picked per receiver, in proportion to their unoccluded
+    /// contributions, among a random window of `candidates` lights; unbiased for the same sum
+    /// ([`resample`]).
+    Resampled { candidates: usize, samples: usize },
 }
 
 /// A many-light method: its parameters, and the light set of the current iteration.
@@ -184,9 +189,17 @@ impl Integrator for InstantRadiosity {
 
     fn parameters(&self) -> Vec<(String, String)> {
         let mut p = vec![("vpls".to_string(), self.paths.to_string())];
-        if let Gather::Tree { samples } = self.gather {
-            p.push(("gather".into(), "tree".into()));
-            p.push(("gather-samples".into(), samples.to_string()));
+        match self.gather {
+            Gather::All => {}
+            Gather::Tree { samples } => {
+                p.push(("gather".into(), "tree".into()));
+                p.push(("gather-samples".into(), samples.to_string()));
+            }
+            Gather::Resampled { candidates, samples } => {
+                p.push(("gather".into(), "resample".into()));
+                p.push(("gather-candidates".into(), candidates.to_string()));
+                p.push(("gather-samples".into(), samples.to_string()));
+            }
         }
         match self.lights {
             VirtualLights::Points(Clamping::None) => {}

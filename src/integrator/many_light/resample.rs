@@ -1,0 +1,280 @@
+//! The resampled gather: a receiver evaluates the unoccluded contribution of a random window
+//! of m candidate lights (cheap: the four-wide kernel, no ray), then traces shadow rays to
+//! only k of them, drawn in proportion to those contributions.
+//!
+//! Two stages, each unbiased given the one before, so the estimate is unbiased for the
+//! iteration's full gather Σ_j c_j V_j (c_j the unoccluded contribution of light j with the
+//! iteration's bound or radius, V_j its visibility):
+//!
+//! 1. **The window.** The lights are in `n` blocks (chunks of the lanes, or single spheres);
+//!    the window is `w` consecutive blocks, cyclically, from a uniform start. Every block lies
+//!    in exactly `w` of the `n` windows, so Σ_{j ∈ window} c_j V_j · n / w is unbiased for the
+//!    full sum (Horvitz–Thompson with inclusion probability w / n). The VPLs are stored path
+//!    by path, and the light paths of an iteration are independent, so a window is a random
+//!    handful of whole light paths: per receiver, a different one.
+//! 2. **The picks.** Within the window, with p̂_j = the sum of c_j's three channels and
+//!    T = Σ p̂_j, k picks by systematic sampling of the cumulative sums at (u + i) T / k: light
+//!    j is picked n_j times with E[n_j] = k p̂_j / T, and Σ_j n_j c_j V_j T / (k p̂_j) is
+//!    unbiased for Σ_{window} c_j V_j. Every light with c_j ≠ 0 has p̂_j > 0, and a pick's
+//!    weight c_j T / (k p̂_j) has channels of at most T / k: no spikes from the division.
+//!
+//! The stochastic cone integral of a glossy sphere ([`super::spheres`]) is an unbiased
+//! estimate ĉ_j drawn before the picks; the picks then estimate Σ ĉ_j V_j, and with
+//! E[ĉ_j] = c_j the estimate stays unbiased.
+//!
+//! Why it pays: an iteration can hold many more light paths than a full gather affords, since a
+//! receiver's cost is m kernel evaluations and k rays, not one ray per light; the light paths'
+//! noise falls with their number, and within the window the rays go where the light is. What
+//! is left is the noise of visibility among the k picks and of the window's choice of paths.
+
+use glam::{Vec3, Vec4};
+
+use super::lanes::LANES;
+
+use crate::sampling::Sampler;
+
+/// Most candidates per receiver (`--gather-candidates`).
+pub const MAX_CANDIDATES: usize = 1024;
+
+/// A uniform index below `n` (0 when `n` is 0), from one number of `sampler`: Lemire's
+/// multiply-shift, uniform up to 2^-64, far below the noise.
+pub fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
+    ((sampler.next_u64() as u128 * n as u128) >> 64) as usize
+}
+
+/// A window of `w` blocks of `n`, cyclic, from a uniform start: the blocks in order.
+pub fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item = usize> + use<> {
+    let w = w.min(n);
+    let start = uniform_index(n, sampler);
+    (0..w).map(move |t| {
+        let b = start + t;
+        if b >= n { b - n } else { b }
+    })
+}
+
+/// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes, or
+/// four consecutive spheres): their unoccluded contributions channel by channel, p̂ summed
+/// within the block lane by lane, and the running total of p̂ over the blocks. Blocks whose
+/// lights all contribute nothing are left out. Reused from receiver to receiver
+/// ([`with_candidates`]), so that a gather allocates nothing.
+#[derive(Default)]
+pub struct Candidates {
+    /// The first light of each block.
+    first: Vec<u32>,
+    /// Each block's contributions, when pushed with them ([`Self::push_values`]).
+    rgb: Vec<[Vec4; 3]>,
+    /// p̂ of the block's lanes, summed up to and including each lane.
+    lanes: Vec<Vec4>,
+    /// p̂ summed over the blocks up to and including each.
+    cumulative: Vec<f32>,
+}
+
+thread_local! {
+    static CANDIDATES: std::cell::RefCell<Candidates> = std::cell::RefCell::default();
+}
+
+/// Runs `f` with this thread's candidates, emptied.
+pub fn with_candidates<R>(f: impl FnOnce(&mut Candidates) -> R) -> R {
+    CANDIDATES.with(|c| {
+        let mut c = c.borrow_mut();
+        c.clear();
+        f(&mut c)
+    })
+}
+
+impl Candidates {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn clear(&mut self) {
+        self.first.clear();
+        self.rgb.clear();
+        self.lanes.clear();
+        self.cumulative.clear();
+    }
+
+    /// Blocks held.
+    pub fn len(&self) -> usize {
+        self.first.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.first.is_empty()
+    }
+
+    /// Adds the block of lights `first`, `first` + 1, … with estimates `p` (p̂ by lane). A
+    /// lane whose p̂ is not a positive finite number is left out (a non-finite one is a light
+    /// that would make the pixel infinite in a full gather).
+    #[inline]
+    pub fn push(&mut self, first: usize, p: Vec4) {
+        self.push_block(first, p, None);
+    }
+
+    /// Adds a block of lights with their contributions `rgb` (red, green, blue by lane) as
+    /// values, and p̂ = their channels' sum.
+    #[inline]
+    pub fn push_values(&mut self, first: usize, rgb: [Vec4; 3]) {
+        self.push_block(first, rgb[0] + rgb[1] + rgb[2], Some(rgb));
+    }
+
+    #[inline]
+    fn push_block(&mut self, first: usize, p: Vec4, rgb: Option<[Vec4; 3]>) {
+        let keep = p.cmpgt(Vec4::ZERO) & p.is_finite_mask();
+        let p = Vec4::select(keep, p, Vec4::ZERO);
+        let prefix = Vec4::new(p.x, p.x + p.y, p.x + p.y + p.z, p.x + p.y + p.z + p.w);
+        // Lanes are non-negative and finite: the block's p̂ is too.
+        let block = prefix.w;
+        if block <= 0.0 {
+            return;
+        }
+        let total = self.total() + block;
+        if !total.is_finite() {
+            return;
+        }
+        self.first.push(first as u32);
+        if let Some(rgb) = rgb {
+            self.rgb.push(rgb);
+        }
+        self.lanes.push(prefix);
+        self.cumulative.push(total);
+    }
+
+    /// T = Σ p̂.
+    pub fn total(&self) -> f32 {
+        self.cumulative.last().copied().unwrap_or(0.0)
+    }
+
+    /// The k picks for the number `u` in [0, 1), by systematic sampling of the cumulative p̂
+    /// at (u + i) T / k: `emit(j, factor, value)` once per distinct light picked, with
+    /// factor = n_j T / (k p̂_j) · `scale` (the window's n / w), so that c_j · factor is the
+    /// light's share of the estimate, and `value` its contribution as pushed with
+    /// [`Self::push_values`] (zero when pushed with [`Self::push`]).
+    pub fn pick(&self, k: usize, u: f32, scale: f32, mut emit: impl FnMut(usize, f32, Vec3)) {
+        let total = self.total();
+        if total <= 0.0 || k == 0 {
+            return;
+        }
+        let step = total / k as f32;
+        let mut picked = 0;
+        let mut pos = u * step;
+        let mut base = 0.0f32;
+        for (b, &hi) in self.cumulative.iter().enumerate() {
+            if picked == k {
+                return;
+            }
+            let last_block = b + 1 == self.cumulative.len();
+            if pos >= hi && !last_block {
+                base = hi;
+                continue;
+            }
+            let prefix = self.lanes[b];
+            let mut lo = 0.0f32;
+            for lane in 0..LANES {
+                let lane_hi = prefix[lane];
+                let p = lane_hi - lo;
+                let last = last_block && lane_hi == prefix.w;
+                let mut n = 0u32;
+                // Picks at offsets in [lo, lane_hi) of the block belong to this lane (the
+                // very last light takes any rounding).
+                while picked < k && p > 0.0 && (pos - base < lane_hi || last) {
+                    n += 1;
+                    picked += 1;
+                    pos = (u + picked as f32) * step;
+                }
+                if n > 0 {
+                    let value = self
+                        .rgb
+                        .get(b)
+                        .map_or(Vec3::ZERO, |[r, g, bl]| Vec3::new(r[lane], g[lane], bl[lane]));
+                    emit(self.first[b] as usize + lane, n as f32 * step * scale / p, value);
+                }
+                lo = lane_hi;
+            }
+            base = hi;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Domain;
+
+    #[test]
+    fn windows_cover_every_block_equally() {
+        let (n, w) = (7, 3);
+        let mut hits = [0usize; 7];
+        let mut s = Sampler::new(1, 0, Domain::LightPath, 0);
+        let draws = 70_000;
+        for _ in 0..draws {
+            for b in window(n, w, &mut s) {
+                hits[b] += 1;
+            }
+        }
+        for h in hits {
+            let expect = draws as f64 * w as f64 / n as f64;
+            assert!((h as f64 - expect).abs() < 5.0 * expect.sqrt(), "{hits:?}");
+        }
+        // A window at least as wide as the blocks is all of them, once each.
+        let all: Vec<usize> = window(4, 9, &mut s).collect();
+        let mut sorted = all.clone();
+        sorted.sort();
+        assert_eq!(sorted, vec![0, 1, 2, 3]);
+    }
+
+    /// The picks' weights add up, in expectation over u, to the candidates' sum, for every
+    /// candidate separately; and k picks are made in all.
+    #[test]
+    fn picks_are_unbiased_per_candidate() {
+        let mut cands = Candidates::new();
+        let cs: [Vec3; 8] = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.01, 0.0),
+            Vec3::ZERO,
+            Vec3::new(5.0, 2.0, 1.0),
+            Vec3::new(0.3, 0.3, 0.3),
+            Vec3::new(1e-6, 0.0, 1e-6),
+            Vec3::ZERO,
+            Vec3::new(0.0, 0.0, 2.0),
+        ];
+        let block =
+            |b: usize| std::array::from_fn(|k| Vec4::from_array(std::array::from_fn(|i| cs[4 * b + i][k])));
+        cands.push_values(0, block(0));
+        cands.push_values(100, [Vec4::ZERO; 3]);
+        cands.push_values(4, block(1));
+        assert_eq!(cands.len(), 2);
+        for k in [1, 2, 3, 8] {
+            let steps = 100_000;
+            let mut sum = [glam::DVec3::ZERO; 8];
+            for s in 0..steps {
+                let u = (s as f32 + 0.5) / steps as f32;
+                let mut picks = 0;
+                cands.pick(k, u, 2.0, |j, f, c| {
+                    sum[j] += (c * f / 2.0).as_dvec3();
+                    picks += 1;
+                });
+                assert!(picks <= k);
+            }
+            for (j, &c) in cs.iter().enumerate() {
+                let mean = (sum[j] / steps as f64).as_vec3();
+                assert!(
+                    (mean - c).abs().max_element() <= 1e-3 * c.max_element().max(1e-3),
+                    "k {k} light {j}: {mean} vs {c}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn empty_and_degenerate_candidates_pick_nothing() {
+        let mut cands = Candidates::new();
+        cands.push(0, Vec4::ZERO);
+        cands.push(4, Vec4::splat(f32::NAN));
+        cands.push(8, Vec4::new(f32::INFINITY, 0.0, -1.0, 0.0));
+        assert_eq!(cands.total(), 0.0);
+        let mut n = 0;
+        cands.pick(4, 0.5, 1.0, |_, _, _| n += 1);
+        assert_eq!(n, 0);
+    }
+}
