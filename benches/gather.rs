@@ -1,6 +1,7 @@
 //! The many-light gather's cost per receiver as the number of VPLs grows: the exhaustive
-//! gather (`Gather::All`, linear in the count) and the tree gather (`Gather::Tree`, k = 16
-//! lights per receiver, growing with the tree's depth), shadow rays included; the light
+//! gather (`Gather::All`, linear in the count), the tree gather (`Gather::Tree`, k = 16
+//! lights per receiver, growing with the tree's depth) and the resampled gather
+//! (`Gather::Resampled`, k = 8 picks among m = 256 candidates: constant), shadow rays included; the light
 //! tree's build time per VPL count; and the tree's descent alone (`descent`: drawing k = 4 and
 //! 16 lights per receiver, no contributions, no shadow rays). Before the descent group, the mean
 //! probability of a dead end (a descent that ends without a pick) over the receivers is printed
@@ -80,7 +81,10 @@ fn bench(c: &mut Criterion) {
     group.throughput(Throughput::Elements(receivers.len() as u64));
     for n in COUNTS {
         let vpls = vpls_of(n);
-        let mut cases = vec![("tree-k16", Gather::Tree { samples: SAMPLES })];
+        let mut cases = vec![
+            ("tree-k16", Gather::Tree { samples: SAMPLES }),
+            ("resample-m256-k8", Gather::Resampled { candidates: 256, samples: 8 }),
+        ];
         if n <= 10_000 {
             cases.push(("all", Gather::All));
         }

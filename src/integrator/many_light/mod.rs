@@ -35,7 +35,9 @@
 //! [`spheres`] (virtual spherical lights: radii and the cone integral, with [`knn`]),
 //! [`schedule`] (the progressive schedules), and for the sampled gather ([`Gather::Tree`]):
 //! [`light_tree`] (the per-iteration tree over the lights) and [`tree_gather`] (drawing k
-//! lights per receiver from it, unbiased). Measurements behind the defaults are in
+//! lights per receiver from it, unbiased); for the resampled gather ([`Gather::Resampled`]):
+//! [`resample`] (k lights picked among a window of m candidates by their estimated light,
+//! unbiased). Measurements behind the defaults are in
 //! `docs/measurements.md`.
 
 pub mod gather;
