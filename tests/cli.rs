@@ -53,6 +53,8 @@ fn render_writes_exr_with_metadata_and_png_only() {
     assert!(!get("pir.accel").is_empty());
     assert!(get("pir.render_time_s").parse::<f64>().is_ok());
     assert!(img.mean()[0] > 0.0);
+    // Standard error is not a terminal here (as in a batch job's log): progress comes as lines.
+    assert!(stderr(&o).contains("pir: progress: 1/2 iterations (50 %), "), "{}", stderr(&o));
 }
 
 #[test]
@@ -135,6 +137,7 @@ fn bad_arguments_fail_cleanly_before_any_output() {
             &["VPLs", "--max-memory"],
         ),
         (&["render", s, "--max-memory", "-1"], &["--max-memory"]),
+        (&["render", s, "--progress-every", "0"], &["--progress-every"]),
         (&["render", s, "--method", "photon"], &["photon"]),
         (&["compare", "a.exr", "b.exr"], &["a.exr"]),
     ];

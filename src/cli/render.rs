@@ -14,7 +14,7 @@ use pir::render::state::{Job, Shard, read_state};
 use pir::render::{Budget, Control, Film, RenderStats, Renderer, SceneOptions, check_resolution};
 use pir::scene::Scene;
 
-use super::progress::Progress;
+use super::progress::{DEFAULT_LINE_INTERVAL, Progress};
 use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 
 /// Render a scene progressively and write an EXR and a PNG preview.
@@ -63,7 +63,12 @@ pub struct RenderArgs {
     /// machine's memory].
     #[arg(long, value_name = "GIB", allow_negative_numbers = true)]
     pub max_memory: Option<f64>,
-    /// No progress bar.
+    /// When standard error is not a terminal (a batch job's log): print a progress line after
+    /// the first iteration and then every SECONDS (iterations, elapsed, estimated time left)
+    /// instead of the bar.
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_LINE_INTERVAL)]
+    pub progress_every: f64,
+    /// No progress bar or progress lines.
     #[arg(long, short)]
     pub quiet: bool,
 }
@@ -72,6 +77,7 @@ pub struct RenderArgs {
 struct Plan {
     budget: Budget,
     checkpoint: Option<Duration>,
+    progress_every: Duration,
     out: PathBuf,
     preview: Option<PathBuf>,
     shard: Shard,
@@ -102,6 +108,7 @@ fn check_arguments(a: &RenderArgs) -> Result<Plan> {
     }
     a.config.validate()?;
     let checkpoint = a.checkpoint.map(|t| seconds("--checkpoint", t)).transpose()?;
+    let progress_every = seconds("--progress-every", a.progress_every)?;
     let out =
         a.out.clone().or_else(|| a.resume.clone()).unwrap_or_else(|| {
             PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.config.method.name()))
@@ -111,6 +118,7 @@ fn check_arguments(a: &RenderArgs) -> Result<Plan> {
     Ok(Plan {
         budget: Budget { iterations: budget.iterations.map(|n| shard.iterations_of(n)), ..budget },
         checkpoint,
+        progress_every,
         preview: (!a.no_preview).then(|| out.with_extension("png")),
         out,
         shard,
@@ -230,7 +238,7 @@ fn render(
     film: Film,
 ) -> Result<(Film, RenderStats)> {
     let interrupted = interrupt_flag()?;
-    let progress = Progress::new(&plan.budget, !a.quiet);
+    let mut progress = Progress::new(&plan.budget, !a.quiet, plan.progress_every);
     let mut last_checkpoint = Instant::now();
     let mut checkpoint_error = None;
     let (film, stats) = renderer.resume(&a.config, plan.budget, film, plan.shard, |film, stats| {
