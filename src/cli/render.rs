@@ -87,12 +87,14 @@ struct Plan {
 
 pub fn run(a: RenderArgs) -> Result<()> {
     let plan = check_arguments(&a)?;
+    let start = Instant::now();
     let scene = pir::scene::load(&a.scene)?;
+    let loaded = start.elapsed();
     check_memory(&a, &scene)?;
     let renderer = Renderer::new(&scene, &a.options)?;
     let job = renderer.job(&a.config);
     let film = starting_film(&a, &renderer, &job, plan.shard)?;
-    print_header(&a, &renderer);
+    print_header(&a, &renderer, loaded);
     let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
     let image = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
     print_summary(&plan, &renderer, &stats, &image);
@@ -185,7 +187,7 @@ fn starting_film(a: &RenderArgs, renderer: &Renderer, job: &Job, shard: Shard) -
     Ok(saved.film)
 }
 
-fn print_header(a: &RenderArgs, renderer: &Renderer) {
+fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration) {
     let scene = renderer.scene();
     let (width, height) = renderer.resolution();
     eprintln!(
@@ -206,6 +208,7 @@ fn print_header(a: &RenderArgs, renderer: &Renderer) {
             scene.degenerate_dropped()
         );
     }
+    eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
     eprintln!("pir: accelerator {}", renderer.accel_description());
     if !Backend::Embree.is_available() {
         eprintln!("pir: {}", embree_status());
