@@ -56,6 +56,7 @@ fn render_writes_exr_with_metadata_and_png_only() {
     // Standard error is not a terminal here (as in a batch job's log): progress comes as lines.
     assert!(stderr(&o).contains("pir: progress: 1/2 iterations (50 %), "), "{}", stderr(&o));
     assert!(stderr(&o).contains("pir: scene read in "), "{}", stderr(&o));
+    assert!(stderr(&o).contains("pir: estimated peak memory 0.00 GiB (film "), "{}", stderr(&o));
 }
 
 #[test]

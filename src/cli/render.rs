@@ -90,11 +90,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let scene = pir::scene::load(&a.scene)?;
     let loaded = start.elapsed();
-    check_memory(&a, &scene)?;
+    let memory = check_memory(&a, &scene)?;
     let renderer = Renderer::new(&scene, &a.options)?;
     let job = renderer.job(&a.config);
     let film = starting_film(&a, &renderer, &job, plan.shard)?;
-    print_header(&a, &renderer, loaded);
+    print_header(&a, &renderer, loaded, &memory);
     let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
     let image = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
     print_summary(&plan, &renderer, &stats, &image);
@@ -141,8 +141,8 @@ fn budget(a: &RenderArgs) -> Result<Budget> {
 }
 
 /// Refuses, before anything large is allocated, a render that would need more memory than
-/// --max-memory (default 80 % of the machine's).
-fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<()> {
+/// --max-memory (default 80 % of the machine's); returns the estimate.
+fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<memory::Estimate> {
     let (width, height) = a.options.resolution(scene);
     check_resolution(width, height)?;
     let limit = match a.max_memory {
@@ -166,7 +166,7 @@ fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<()> {
             limit as f64 / (1u64 << 30) as f64
         );
     }
-    Ok(())
+    Ok(need)
 }
 
 /// The film the render starts from: a resumed one (of the same job and shard) or an empty one.
@@ -187,7 +187,7 @@ fn starting_film(a: &RenderArgs, renderer: &Renderer, job: &Job, shard: Shard) -
     Ok(saved.film)
 }
 
-fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration) {
+fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &memory::Estimate) {
     let scene = renderer.scene();
     let (width, height) = renderer.resolution();
     eprintln!(
@@ -210,6 +210,7 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration) {
     }
     eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
     eprintln!("pir: accelerator {}", renderer.accel_description());
+    eprintln!("pir: estimated peak memory {memory} (see --max-memory)");
     if !Backend::Embree.is_available() {
         eprintln!("pir: {}", embree_status());
     }
