@@ -10,7 +10,8 @@
 //!   and the merged image is still exactly that of one run;
 //! - the shards' logs (no terminal there) show progress lines.
 //!
-//! Where Slurm cannot be started (not installed, not root) the test skips with the reason, and
+//! Where Slurm cannot be started (not installed, not root, its daemons do not come up) the test
+//! skips with the reason, and
 //! fails with CI=true (`.ci/run` installs Slurm first). It takes about half a minute.
 
 use std::path::{Path, PathBuf};

@@ -11,7 +11,9 @@
 #
 # Clients (sbatch, squeue, scontrol) talk to it with SLURM_CONF=DIR/slurm.conf. `start` exits
 # 3, with the reason on standard error, when Slurm cannot be started here (not installed, not
-# root): the caller decides whether that skips or fails a test.
+# root, a daemon that does not start or a node that does not come up, with its log's last
+# lines): the caller decides whether that skips or fails a test. Run `stop` after a failed
+# `start` too: it stops whatever did start.
 set -euo pipefail
 
 cmd=${1:?usage: cluster.sh install | start DIR | stop DIR}
@@ -61,7 +63,8 @@ case "$cmd" in
         chmod 400 "$dir/munge/munge.key"
         munged --force --socket="$dir/munge/socket" --key-file="$dir/munge/munge.key" \
             --pid-file="$dir/munge/munged.pid" --log-file="$dir/munge/munged.log" \
-            --seed-file="$dir/munge/munged.seed"
+            --seed-file="$dir/munge/munged.seed" \
+            || cannot "munged did not start: $(tail -n 5 "$dir/munge/munged.log" 2>/dev/null)"
 
         host=$(hostname -s)
         cpus=$(nproc)
@@ -99,10 +102,16 @@ PartitionName=test Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF
         : >"$dir/plugstack.conf"
         export SLURM_CONF="$dir/slurm.conf"
-        slurmctld
-        slurmd
+        slurmctld || cannot "slurmctld did not start: $(tail -n 5 "$dir/slurmctld.log" 2>/dev/null)"
+        slurmd || cannot "slurmd did not start: $(tail -n 5 "$dir/slurmd.log" 2>/dev/null)"
         # Wait for the node to be idle (at most 60 s).
         for i in $(seq 120); do
+            if [ "$i" -gt 4 ]; then
+                for daemon in slurmctld slurmd; do
+                    pid_of "$dir/$daemon.pid" >/dev/null || cannot "$daemon exited; its log ends with:
+$(tail -n 5 "$dir/$daemon.log" 2>&1)"
+                done
+            fi
             state=$(sinfo -h -n "$host" -o %t 2>/dev/null || true)
             if [ "$state" = idle ]; then
                 echo "cluster.sh: Slurm is up in $dir (node $host, $cpus CPUs)"
@@ -110,9 +119,8 @@ EOF
             fi
             sleep 0.5
         done
-        echo "cluster.sh: the node did not become idle (state '${state:-?}'); logs:" >&2
-        tail -n 20 "$dir/slurmctld.log" "$dir/slurmd.log" "$dir/munge/munged.log" >&2 || true
-        exit 1
+        cannot "the node did not become idle in 60 s (state '${state:-?}'); the logs end with:
+$(tail -n 10 "$dir/slurmctld.log" "$dir/slurmd.log" "$dir/munge/munged.log" 2>&1)"
         ;;
     stop)
         dir=${2:?cluster folder}
