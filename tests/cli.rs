@@ -140,6 +140,7 @@ fn bad_arguments_fail_cleanly_before_any_output() {
         ),
         (&["render", s, "--max-memory", "-1"], &["--max-memory"]),
         (&["render", s, "--progress-every", "0"], &["--progress-every"]),
+        (&["render", s, "--progress-every", "-5"], &["--progress-every", "positive"]),
         (&["render", s, "--method", "photon"], &["photon"]),
         (&["compare", "a.exr", "b.exr"], &["a.exr"]),
     ];

@@ -33,7 +33,7 @@ pub struct MergeArgs {
 pub fn run(a: MergeArgs) -> Result<()> {
     // One shard in memory at a time besides the sum: a merge of many large shards needs the
     // memory of two films, not of all of them.
-    let (first_path, rest) = a.inputs.split_first().expect("clap requires an input");
+    let Some((first_path, rest)) = a.inputs.split_first() else { bail!("no shards to merge") };
     let Saved { job, shard: first_shard, mut film } = read_state(first_path)?;
     let n = first_shard.count;
     let mut seen = vec![None::<&PathBuf>; n as usize];

@@ -66,7 +66,7 @@ pub struct RenderArgs {
     /// When standard error is not a terminal (a batch job's log): print a progress line after
     /// the first iteration and then every SECONDS (iterations, elapsed, estimated time left)
     /// instead of the bar.
-    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_LINE_INTERVAL)]
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_LINE_INTERVAL, allow_negative_numbers = true)]
     pub progress_every: f64,
     /// No progress bar or progress lines.
     #[arg(long, short)]
