@@ -15,6 +15,8 @@
 # lines): the caller decides whether that skips or fails a test. Run `stop` after a failed
 # `start` too: it stops whatever did start.
 set -euo pipefail
+# The daemons live in /usr/sbin, which a user's PATH may lack.
+PATH="$PATH:/usr/sbin:/sbin"
 
 cmd=${1:?usage: cluster.sh install | start DIR | stop DIR}
 
