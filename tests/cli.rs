@@ -53,6 +53,10 @@ fn render_writes_exr_with_metadata_and_png_only() {
     assert!(!get("pir.accel").is_empty());
     assert!(get("pir.render_time_s").parse::<f64>().is_ok());
     assert!(img.mean()[0] > 0.0);
+    // Standard error is not a terminal here (as in a batch job's log): progress comes as lines.
+    assert!(stderr(&o).contains("pir: progress: 1/2 iterations (50 %), "), "{}", stderr(&o));
+    assert!(stderr(&o).contains("pir: scene read in "), "{}", stderr(&o));
+    assert!(stderr(&o).contains("pir: estimated peak memory 0.00 GiB (film "), "{}", stderr(&o));
 }
 
 #[test]
@@ -156,6 +160,8 @@ fn bad_arguments_fail_cleanly_before_any_output() {
             &["VPLs", "--max-memory"],
         ),
         (&["render", s, "--max-memory", "-1"], &["--max-memory"]),
+        (&["render", s, "--progress-every", "0"], &["--progress-every"]),
+        (&["render", s, "--progress-every", "-5"], &["--progress-every", "positive"]),
         (&["render", s, "--method", "photon"], &["photon"]),
         (&["compare", "a.exr", "b.exr"], &["a.exr"]),
     ];

@@ -795,3 +795,24 @@ fn mutated_inputs_never_panic() {
         std::fs::write(f.path(name), base).unwrap();
     }
 }
+
+/// The production-sized scene of `docs/batch.md` loads as the contract's reader reads it: the
+/// model's 331,179 triangles with its own MTL, and the 12 triangles of the six ceiling panels
+/// that the scene file makes emitters, facing down into the room.
+#[test]
+fn the_conference_room_loads_with_its_ceiling_lights() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/scene.toml");
+    let scene = load(&path).unwrap();
+    assert_eq!(scene.triangle_count(), 331_179 + 12);
+    assert_eq!((scene.camera().width, scene.camera().height), (1920, 1080));
+    let emitters = pir::light::Emitters::new(&scene).unwrap();
+    assert_eq!(emitters.len(), 12);
+    let emitting: Vec<u32> =
+        (0..scene.triangle_count() as u32).filter(|t| scene.material_of(*t).emission != Vec3::ZERO).collect();
+    assert_eq!(emitting.len(), 12);
+    for t in emitting {
+        let [a, b, c] = scene.triangle(t);
+        assert!((b - a).cross(c - a).normalize().dot(Vec3::NEG_Y) > 0.999, "panel {t} faces up");
+        assert!(a.y == 645.0);
+    }
+}

@@ -5,7 +5,7 @@ use clap::Args;
 use std::path::PathBuf;
 
 use pir::image::{write_exr, write_preview};
-use pir::render::state::{Shard, read_state, write_state};
+use pir::render::state::{Saved, Shard, read_state, write_state};
 
 /// Merge the shards of a render (`pir render … --shard K/N`) into one image.
 ///
@@ -31,15 +31,17 @@ pub struct MergeArgs {
 }
 
 pub fn run(a: MergeArgs) -> Result<()> {
-    let mut saved = Vec::new();
-    for path in &a.inputs {
-        saved.push((path, read_state(path)?));
-    }
-    let (first_path, first) = &saved[0];
-    let n = first.shard.count;
+    // One shard in memory at a time besides the sum: a merge of many large shards needs the
+    // memory of two films, not of all of them.
+    let Some((first_path, rest)) = a.inputs.split_first() else { bail!("no shards to merge") };
+    let Saved { job, shard: first_shard, mut film } = read_state(first_path)?;
+    let n = first_shard.count;
     let mut seen = vec![None::<&PathBuf>; n as usize];
-    for (path, s) in &saved {
-        let differences = s.job.differences(&first.job);
+    seen[first_shard.index as usize] = Some(first_path);
+    let mut shards = vec![(first_shard, film.iterations())];
+    for path in rest {
+        let s = read_state(path)?;
+        let differences = s.job.differences(&job);
         if !differences.is_empty() {
             bail!(
                 "{} and {} are not shards of one render: {}",
@@ -65,27 +67,24 @@ pub fn run(a: MergeArgs) -> Result<()> {
                 s.shard
             );
         }
-    }
-    let mut film = first.film.clone();
-    for (_, s) in &saved[1..] {
         film.merge(&s.film);
+        shards.push((s.shard, s.film.iterations()));
     }
     // All N shards, each with its share of the first T global iterations: one run of T.
     let total = film.iterations();
-    let complete = saved.len() as u64 == n
-        && saved.iter().all(|(_, s)| s.film.iterations() == s.shard.iterations_of(total));
+    let complete = shards.len() as u64 == n && shards.iter().all(|(s, i)| *i == s.iterations_of(total));
     let image = film.image();
     let attrs = vec![
         ("pir.version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
-        ("pir.method".to_string(), first.job.config.method.name().to_string()),
-        ("pir.seed".to_string(), first.job.seed.to_string()),
-        ("pir.max_depth".to_string(), first.job.max_depth.to_string()),
+        ("pir.method".to_string(), job.config.method.name().to_string()),
+        ("pir.seed".to_string(), job.seed.to_string()),
+        ("pir.max_depth".to_string(), job.max_depth.to_string()),
         ("pir.iterations".to_string(), total.to_string()),
         ("pir.spp".to_string(), total.to_string()),
-        ("pir.merged_from".to_string(), saved.len().to_string()),
+        ("pir.merged_from".to_string(), shards.len().to_string()),
     ];
     if complete {
-        write_state(&a.out, &image, &attrs, &first.job, Shard::ALL, &film)?;
+        write_state(&a.out, &image, &attrs, &job, Shard::ALL, &film)?;
     } else {
         write_exr(&a.out, &image, &attrs)?;
         eprintln!(
@@ -96,6 +95,6 @@ pub fn run(a: MergeArgs) -> Result<()> {
     if !a.no_preview {
         write_preview(&a.out.with_extension("png"), &image, a.exposure)?;
     }
-    eprintln!("pir: merged {} shards, {total} iterations, into {}", saved.len(), a.out.display());
+    eprintln!("pir: merged {} shards, {total} iterations, into {}", shards.len(), a.out.display());
     Ok(())
 }

@@ -6,11 +6,12 @@ use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
+use std::time::Duration;
 
 use pir::integrator::{Method, MethodConfig};
 use pir::render::{Budget, Control, Renderer, SceneOptions};
 
-use super::progress::Progress;
+use super::progress::{DEFAULT_LINE_INTERVAL, Progress};
 use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 
 /// Render a reference image with the path tracer for a wall-clock budget.
@@ -47,7 +48,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         renderer.threads()
     );
     let interrupted = interrupt_flag()?;
-    let progress = Progress::new(&budget, true);
+    let mut progress = Progress::new(&budget, true, Duration::from_secs_f64(DEFAULT_LINE_INTERVAL));
     let config = MethodConfig::new(Method::Pt);
     let (film, stats) = renderer.render(&config, budget, |_, stats| {
         progress.update(stats);

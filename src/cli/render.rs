@@ -14,7 +14,7 @@ use pir::render::state::{Job, Shard, read_state};
 use pir::render::{Budget, Control, Film, RenderStats, Renderer, SceneOptions, check_resolution};
 use pir::scene::Scene;
 
-use super::progress::Progress;
+use super::progress::{DEFAULT_LINE_INTERVAL, Progress};
 use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 
 /// Render a scene progressively and write an EXR and a PNG preview.
@@ -63,7 +63,12 @@ pub struct RenderArgs {
     /// machine's memory].
     #[arg(long, value_name = "GIB", allow_negative_numbers = true)]
     pub max_memory: Option<f64>,
-    /// No progress bar.
+    /// When standard error is not a terminal (a batch job's log): print a progress line after
+    /// the first iteration and then every SECONDS (iterations, elapsed, estimated time left)
+    /// instead of the bar.
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_LINE_INTERVAL, allow_negative_numbers = true)]
+    pub progress_every: f64,
+    /// No progress bar or progress lines.
     #[arg(long, short)]
     pub quiet: bool,
 }
@@ -72,6 +77,7 @@ pub struct RenderArgs {
 struct Plan {
     budget: Budget,
     checkpoint: Option<Duration>,
+    progress_every: Duration,
     out: PathBuf,
     preview: Option<PathBuf>,
     shard: Shard,
@@ -81,12 +87,14 @@ struct Plan {
 
 pub fn run(a: RenderArgs) -> Result<()> {
     let plan = check_arguments(&a)?;
+    let start = Instant::now();
     let scene = pir::scene::load(&a.scene)?;
-    check_memory(&a, &scene)?;
+    let loaded = start.elapsed();
+    let memory = check_memory(&a, &scene)?;
     let renderer = Renderer::new(&scene, &a.options)?;
     let job = renderer.job(&a.config);
     let film = starting_film(&a, &renderer, &job, plan.shard)?;
-    print_header(&a, &renderer);
+    print_header(&a, &renderer, loaded, &memory);
     let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
     let image = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
     print_summary(&plan, &renderer, &stats, &image);
@@ -102,6 +110,7 @@ fn check_arguments(a: &RenderArgs) -> Result<Plan> {
     }
     a.config.validate()?;
     let checkpoint = a.checkpoint.map(|t| seconds("--checkpoint", t)).transpose()?;
+    let progress_every = seconds("--progress-every", a.progress_every)?;
     let out =
         a.out.clone().or_else(|| a.resume.clone()).unwrap_or_else(|| {
             PathBuf::from(format!("{}-{}.exr", scene_stem(&a.scene), a.config.method.name()))
@@ -111,6 +120,7 @@ fn check_arguments(a: &RenderArgs) -> Result<Plan> {
     Ok(Plan {
         budget: Budget { iterations: budget.iterations.map(|n| shard.iterations_of(n)), ..budget },
         checkpoint,
+        progress_every,
         preview: (!a.no_preview).then(|| out.with_extension("png")),
         out,
         shard,
@@ -131,8 +141,8 @@ fn budget(a: &RenderArgs) -> Result<Budget> {
 }
 
 /// Refuses, before anything large is allocated, a render that would need more memory than
-/// --max-memory (default 80 % of the machine's).
-fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<()> {
+/// --max-memory (default 80 % of the machine's); returns the estimate.
+fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<memory::Estimate> {
     let (width, height) = a.options.resolution(scene);
     check_resolution(width, height)?;
     let limit = match a.max_memory {
@@ -156,7 +166,7 @@ fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<()> {
             limit as f64 / (1u64 << 30) as f64
         );
     }
-    Ok(())
+    Ok(need)
 }
 
 /// The film the render starts from: a resumed one (of the same job and shard) or an empty one.
@@ -177,7 +187,7 @@ fn starting_film(a: &RenderArgs, renderer: &Renderer, job: &Job, shard: Shard) -
     Ok(saved.film)
 }
 
-fn print_header(a: &RenderArgs, renderer: &Renderer) {
+fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &memory::Estimate) {
     let scene = renderer.scene();
     let (width, height) = renderer.resolution();
     eprintln!(
@@ -198,7 +208,9 @@ fn print_header(a: &RenderArgs, renderer: &Renderer) {
             scene.degenerate_dropped()
         );
     }
+    eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
     eprintln!("pir: accelerator {}", renderer.accel_description());
+    eprintln!("pir: estimated peak memory {memory} (see --max-memory)");
     if !Backend::Embree.is_available() {
         eprintln!("pir: {}", embree_status());
     }
@@ -230,7 +242,7 @@ fn render(
     film: Film,
 ) -> Result<(Film, RenderStats)> {
     let interrupted = interrupt_flag()?;
-    let progress = Progress::new(&plan.budget, !a.quiet);
+    let mut progress = Progress::new(&plan.budget, !a.quiet, plan.progress_every);
     let mut last_checkpoint = Instant::now();
     let mut checkpoint_error = None;
     let (film, stats) = renderer.resume(&a.config, plan.budget, film, plan.shard, |film, stats| {
