@@ -46,70 +46,9 @@ pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
     1.0 / (2.0 * PI * (1.0 - cos_max))
 }
 
-/// A discrete distribution sampled in O(log n) from its cumulative sums.
-#[derive(Clone, Debug)]
-pub struct Distribution1D {
-    cdf: Vec<f64>,
-    total: f64,
-}
-
-impl Distribution1D {
-    /// `None` when the weights are empty or sum to zero (or are not finite).
-    pub fn new(weights: &[f64]) -> Option<Self> {
-        let mut cdf = Vec::with_capacity(weights.len());
-        let mut acc = 0.0;
-        for &w in weights {
-            acc += w.max(0.0);
-            cdf.push(acc);
-        }
-        (acc > 0.0 && acc.is_finite()).then_some(Distribution1D { cdf, total: acc })
-    }
-
-    pub fn len(&self) -> usize {
-        self.cdf.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.cdf.is_empty()
-    }
-
-    pub fn total(&self) -> f64 {
-        self.total
-    }
-
-    /// Draws an index with probability proportional to its weight; returns it with its
-    /// probability.
-    pub fn sample(&self, u: f32) -> (usize, f32) {
-        let target = u as f64 * self.total;
-        let i = self.cdf.partition_point(|&c| c <= target).min(self.cdf.len() - 1);
-        (i, self.pmf(i))
-    }
-
-    pub fn pmf(&self, i: usize) -> f32 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        ((self.cdf[i] - lo) / self.total) as f32
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn distribution_skips_zero_weights_and_matches_pmf() {
-        let d = Distribution1D::new(&[0.0, 1.0, 0.0, 3.0]).unwrap();
-        let mut counts = [0usize; 4];
-        let n = 40_000;
-        for k in 0..n {
-            let (i, p) = d.sample((k as f32 + 0.5) / n as f32);
-            assert!(p > 0.0);
-            counts[i] += 1;
-        }
-        assert_eq!(counts[0], 0);
-        assert_eq!(counts[2], 0);
-        assert!((counts[1] as f32 / n as f32 - 0.25).abs() < 1e-3);
-        assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
-    }
 
     #[test]
     fn warps_stay_in_their_domains() {
