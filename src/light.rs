@@ -2,28 +2,38 @@
 //! area light on its front face (the side of its geometric normal).
 //!
 //! Sampling picks a triangle with probability proportional to its power (mean emitted
-//! radiance over the channels × area × π) and a uniform point on it. The same distribution
+//! radiance over the channels × area × π), in constant time from an alias table, and a
+//! uniform point on it. The same distribution
 //! serves next-event estimation, MIS weights of BSDF-sampled hits, and the start of light
 //! paths.
 
 use glam::{Vec2, Vec3};
 
-use crate::sampling::{Distribution1D, uniform_triangle};
-use crate::scene::{Scene, SurfacePoint};
+use crate::sampling::{AliasTable, uniform_triangle};
+use crate::scene::Scene;
 
 pub struct Emitters {
     /// Emitting triangles, in scene order.
     prims: Vec<u32>,
-    dist: Distribution1D,
+    dist: AliasTable,
     /// For every triangle of the scene: the area density of sampling a point on it
     /// (selection probability / area); zero for non-emitters.
     pdf_area: Vec<f32>,
 }
 
+/// Where a sampled point lies: what connecting to it needs.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterPoint {
+    pub p: Vec3,
+    /// The triangle's unit geometric normal (its front side emits).
+    pub ng: Vec3,
+    pub prim: u32,
+}
+
 /// A point sampled on an emitter.
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterSample {
-    pub point: SurfacePoint,
+    pub point: EmitterPoint,
     /// Emitted radiance towards the front side.
     pub radiance: Vec3,
     /// Probability density per unit area of having sampled this point.
@@ -46,7 +56,7 @@ impl Emitters {
                 }
             }
         }
-        let dist = Distribution1D::new(&weights)?;
+        let dist = AliasTable::new(&weights)?;
         let mut pdf_area = vec![0.0f32; scene.indices().len()];
         for (i, &prim) in prims.iter().enumerate() {
             pdf_area[prim as usize] = dist.pmf(i) / scene.area(prim);
@@ -69,12 +79,12 @@ impl Emitters {
     }
 
     /// Picks an emitter triangle by power (`u_select`) and a uniform point on it (`u`).
+    #[inline]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
-        let (i, _) = self.dist.sample(u_select);
-        let prim = self.prims[i];
-        let point = scene.surface_at(prim, uniform_triangle(u));
+        let prim = self.prims[self.dist.sample(u_select)];
+        let (p, ng) = scene.point_at(prim, uniform_triangle(u));
         EmitterSample {
-            point,
+            point: EmitterPoint { p, ng, prim },
             radiance: scene.material_of(prim).emission,
             pdf_area: self.pdf_area[prim as usize],
         }

@@ -6,7 +6,7 @@ use glam::Vec3;
 use super::{Counters, RenderContext};
 use crate::geometry::{OffsetPoint, Ray};
 use crate::light::emitted;
-use crate::material::{Bsdf, LocalGeometry, Material, TransportMode};
+use crate::material::{Bsdf, LocalGeometry, Material, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
 
@@ -67,7 +67,7 @@ pub fn sample_emitters(
         return Vec3::ZERO;
     }
     let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
-    let f = bsdf.eval(&g, wo, wi, TransportMode::Radiance);
+    let (f, pdf_bsdf) = PreparedBsdf::new(*bsdf, g, wo, TransportMode::Radiance).eval_pdf(wi);
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
@@ -75,7 +75,6 @@ pub fn sample_emitters(
         return Vec3::ZERO;
     }
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    let pdf_bsdf = bsdf.pdf(&g, wo, wi);
     f * es.radiance * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light)
 }
 

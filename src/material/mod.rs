@@ -169,25 +169,26 @@ impl Bsdf {
         u: Vec2,
         mode: TransportMode,
     ) -> Option<BsdfSample> {
-        let wo_l = g.frame.to_local(wo);
-        if !(wo.dot(g.ng) > 0.0 && wo_l.z > 0.0) {
+        // Active exactly when wo is in front of the geometric normal and above the shading
+        // horizon (the material is not delta here).
+        let prepared = PreparedBsdf::new(*self, *g, wo, mode);
+        if !prepared.is_active() {
             return None;
         }
         let wi_l = match *self {
             Bsdf::Diffuse { albedo } if albedo.max_element() > 0.0 => diffuse::sample(u),
             Bsdf::Glossy { albedo, specular, roughness } => {
-                Glossy::new(albedo, specular, roughness).sample(wo_l, u_lobe, u)?
+                Glossy::new(albedo, specular, roughness).sample(prepared.wo_local(), u_lobe, u)?
             }
             _ => return None,
         };
         let wi = g.frame.to_world(wi_l).try_normalize()?;
-        // Evaluate through the public functions so that weight == eval / pdf exactly.
-        let pdf = self.pdf(g, wo, wi);
+        // The values of the public eval and pdf, so that weight == eval / pdf exactly.
+        let (f, pdf) = prepared.eval_pdf(wi);
         if pdf <= 0.0 {
             return None;
         }
-        let weight = self.eval(g, wo, wi, mode) / pdf;
-        finite_sample(wi, weight, pdf, false, 1.0)
+        finite_sample(wi, f / pdf, pdf, false, 1.0)
     }
 }
 

@@ -67,20 +67,16 @@ impl PreparedBsdf {
         }
     }
 
+    /// The fixed direction in the shading frame.
+    #[inline]
+    pub fn wo_local(&self) -> Vec3 {
+        self.wo_l
+    }
+
     /// f(wo, wi) · |cos θi|, exactly [`Bsdf::eval`] for the fixed `wo`.
     #[inline]
     pub fn eval(&self, wi: Vec3) -> Vec3 {
-        if !self.active {
-            return Vec3::ZERO;
-        }
-        let wi_ng = wi.dot(self.g.ng);
-        if wi_ng.is_nan() || wi_ng <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let wi_l = self.g.frame.to_local(wi);
-        if wi_l.z.is_nan() || wi_l.z <= 0.0 {
-            return Vec3::ZERO;
-        }
+        let Some((wi_ng, wi_l)) = self.incident(wi) else { return Vec3::ZERO };
         let value = match self.bsdf {
             Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wi_l),
             Bsdf::Glossy { albedo, specular, roughness } => {
@@ -88,6 +84,54 @@ impl PreparedBsdf {
             }
             Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return Vec3::ZERO,
         };
+        self.finish(value, wi_ng, wi_l)
+    }
+
+    /// [`PreparedBsdf::eval`] and [`Bsdf::pdf`] of `wi` at once, with the same values as the
+    /// two calls: the checks and the shading-frame coordinates of `wi` (and the glossy lobe's
+    /// constants) are computed once. Next-event estimation needs both, and so does BSDF
+    /// sampling for its weight eval / pdf.
+    #[inline]
+    pub fn eval_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        let Some((wi_ng, wi_l)) = self.incident(wi) else { return (Vec3::ZERO, 0.0) };
+        let (value, pdf) = match self.bsdf {
+            Bsdf::Diffuse { albedo } => {
+                let pdf = if albedo.max_element() > 0.0 { diffuse::pdf(wi_l) } else { 0.0 };
+                (diffuse::eval(albedo, wi_l), pdf)
+            }
+            Bsdf::Glossy { albedo, specular, roughness } => {
+                let lobe = Glossy::new(albedo, specular, roughness);
+                let pdf = if lobe.is_black() { 0.0 } else { lobe.pdf(self.wo_l, wi_l) };
+                (lobe.eval(self.wo_l, wi_l), pdf)
+            }
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return (Vec3::ZERO, 0.0),
+        };
+        let pdf = if pdf.is_finite() { pdf.max(0.0) } else { 0.0 };
+        (self.finish(value, wi_ng, wi_l), pdf)
+    }
+
+    /// `wi · ng` and `wi` in the shading frame when the BSDF is active and `wi` is in front
+    /// of the geometric normal and above the shading horizon; `None` otherwise.
+    #[inline]
+    fn incident(&self, wi: Vec3) -> Option<(f32, Vec3)> {
+        if !self.active {
+            return None;
+        }
+        let wi_ng = wi.dot(self.g.ng);
+        if wi_ng.is_nan() || wi_ng <= 0.0 {
+            return None;
+        }
+        let wi_l = self.g.frame.to_local(wi);
+        if wi_l.z.is_nan() || wi_l.z <= 0.0 {
+            return None;
+        }
+        Some((wi_ng, wi_l))
+    }
+
+    /// The transport-mode factor applied to a lobe's value, then zero unless finite, clamped
+    /// at 0.
+    #[inline]
+    fn finish(&self, value: Vec3, wi_ng: f32, wi_l: Vec3) -> Vec3 {
         let factor = match self.mode {
             TransportMode::Radiance => 1.0,
             TransportMode::Importance => shading_correction(self.wo_l.z, self.wo_ng, wi_ng, wi_l.z),

@@ -121,7 +121,7 @@ pub fn render_from(
 ) -> (Film, RenderStats) {
     let (w, h) = (settings.width, settings.height);
     assert_eq!((film.width, film.height), (w, h), "the film must have the render's size");
-    let camera = ctx.scene.camera().with_resolution(w as u32, h as u32);
+    let camera = ctx.scene.camera().with_resolution(w as u32, h as u32).rays();
     let tiles = tiles(w, h, TILE_SIZE);
     let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
     let start = Instant::now();

@@ -27,14 +27,48 @@ impl Camera {
     /// The ray through the image-plane position `film` (in pixels: x to the right, y down,
     /// `(0, 0)` the top-left corner of pixel (0, 0)). The direction is unit length.
     pub fn generate_ray(&self, film: Vec2) -> Ray {
+        self.rays().generate_ray(film)
+    }
+
+    /// The camera's basis and scales computed once, for generating many rays.
+    pub fn rays(&self) -> CameraRays {
         let forward = (self.target - self.eye).normalize();
         let right = forward.cross(self.up).normalize();
-        let up = right.cross(forward);
-        let tan_half = (self.fov_deg.to_radians() * 0.5).tan();
-        let aspect = self.width as f32 / self.height as f32;
-        let sx = (2.0 * film.x / self.width as f32 - 1.0) * tan_half * aspect;
-        let sy = (1.0 - 2.0 * film.y / self.height as f32) * tan_half;
-        Ray::new(self.eye, (forward + right * sx + up * sy).normalize())
+        CameraRays {
+            eye: self.eye,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_half: (self.fov_deg.to_radians() * 0.5).tan(),
+            aspect: self.width as f32 / self.height as f32,
+            width: self.width as f32,
+            height: self.height as f32,
+        }
+    }
+}
+
+/// A [`Camera`] prepared for generating rays: its basis and the tangent of half its field of
+/// view, which do not change from ray to ray. [`CameraRays::generate_ray`] is
+/// [`Camera::generate_ray`], operation for operation.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRays {
+    eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    tan_half: f32,
+    aspect: f32,
+    width: f32,
+    height: f32,
+}
+
+impl CameraRays {
+    /// See [`Camera::generate_ray`].
+    #[inline]
+    pub fn generate_ray(&self, film: Vec2) -> Ray {
+        let sx = (2.0 * film.x / self.width - 1.0) * self.tan_half * self.aspect;
+        let sy = (1.0 - 2.0 * film.y / self.height) * self.tan_half;
+        Ray::new(self.eye, (self.forward + self.right * sx + self.up * sy).normalize())
     }
 }
 

@@ -1,0 +1,110 @@
+#!/usr/bin/env bash
+# pir's path tracer against Mitsuba 3's, side by side (issue 13): the Cornell box, the
+# mirror-and-glass box and the Cornell box with the bunny, each rendered by both at the same
+# sample count, with each one's wall time (the whole process: start-up, scene load, BVH build,
+# for Mitsuba its JIT), its CPU time (user + system, all threads), relative MSE against the
+# reference (`pir compare`: mean over pixels and channels of (x − r)² / (r² + 0.01)) and
+# efficiency = 1 / (relative MSE × wall time). The last columns are pir's efficiency over
+# Mitsuba's (≥ 1: pir is at least as efficient), by wall time and by CPU time; on a machine
+# shared with other work the CPU-time ratio is the steadier of the two.
+#
+#     docs/pt_vs_mitsuba.sh [SPP]          (default 512; about 2 minutes per scene on 2 cores)
+#
+# Environment:
+#   MITSUBA_PYTHON  a Python with the `mitsuba` and `numpy` packages (default: /tmp/mi/bin/python
+#                   if it exists). Without one, only pir's figures are printed. To set one up
+#                   (as root, once per machine):
+#                       apt-get install -y libllvm19
+#                       python3 -m venv /tmp/mi && /tmp/mi/bin/pip install mitsuba numpy
+#   SHARED          the shared data folder (default: ../shared beside the checkout), which holds
+#                   the scenes, the references and tools/mitsuba_ref.py.
+#   BUNNY_REF       the bunny scene's reference EXR (default: $SHARED/references/cornell-bunny.exr,
+#                   else target/bench-refs/cornell-bunny.exr). When missing and Mitsuba is there,
+#                   it is rendered first (4,096 spp with Mitsuba, about 10 minutes); a scene with
+#                   no reference is skipped with a message.
+#   RUNS            renders per renderer and scene; the median time is used (default 1).
+#   SEED            seed of both renderers (default 1; the shared references use Mitsuba's 0).
+#   PIR             a pir binary to measure instead of this checkout's (e.g. an older build, for
+#                   before/after figures); by default the script builds and uses target/release/pir.
+#
+# Timings need an otherwise idle machine: run it alone. Both renderers use every core.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+spp=${1:-512}
+runs=${RUNS:-1}
+seed=${SEED:-1}
+shared=${SHARED:-../shared}
+py=${MITSUBA_PYTHON:-}
+if [[ -z $py && -x /tmp/mi/bin/python ]]; then py=/tmp/mi/bin/python; fi
+if [[ -n $py ]] && ! "$py" -c 'import mitsuba' 2>/dev/null; then
+    echo "note: $py cannot import mitsuba; pir only" >&2
+    py=
+fi
+
+pir=${PIR:-}
+if [[ -z $pir ]]; then
+    cargo build --release --quiet
+    pir=target/release/pir
+fi
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+bunny_ref=${BUNNY_REF:-}
+if [[ -z $bunny_ref ]]; then
+    bunny_ref=$shared/references/cornell-bunny.exr
+    [[ -f $bunny_ref ]] || bunny_ref=target/bench-refs/cornell-bunny.exr
+fi
+if [[ ! -f $bunny_ref && -n $py ]]; then
+    echo "rendering the bunny's reference with Mitsuba (4,096 spp) into $bunny_ref" >&2
+    mkdir -p "$(dirname "$bunny_ref")"
+    "$py" "$shared/tools/mitsuba_ref.py" "$shared/scenes/bunny/cornell-bunny.toml" "$bunny_ref" \
+        --spp 4096 --seed 7 >&2
+fi
+
+# name scene reference
+scenes=(
+    "cornell-box $shared/scenes/cornell-box/original.toml $shared/references/cornell-box-original.exr"
+    "mirror-glass $shared/scenes/cornell-box/sphere.toml $shared/references/cornell-box-sphere.exr"
+    "bunny $shared/scenes/bunny/cornell-bunny.toml $bunny_ref"
+)
+
+# seconds COMMAND… : "wall cpu" seconds of one run (cpu = user + system of all its threads)
+seconds() {
+    /usr/bin/time -f '%e %U %S' -o "$tmp/time" "$@" >"$tmp/log" 2>&1 || { cat "$tmp/log" >&2; return 1; }
+    awk '{ printf "%.2f %.2f", $1, $2 + $3 }' "$tmp/time"
+}
+
+relmse() { "$pir" compare "$1" "$2" | awk '/^relative MSE/ { print $3 }'; }
+
+# measure REFERENCE OUT.exr COMMAND… : "wall cpu relmse" of the median-wall-time run
+measure() {
+    local ref=$1 out=$2
+    shift 2
+    local runs_out=()
+    for _ in $(seq "$runs"); do runs_out+=("$(seconds "$@") $(relmse "$out" "$ref")"); done
+    printf '%s\n' "${runs_out[@]}" | sort -g | awk '{ v[NR] = $0 } END { print v[int((NR + 1) / 2)] }'
+}
+
+eff() { awk -v t="$1" -v e="$2" 'BEGIN { printf "%.4g", 1 / (t * e) }'; }
+
+echo "pir pt vs Mitsuba 3 path, $spp spp, seed $seed, $(nproc) threads, $(date -u +%Y-%m-%d), load average $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%-13s %-8s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
+    "pir/Mi wall" "pir/Mi cpu"
+for entry in "${scenes[@]}"; do
+    read -r name scene ref <<<"$entry"
+    if [[ ! -f $ref ]]; then
+        echo "$name: no reference ($ref); skipped" >&2
+        continue
+    fi
+    read -r w_pir c_pir e_pir < <(measure "$ref" "$tmp/pir.exr" \
+        "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" -o "$tmp/pir.exr")
+    printf '%-13s %-8s %8s %8s %12s %11s\n' "$name" pir "$w_pir" "$c_pir" "$e_pir" "$(eff "$w_pir" "$e_pir")"
+    if [[ -n $py ]]; then
+        read -r w_mi c_mi e_mi < <(measure "$ref" "$tmp/mi.exr" \
+            "$py" "$shared/tools/mitsuba_ref.py" "$scene" "$tmp/mi.exr" --spp "$spp" --seed "$seed")
+        ratio() { awk -v a="$1" -v b="$2" -v x="$e_pir" -v y="$e_mi" 'BEGIN { printf "%.2f", (b * y) / (a * x) }'; }
+        printf '%-13s %-8s %8s %8s %12s %11s %12s %12s\n' "" mitsuba "$w_mi" "$c_mi" "$e_mi" \
+            "$(eff "$w_mi" "$e_mi")" "$(ratio "$w_pir" "$w_mi")" "$(ratio "$c_pir" "$c_mi")"
+    fi
+done
