@@ -41,6 +41,10 @@ if [ -f "$shared/references/cornell-box-original.exr" ]; then
     echo "pt at 1,024 spp: relative MSE $target" >&2
     study cornell-box "$shared/scenes/cornell-box/original.toml" \
         "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target"
+    # The resampled gather (docs/results.md, "The resampled gather") against pt, same target.
+    study cornell-box-resample "$shared/scenes/cornell-box/original.toml" \
+        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" \
+        --methods pt,pir-clamp --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4
     # The thesis' parameter study (figures 5.1-5.4), at 128x128.
     for sweep in alpha=0.3,0.5,0.6,0.7,0.9 clamp=1,3,10,30,100 radius=0.02,0.05,0.1,0.2,0.4; do
         study "sweep-${sweep%%=*}" "$shared/scenes/cornell-box/original.toml" \
@@ -58,5 +62,7 @@ study glossy scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.
 study sweep-radius-glossy scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 10 \
     --resolution 64 64 --sweep radius=0.02,0.05,0.1,0.2
 study slit scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20
+study slit-resample scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
+    --methods pt,pir-clamp --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4
 study caustic scenes/stress/caustic/scene.toml scenes/stress/caustic/reference-128.exr 20
 echo "done: $out" >&2
