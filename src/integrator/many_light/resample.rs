@@ -53,20 +53,21 @@ pub fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item =
 }
 
 /// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes, or
-/// four consecutive spheres): their unoccluded contributions channel by channel, p̂ summed
-/// within the block lane by lane, and the running total of p̂ over the blocks. Blocks whose
-/// lights all contribute nothing are left out. Reused from receiver to receiver
-/// ([`with_candidates`]), so that a gather allocates nothing.
+/// four consecutive spheres): p̂ lane by lane, their contributions channel by channel when
+/// known, and the lane-wise sum of p̂ over the blocks. Blocks whose lights all contribute
+/// nothing are left out. Reused from receiver to receiver ([`with_candidates`]), so that a
+/// gather allocates nothing. Pushing is branch-light and sums lane-wise; the cumulative sums
+/// are formed only while picking, and only up to the last pick.
 #[derive(Default)]
 pub struct Candidates {
     /// The first light of each block.
     first: Vec<u32>,
+    /// p̂ of each block's lanes.
+    p: Vec<Vec4>,
     /// Each block's contributions, when pushed with them ([`Self::push_values`]).
     rgb: Vec<[Vec4; 3]>,
-    /// p̂ of the block's lanes, summed up to and including each lane.
-    lanes: Vec<Vec4>,
-    /// p̂ summed over the blocks up to and including each.
-    cumulative: Vec<f32>,
+    /// Σ p̂ over the blocks, lane by lane.
+    sum: Vec4,
 }
 
 thread_local! {
@@ -89,9 +90,9 @@ impl Candidates {
 
     pub fn clear(&mut self) {
         self.first.clear();
+        self.p.clear();
         self.rgb.clear();
-        self.lanes.clear();
-        self.cumulative.clear();
+        self.sum = Vec4::ZERO;
     }
 
     /// Blocks held.
@@ -108,76 +109,72 @@ impl Candidates {
     /// that would make the pixel infinite in a full gather).
     #[inline]
     pub fn push(&mut self, first: usize, p: Vec4) {
-        self.push_block(first, p, None);
+        if let Some(p) = Self::kept(p) {
+            self.first.push(first as u32);
+            self.p.push(p);
+            self.sum += p;
+        }
     }
 
     /// Adds a block of lights with their contributions `rgb` (red, green, blue by lane) as
     /// values, and p̂ = their channels' sum.
     #[inline]
     pub fn push_values(&mut self, first: usize, rgb: [Vec4; 3]) {
-        self.push_block(first, rgb[0] + rgb[1] + rgb[2], Some(rgb));
+        if let Some(p) = Self::kept(rgb[0] + rgb[1] + rgb[2]) {
+            self.first.push(first as u32);
+            self.p.push(p);
+            self.rgb.push(rgb);
+            self.sum += p;
+        }
     }
 
+    /// The lanes of `p` that are positive and finite (the others zero), unless none is.
     #[inline]
-    fn push_block(&mut self, first: usize, p: Vec4, rgb: Option<[Vec4; 3]>) {
+    fn kept(p: Vec4) -> Option<Vec4> {
         let keep = p.cmpgt(Vec4::ZERO) & p.is_finite_mask();
-        let p = Vec4::select(keep, p, Vec4::ZERO);
-        let prefix = Vec4::new(p.x, p.x + p.y, p.x + p.y + p.z, p.x + p.y + p.z + p.w);
-        // Lanes are non-negative and finite: the block's p̂ is too.
-        let block = prefix.w;
-        if block <= 0.0 {
-            return;
-        }
-        let total = self.total() + block;
-        if !total.is_finite() {
-            return;
-        }
-        self.first.push(first as u32);
-        if let Some(rgb) = rgb {
-            self.rgb.push(rgb);
-        }
-        self.lanes.push(prefix);
-        self.cumulative.push(total);
+        keep.any().then(|| Vec4::select(keep, p, Vec4::ZERO))
     }
 
     /// T = Σ p̂.
     pub fn total(&self) -> f32 {
-        self.cumulative.last().copied().unwrap_or(0.0)
+        self.sum.element_sum()
     }
 
     /// The k picks for the number `u` in [0, 1), by systematic sampling of the cumulative p̂
     /// at (u + i) T / k: `emit(j, factor, value)` once per distinct light picked, with
     /// factor = n_j T / (k p̂_j) · `scale` (the window's n / w), so that c_j · factor is the
     /// light's share of the estimate, and `value` its contribution as pushed with
-    /// [`Self::push_values`] (zero when pushed with [`Self::push`]).
+    /// [`Self::push_values`] (zero when pushed with [`Self::push`]). The cumulative sums are
+    /// formed here in block order; their rounding differs from T's by ulps, and the last light
+    /// takes any pick that rounding leaves over, so k picks are always made.
     pub fn pick(&self, k: usize, u: f32, scale: f32, mut emit: impl FnMut(usize, f32, Vec3)) {
         let total = self.total();
-        if total <= 0.0 || k == 0 {
+        if !(total > 0.0 && total.is_finite()) || k == 0 {
             return;
         }
         let step = total / k as f32;
         let mut picked = 0;
         let mut pos = u * step;
         let mut base = 0.0f32;
-        for (b, &hi) in self.cumulative.iter().enumerate() {
-            if picked == k {
-                return;
-            }
-            let last_block = b + 1 == self.cumulative.len();
+        let blocks = self.p.len();
+        for (b, &p) in self.p.iter().enumerate() {
+            let hi = base + p.element_sum();
+            let last_block = b + 1 == blocks;
             if pos >= hi && !last_block {
                 base = hi;
                 continue;
             }
-            let prefix = self.lanes[b];
-            let mut lo = 0.0f32;
+            let last_lane = if last_block { (0..LANES).rev().find(|&l| p[l] > 0.0) } else { None };
+            let mut lo = base;
             for lane in 0..LANES {
-                let lane_hi = prefix[lane];
-                let p = lane_hi - lo;
-                let last = last_block && lane_hi == prefix.w;
+                let pl = p[lane];
+                if pl <= 0.0 {
+                    continue;
+                }
+                let lane_hi = lo + pl;
+                let last = last_lane == Some(lane);
                 let mut n = 0u32;
-                // Picks at offsets in [lo, lane_hi) of the block belong to this lane (the
-                // very last light takes any rounding).
-                while picked < k && p > 0.0 && (pos - base < lane_hi || last) {
+                while picked < k && (pos < lane_hi || last) {
                     n += 1;
                     picked += 1;
                     pos = (u + picked as f32) * step;
@@ -187,9 +184,12 @@ impl Candidates {
                         .rgb
                         .get(b)
                         .map_or(Vec3::ZERO, |[r, g, bl]| Vec3::new(r[lane], g[lane], bl[lane]));
-                    emit(self.first[b] as usize + lane, n as f32 * step * scale / p, value);
+                    emit(self.first[b] as usize + lane, n as f32 * step * scale / pl, value);
                 }
                 lo = lane_hi;
+            }
+            if picked == k {
+                return;
             }
             base = hi;
         }
