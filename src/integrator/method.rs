@@ -159,8 +159,10 @@ fn default_gather_samples() -> usize {
 }
 
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
-/// given.
-pub const DEFAULT_GATHER_CANDIDATES: usize = 256;
+/// given: of 64, 128 and 256 candidates with 4 or 8 picks and 32 to 256 light paths, 128
+/// candidates with 4 picks and 256 paths had the lowest variance × time per iteration on
+/// the Cornell box (`docs/results.md`, "The resampled gather").
+pub const DEFAULT_GATHER_CANDIDATES: usize = 128;
 
 fn default_gather_candidates() -> usize {
     DEFAULT_GATHER_CANDIDATES
