@@ -9,7 +9,9 @@
 //!
 //! With a light tree ([`super::Gather::Tree`]) the sum is estimated instead from k lights
 //! drawn per receiver ([`super::tree_gather`]): each drawn light's contribution (the same
-//! function as above) divided by k and by its probability, one shadow ray each.
+//! function as above) divided by k and by its probability, one shadow ray each. With the
+//! resampled gather ([`super::Gather::Resampled`]) it is estimated from k lights picked among a
+//! window of m candidates by a cheap estimate of their unoccluded light ([`super::resample`]).
 
 use glam::{Vec3, Vec4};
 
