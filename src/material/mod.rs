@@ -114,6 +114,13 @@ impl Bsdf {
     /// It does not depend on the transport mode.
     pub fn pdf(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3) -> f32 {
         let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return 0.0 };
+        self.local_pdf(wo_l, wi_l)
+    }
+
+    /// The pdf of sampling `wi_l` given `wo_l`, both in the shading frame and above its
+    /// horizon: zero for delta and black BSDFs, and wherever it would not be finite.
+    #[inline]
+    pub(crate) fn local_pdf(&self, wo_l: Vec3, wi_l: Vec3) -> f32 {
         let p = match *self {
             Bsdf::Diffuse { albedo } if albedo.max_element() > 0.0 => diffuse::pdf(wi_l),
             Bsdf::Glossy { albedo, specular, roughness } => {

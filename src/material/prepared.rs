@@ -77,37 +77,29 @@ impl PreparedBsdf {
     #[inline]
     pub fn eval(&self, wi: Vec3) -> Vec3 {
         let Some((wi_ng, wi_l)) = self.incident(wi) else { return Vec3::ZERO };
-        let value = match self.bsdf {
+        self.finish(self.lobe_eval(wi_l), wi_ng, wi_l)
+    }
+
+    /// The lobe's f · cos θi at `wi_l` (shading frame, above the horizon), before the
+    /// transport-mode factor; zero for delta BSDFs.
+    #[inline]
+    fn lobe_eval(&self, wi_l: Vec3) -> Vec3 {
+        match self.bsdf {
             Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wi_l),
             Bsdf::Glossy { albedo, specular, roughness } => {
                 Glossy::new(albedo, specular, roughness).eval(self.wo_l, wi_l)
             }
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return Vec3::ZERO,
-        };
-        self.finish(value, wi_ng, wi_l)
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
+        }
     }
 
     /// [`PreparedBsdf::eval`] and [`Bsdf::pdf`] of `wi` at once, with the same values as the
-    /// two calls: the checks and the shading-frame coordinates of `wi` (and the glossy lobe's
-    /// constants) are computed once. Next-event estimation needs both, and so does BSDF
-    /// sampling for its weight eval / pdf.
+    /// two calls: the checks and the shading-frame coordinates of `wi` are computed once.
+    /// Next-event estimation needs both, and so does BSDF sampling for its weight eval / pdf.
     #[inline]
     pub fn eval_pdf(&self, wi: Vec3) -> (Vec3, f32) {
         let Some((wi_ng, wi_l)) = self.incident(wi) else { return (Vec3::ZERO, 0.0) };
-        let (value, pdf) = match self.bsdf {
-            Bsdf::Diffuse { albedo } => {
-                let pdf = if albedo.max_element() > 0.0 { diffuse::pdf(wi_l) } else { 0.0 };
-                (diffuse::eval(albedo, wi_l), pdf)
-            }
-            Bsdf::Glossy { albedo, specular, roughness } => {
-                let lobe = Glossy::new(albedo, specular, roughness);
-                let pdf = if lobe.is_black() { 0.0 } else { lobe.pdf(self.wo_l, wi_l) };
-                (lobe.eval(self.wo_l, wi_l), pdf)
-            }
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => return (Vec3::ZERO, 0.0),
-        };
-        let pdf = if pdf.is_finite() { pdf.max(0.0) } else { 0.0 };
-        (self.finish(value, wi_ng, wi_l), pdf)
+        (self.finish(self.lobe_eval(wi_l), wi_ng, wi_l), self.bsdf.local_pdf(self.wo_l, wi_l))
     }
 
     /// `wi · ng` and `wi` in the shading frame when the BSDF is active and `wi` is in front
