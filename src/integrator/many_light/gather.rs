@@ -19,7 +19,7 @@ use super::lanes::{DiffuseReceiver, LANES, LaneKind};
 use super::light_paths::Vpl;
 use super::light_set::{LightSet, Lights, PointLights, Selection};
 use super::light_tree::LightTree;
-use super::resample::{window, with_candidates};
+use super::resample::resample;
 use super::shadow_batch::ShadowBatch;
 use super::spheres::SphereLights;
 use super::tree_gather::{Kernel, Pick, Receiver};
@@ -140,25 +140,22 @@ impl PointLights {
     ) -> bool {
         let sp = &v.sp;
         let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
-        let chunks = self.lanes.chunks();
-        let w = m.div_ceil(LANES).clamp(1, chunks.max(1));
-        let blocks = window(chunks, w, sampler);
-        let u = sampler.next_f32();
-        if !fx.is_active() || chunks == 0 {
-            return false;
-        }
         let x = OffsetPoint::new(sp.p, sp.ng);
-        with_candidates(|cands| {
-            for chunk in blocks {
+        // The picked lights' contributions: Lambertian pairs by the four-wide kernel, a chunk
+        // at a time (picks come in light order), the others one by one.
+        let receiver = DiffuseReceiver::new(sp, &fx);
+        let mut chunk_done: Option<(usize, [Vec3; LANES])> = None;
+        resample(
+            self.lanes.chunks(),
+            m,
+            k,
+            fx.is_active(),
+            sampler,
+            |cands, chunk, _| {
                 let p = self.lanes.estimates(chunk, sp.p, sp.ng, sp.frame.n, self.bound, max_vpl_depth);
                 cands.push(chunk * LANES, p);
-            }
-            let scale = chunks as f32 / w as f32;
-            // The picked lights' contributions: Lambertian pairs by the four-wide kernel, a
-            // chunk at a time (picks come in light order), the others one by one.
-            let receiver = DiffuseReceiver::new(sp, &fx);
-            let mut chunk_done: Option<(usize, [Vec3; LANES])> = None;
-            cands.pick(k, u, scale, |j, factor, _| {
+            },
+            |j, factor, _| {
                 let c = match (&receiver, self.lanes.kind(j)) {
                     (Some(r), LaneKind::Diffuse) => {
                         let chunk = j / LANES;
@@ -181,9 +178,9 @@ impl PointLights {
                 if c != Vec3::ZERO {
                     batch.push(shadow_segment(&x, self.lanes.end(j)), c * factor);
                 }
-            });
-        });
-        true
+            },
+        );
+        fx.is_active()
     }
 
     /// Queues every light's contribution with its shadow ray; `false` when the receiver
@@ -248,14 +245,15 @@ impl SphereLights {
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
-        let n = self.vpls.len().div_ceil(LANES);
-        let w = m.div_ceil(LANES).clamp(1, n.max(1));
-        let blocks = window(n, w, sampler);
-        let u = sampler.next_f32();
         let g = v.sp.geometry();
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
-        with_candidates(|cands| {
-            for block in blocks {
+        resample(
+            self.vpls.len().div_ceil(LANES),
+            m,
+            k,
+            true,
+            sampler,
+            |cands, block, sampler| {
                 let mut cs = [Vec3::ZERO; LANES];
                 for (i, c) in cs.iter_mut().enumerate() {
                     let j = block * LANES + i;
@@ -266,10 +264,9 @@ impl SphereLights {
                     }
                 }
                 cands.push_values(block * LANES, [0, 1, 2].map(|k| Vec4::from_array(cs.map(|c| c[k]))));
-            }
-            let scale = n as f32 / w as f32;
-            cands.pick(k, u, scale, |j, factor, c| batch.push(shadow_segment(&x, &self.ends[j]), c * factor));
-        });
+            },
+            |j, factor, c| batch.push(shadow_segment(&x, &self.ends[j]), c * factor),
+        );
         true
     }
 

@@ -38,12 +38,41 @@ pub const MAX_CANDIDATES: usize = 1024;
 
 /// A uniform index below `n` (0 when `n` is 0), from one number of `sampler`: Lemire's
 /// multiply-shift, uniform up to 2^-64, far below the noise.
-pub fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
+fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
     ((sampler.next_u64() as u128 * n as u128) >> 64) as usize
 }
 
+/// The resampled gather over `blocks` blocks of [`LANES`] lights with `m` candidates and `k`
+/// picks: draws the window's start and the picks' number (two numbers of `sampler`, always,
+/// before any the candidates draw), lets `candidate` push each block of the window, then
+/// calls `emit(j, factor, value)` for every light picked, with the window's scale n / w in
+/// the factor ([`Candidates::pick`]). With `active` false (a receiver that reflects nothing)
+/// only the numbers are drawn.
+pub fn resample(
+    blocks: usize,
+    m: usize,
+    k: usize,
+    active: bool,
+    sampler: &mut Sampler,
+    mut candidate: impl FnMut(&mut Candidates, usize, &mut Sampler),
+    emit: impl FnMut(usize, f32, Vec3),
+) {
+    let w = m.div_ceil(LANES).clamp(1, blocks.max(1));
+    let window = window(blocks, w, sampler);
+    let u = sampler.next_f32();
+    if !active || blocks == 0 {
+        return;
+    }
+    with_candidates(|cands| {
+        for block in window {
+            candidate(cands, block, sampler);
+        }
+        cands.pick(k, u, blocks as f32 / w as f32, emit);
+    });
+}
+
 /// A window of `w` blocks of `n`, cyclic, from a uniform start: the blocks in order.
-pub fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item = usize> + use<> {
+fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item = usize> + use<> {
     let w = w.min(n);
     let start = uniform_index(n, sampler);
     (0..w).map(move |t| {
@@ -75,7 +104,7 @@ thread_local! {
 }
 
 /// Runs `f` with this thread's candidates, emptied.
-pub fn with_candidates<R>(f: impl FnOnce(&mut Candidates) -> R) -> R {
+fn with_candidates<R>(f: impl FnOnce(&mut Candidates) -> R) -> R {
     CANDIDATES.with(|c| {
         let mut c = c.borrow_mut();
         c.clear();
