@@ -311,6 +311,8 @@ mod tests {
                         material: 0,
                         flux: Vec3::new(s.next_f32(), s.next_f32(), 0.0),
                         depth: (j % 4) as u32,
+                        arrival: 1.0,
+                        survival: 1.0,
                     }
                 })
                 .collect();
@@ -374,6 +376,8 @@ mod tests {
                         material: 0,
                         flux: Vec3::new(s.next_f32(), s.next_f32(), 0.1),
                         depth: (j % 4) as u32,
+                        arrival: 1.0,
+                        survival: 1.0,
                     }
                 })
                 .collect();

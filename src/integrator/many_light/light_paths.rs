@@ -37,6 +37,17 @@ pub struct Vpl {
     pub flux: Vec3,
     /// Segments from the emitter to this vertex (1 for a vertex lit directly by an emitter).
     pub depth: u32,
+    /// The density with which light tracing reached this point, per unit area and without
+    /// the cosine at the point: q · p(ω) / d² from the previous vertex (its survival
+    /// probability q, its BSDF's solid-angle density p of the direction, the distance d);
+    /// for a vertex lit directly, N · (cos θ_e / π) / d² relative to next-event estimation
+    /// (which picks the emitter point exactly as light tracing does, but once, not N times);
+    /// infinite after a delta vertex. What the multiple importance sampling of
+    /// [`super::mis`] weighs a connection with.
+    pub arrival: f32,
+    /// The probability that the light path continues from here (Russian roulette; 0 at the
+    /// last vertex traced).
+    pub survival: f32,
 }
 
 impl Vpl {
@@ -47,6 +58,9 @@ impl Vpl {
 
 /// Number of segments after which light paths use Russian roulette.
 const RR_DEPTH: u32 = 3;
+
+/// The largest survival probability of Russian roulette (as [`survives_roulette`] caps it).
+const MAX_SURVIVAL: f32 = 0.95;
 
 /// Traces `paths` light paths for `iteration` and returns their VPLs, in path order. Only
 /// vertices within `max_vpl_depth` segments of the emitter are traced.
@@ -93,6 +107,10 @@ fn trace_path(
     let mut beta = es.radiance * (std::f32::consts::PI / es.pdf_area) / n_paths;
     let mut ray = Ray::new(offset_origin(es.point.p, es.point.ng, dir), dir);
     let beta0 = beta.max_element();
+    // Where the current segment started and the density of its direction there, per unit
+    // solid angle, times the survival probability there (infinite after a delta vertex).
+    let mut from = es.point.p;
+    let mut density = n_paths * local.z * std::f32::consts::FRAC_1_PI;
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;
@@ -100,6 +118,15 @@ fn trace_path(
         let sp = ctx.scene.surface_of_hit(&hit);
         let w_in = -ray.dir.normalize();
         let bsdf = &ctx.scene.material(sp.material).bsdf;
+        // Survival by the flux arriving here relative to the path's start (importance
+        // transport has no 1/η² radiance scaling to compensate), decided before the
+        // direction is sampled so that a connection can be weighed against this
+        // continuation ([`Vpl::survival`]).
+        let survival = match depth {
+            d if d == max_depth => 0.0,
+            d if d >= RR_DEPTH => (beta.max_element() / beta0).min(MAX_SURVIVAL),
+            _ => 1.0,
+        };
         if !bsdf.is_delta() {
             out.push(Vpl {
                 p: sp.p,
@@ -109,17 +136,19 @@ fn trace_path(
                 material: sp.material,
                 flux: beta,
                 depth,
+                arrival: density / (sp.p - from).length_squared(),
+                survival,
             });
         }
         if depth == max_depth {
             break;
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
-        // Survival by the throughput relative to the path's start (importance transport has
-        // no 1/η² radiance scaling to compensate).
-        if depth >= RR_DEPTH && !survives_roulette(beta.max_element() / beta0, &mut beta, sampler) {
+        if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;
         }
+        from = sp.p;
+        density = if s.delta { f32::INFINITY } else { survival * s.pdf };
         ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }
     rays

@@ -455,6 +455,8 @@ mod tests {
                     material: 0,
                     flux: Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 0.01,
                     depth: 1 + (j % 3) as u32,
+                    arrival: 1.0,
+                    survival: 1.0,
                 }
             })
             .collect()
