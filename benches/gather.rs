@@ -22,6 +22,7 @@ use glam::Vec2;
 use pir::accel::{Backend, build_accelerator};
 use pir::integrator::many_light::light_set::LightSet;
 use pir::integrator::many_light::light_tree::LightTree;
+use pir::integrator::many_light::mis::Weighing;
 use pir::integrator::many_light::tree_gather::{Kernel, Pick, Receiver, stratified};
 use pir::integrator::many_light::{Vpl, trace_vpls};
 use pir::integrator::walker::Vertex;
@@ -98,7 +99,14 @@ fn bench(c: &mut Criterion) {
                         let bsdf = &scene.material(sp.material).bsdf;
                         let v = Vertex { sp: *sp, wo: *wo, bsdf, depth: 1 };
                         let mut sampler = Sampler::new(1, 1, Domain::Camera, i as u64);
-                        sum += set.gather(&ctx, &v, max_vpl_depth, &mut sampler, &mut counters);
+                        sum += set.gather(
+                            &ctx,
+                            &v,
+                            max_vpl_depth,
+                            &Weighing::PLAIN,
+                            &mut sampler,
+                            &mut counters,
+                        );
                     }
                     black_box((sum, counters))
                 })
@@ -109,7 +117,7 @@ fn bench(c: &mut Criterion) {
 
     // The descent alone, receivers as the gather builds them.
     let bound = match lights {
-        VirtualLights::Points(c) => c.bound(1),
+        VirtualLights::Points(c) | VirtualLights::WeighedPoints(c) => c.bound(1),
         VirtualLights::Spheres { .. } => unreachable!(),
     };
     let rxs: Vec<Receiver> = receivers

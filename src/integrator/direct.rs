@@ -53,6 +53,35 @@ pub fn sample_emitters(
     sampler: &mut Sampler,
     counters: &mut Counters,
 ) -> Vec3 {
+    sample_emitters_weighted(ctx, sp, bsdf, wo, sampler, counters, |s| {
+        power_heuristic(s.pdf_light, s.pdf_bsdf)
+    })
+}
+
+/// What a light sample's MIS weight may depend on.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// The density of the light sample per unit solid angle at the receiver.
+    pub pdf_light: f32,
+    /// The density of the receiver's BSDF sampling in the same direction.
+    pub pdf_bsdf: f32,
+    /// The cosine at the emitter point, and its squared distance from the receiver.
+    pub cos_light: f32,
+    pub dist2: f32,
+}
+
+/// [`sample_emitters`] with the MIS weight given by `weight` instead of the power heuristic
+/// against BSDF sampling. Always draws three numbers from `sampler`.
+#[inline]
+pub fn sample_emitters_weighted(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+    weight: impl FnOnce(LightSample) -> f32,
+) -> Vec3 {
     let u_select = sampler.next_f32();
     let u = sampler.next_2d();
     let es = ctx.emitters.sample(ctx.scene, u_select, u);
@@ -75,7 +104,7 @@ pub fn sample_emitters(
         return Vec3::ZERO;
     }
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    f * es.radiance * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light)
+    f * es.radiance * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2 }) / pdf_light)
 }
 
 /// How the ray that reached a surface was sampled: what the MIS weight of the emission it

@@ -36,11 +36,22 @@ pub enum Method {
     Vsl,
     /// Progressive VSLs, r_i = r_1 · i^((α−1)/2): consistent.
     PirVsl,
+    /// VPL connections weighed against a BSDF-sampled bounce by multiple importance
+    /// sampling, the weighted connection bounded progressively (b_i = b_1 · i^α): no spikes at
+    /// creases or in a receiver's glossy lobe; consistent (pir's own, not the thesis').
+    PirMis,
 }
 
 impl Method {
-    pub const ALL: [Method; 6] =
-        [Method::Pt, Method::Ir, Method::IrClamp, Method::PirClamp, Method::Vsl, Method::PirVsl];
+    pub const ALL: [Method; 7] = [
+        Method::Pt,
+        Method::Ir,
+        Method::IrClamp,
+        Method::PirClamp,
+        Method::Vsl,
+        Method::PirVsl,
+        Method::PirMis,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -50,6 +61,7 @@ impl Method {
             Method::PirClamp => "pir-clamp",
             Method::Vsl => "vsl",
             Method::PirVsl => "pir-vsl",
+            Method::PirMis => "pir-mis",
         }
     }
 
@@ -59,10 +71,10 @@ impl Method {
     }
     /// Whether the method uses α (the progressive schedules).
     pub fn uses_alpha(self) -> bool {
-        matches!(self, Method::PirClamp | Method::PirVsl)
+        matches!(self, Method::PirClamp | Method::PirVsl | Method::PirMis)
     }
     pub fn uses_clamp(self) -> bool {
-        matches!(self, Method::IrClamp | Method::PirClamp)
+        matches!(self, Method::IrClamp | Method::PirClamp | Method::PirMis)
     }
     pub fn uses_radius(self) -> bool {
         matches!(self, Method::Vsl | Method::PirVsl)
@@ -292,7 +304,9 @@ pub struct MethodConfig {
     /// Rendering method: pt (path tracer, the ground truth), ir (plain VPLs: unbiased, spiky),
     /// ir-clamp (geometry term clamped at a constant --clamp: biased), pir-clamp (progressive
     /// clamp b_i = b_1 · i^α: consistent), vsl (virtual spherical lights of constant --radius:
-    /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent).
+    /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent), pir-mis
+    /// (VPL connections weighed against a BSDF-sampled bounce, the weighted connection bounded
+    /// progressively: consistent, no spikes at creases or on glossy receivers).
     #[arg(long, default_value_t = Method::Pt, value_name = "METHOD")]
     pub method: Method,
     #[command(flatten)]
@@ -358,6 +372,9 @@ impl MethodConfig {
             Method::Ir => VirtualLights::Points(Clamping::None),
             Method::IrClamp => VirtualLights::Points(Clamping::Constant { b: bound }),
             Method::PirClamp => VirtualLights::Points(Clamping::Progressive { b1: bound, alpha: p.alpha }),
+            Method::PirMis => {
+                VirtualLights::WeighedPoints(Clamping::Progressive { b1: bound, alpha: p.alpha })
+            }
             Method::Vsl | Method::PirVsl => {
                 let radius = p.radius.map_or(Radius::Density, Radius::Global);
                 let alpha = (self.method == Method::PirVsl).then_some(p.alpha);

@@ -67,6 +67,30 @@ pub trait VertexHook {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Option<Vec3>;
+
+    /// Whether [`VertexHook::at_bounce`] adds anything (then the walker prepares the vertex
+    /// where a covered walk ends).
+    #[inline]
+    fn uses_bounces(&self) -> bool {
+        false
+    }
+
+    /// Radiance the method adds at the non-delta vertex `v` where a covered walk ends (only
+    /// when [`VertexHook::COVERS_SURFACES`]; `v.depth` < `max_depth`): the walk came there by
+    /// BSDF sampling as `how` says, from the vertex whose hook covered it. A hook that weighs
+    /// its own estimate against this bounce (multiple importance sampling) adds the bounce's
+    /// share here.
+    #[inline]
+    fn at_bounce(
+        &self,
+        _ctx: &RenderContext,
+        _v: &Vertex,
+        _how: &Sampled,
+        _sampler: &mut Sampler,
+        _counters: &mut Counters,
+    ) -> Option<Vec3> {
+        None
+    }
 }
 
 /// The hook of the path tracer: nothing at the vertices, full walks.
@@ -105,10 +129,21 @@ pub fn walk<H: VertexHook>(
             let material = ctx.scene.material_of(hit.prim);
             if !material.bsdf.is_delta() {
                 // The hook carried everything beyond this vertex; only its emission is left
-                // (the BSDF-sampled half of direct light).
-                if material.is_emitter() {
+                // (the BSDF-sampled half of direct light), and the bounce's share of what the
+                // hook weighs against it.
+                let bounce = hook.uses_bounces() && depth + 1 < ctx.max_depth;
+                if material.is_emitter() || bounce {
                     let sp = ctx.scene.surface_of_hit(&hit);
-                    radiance += beta * emission(ctx, material, &sp, -ray.dir.normalize(), &how);
+                    let wo = -ray.dir.normalize();
+                    if material.is_emitter() {
+                        radiance += beta * emission(ctx, material, &sp, wo, &how);
+                    }
+                    if bounce {
+                        let v = Vertex { sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
+                        if let Some(l) = hook.at_bounce(ctx, &v, &how, sampler, counters) {
+                            radiance += beta * l;
+                        }
+                    }
                 }
                 break;
             }

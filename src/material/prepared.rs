@@ -102,6 +102,14 @@ impl PreparedBsdf {
         (self.finish(self.lobe_eval(wi_l), wi_ng, wi_l), self.bsdf.local_pdf(self.wo_l, wi_l))
     }
 
+    /// [`Bsdf::pdf`] of `wi` alone (zero wherever [`PreparedBsdf::eval`] is): the density with
+    /// which BSDF sampling picks `wi`, per unit solid angle.
+    #[inline]
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let Some((_, wi_l)) = self.incident(wi) else { return 0.0 };
+        self.bsdf.local_pdf(self.wo_l, wi_l)
+    }
+
     /// `wi · ng` and `wi` in the shading frame when the BSDF is active and `wi` is in front
     /// of the geometric normal and above the shading horizon; `None` otherwise.
     #[inline]

@@ -19,6 +19,7 @@ use super::lanes::{DiffuseReceiver, LANES, LaneKind};
 use super::light_paths::Vpl;
 use super::light_set::{LightSet, Lights, PointLights, Selection};
 use super::light_tree::LightTree;
+use super::mis::Weighing;
 use super::resample::resample;
 use super::shadow_batch::ShadowBatch;
 use super::spheres::SphereLights;
@@ -32,23 +33,27 @@ use crate::sampling::Sampler;
 
 impl LightSet {
     /// Indirect light at the camera vertex `v` from every virtual light of at most
-    /// `max_vpl_depth` segments, visibility included.
+    /// `max_vpl_depth` segments, visibility included, each connection as `weighing` weighs it
+    /// ([`super::mis`]; point lights only, spheres ignore it).
     pub fn gather(
         &self,
         ctx: &RenderContext,
         v: &Vertex,
         max_vpl_depth: u32,
+        weighing: &Weighing,
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
         let mut batch = ShadowBatch::new(ctx.accel);
         let queued = match (&self.lights, &self.selection) {
-            (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, &mut batch),
+            (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, weighing, &mut batch),
             (Lights::Spheres(s), Selection::All) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
             (lights, &Selection::Resampled { candidates, samples }) => {
                 let (m, k) = (candidates, samples);
                 match lights {
-                    Lights::Points(p) => p.queue_resampled(v, max_vpl_depth, m, k, sampler, &mut batch),
+                    Lights::Points(p) => {
+                        p.queue_resampled(v, max_vpl_depth, m, k, weighing, sampler, &mut batch)
+                    }
                     Lights::Spheres(s) => s.queue_resampled(ctx, v, max_vpl_depth, m, k, sampler, &mut batch),
                 }
             }
@@ -56,7 +61,7 @@ impl LightSet {
                 let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
                 let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
                 match lights {
-                    Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, &mut batch),
+                    Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, weighing, &mut batch),
                     Lights::Spheres(s) => s.queue_sampled(ctx, v, &picks, *k, sampler, &mut batch),
                 }
             }
@@ -113,14 +118,17 @@ impl PointLights {
         fx: &PreparedBsdf,
         picks: &[Pick],
         k: usize,
+        weighing: &Weighing,
         batch: &mut ShadowBatch,
     ) -> bool {
         let sp = &v.sp;
         let x = OffsetPoint::new(sp.p, sp.ng);
         for pick in picks {
             let j = pick.light;
-            let c = point_contribution(sp.p, sp.frame.n, fx, &self.vpls[j], &self.emitting[j], self.bound);
+            let (vpl, emitting) = (&self.vpls[j], &self.emitting[j]);
+            let c = point_contribution(sp.p, sp.frame.n, fx, vpl, emitting, self.bound);
             if c != Vec3::ZERO {
+                let c = weighing.apply(sp.p, vpl, emitting, c);
                 batch.push(shadow_segment(&x, self.lanes.end(j)), weighted(c, pick, k));
             }
         }
@@ -129,12 +137,14 @@ impl PointLights {
 
     /// Queues the k lights picked from a window of about m candidates ([`super::resample`]);
     /// `false` when the receiver reflects nothing towards `v.wo`. Draws two numbers, always.
+    #[allow(clippy::too_many_arguments)]
     fn queue_resampled(
         &self,
         v: &Vertex,
         max_vpl_depth: u32,
         m: usize,
         k: usize,
+        weighing: &Weighing,
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
@@ -176,6 +186,7 @@ impl PointLights {
                     ),
                 };
                 if c != Vec3::ZERO {
+                    let c = weighing.apply(sp.p, &self.vpls[j], &self.emitting[j], c);
                     batch.push(shadow_segment(&x, self.lanes.end(j)), c * factor);
                 }
             },
@@ -185,7 +196,7 @@ impl PointLights {
 
     /// Queues every light's contribution with its shadow ray; `false` when the receiver
     /// reflects nothing towards `v.wo`.
-    fn queue(&self, v: &Vertex, max_vpl_depth: u32, batch: &mut ShadowBatch) -> bool {
+    fn queue(&self, v: &Vertex, max_vpl_depth: u32, weighing: &Weighing, batch: &mut ShadowBatch) -> bool {
         let sp = &v.sp;
         let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
         if !fx.is_active() {
@@ -206,6 +217,8 @@ impl PointLights {
                     _ => point_contribution(sp.p, sp.frame.n, &fx, vpl, &self.emitting[j], self.bound),
                 };
                 if c != Vec3::ZERO {
+                    let c =
+                        if weighing.is_plain() { c } else { weighing.apply(sp.p, vpl, &self.emitting[j], c) };
                     batch.push(shadow_segment(&x, self.lanes.end(j)), c);
                 }
             }

@@ -18,6 +18,17 @@ pub struct LightSet {
     pub lights: Lights,
     /// Which lights a receiver gathers from.
     pub selection: Selection,
+    /// Connections weighed against a BSDF-sampled bounce (`pir-mis`), or plain.
+    pub mis: Option<Mis>,
+}
+
+/// What the weighed connections of [`super::mis`] need from the iteration.
+#[derive(Clone, Copy, Debug)]
+pub struct Mis {
+    /// Light paths traced this iteration.
+    pub paths: f32,
+    /// The bound on the weighted connection ([`super::mis::Weighing::apply`]).
+    pub bound: f32,
 }
 
 /// Which of the iteration's lights a receiver gathers from ([`Gather`]).
@@ -78,6 +89,7 @@ impl Default for LightSet {
                 bound: f32::INFINITY,
             }),
             selection: Selection::All,
+            mis: None,
         }
     }
 }
@@ -96,6 +108,10 @@ impl LightSet {
             VirtualLights::Points(clamping) => {
                 Lights::Points(PointLights::new(vpls, clamping, iteration, ctx))
             }
+            // The bound applies to the weighted connection ([`super::mis`]), not to G.
+            VirtualLights::WeighedPoints(_) => {
+                Lights::Points(PointLights::new(vpls, Clamping::None, iteration, ctx))
+            }
             VirtualLights::Spheres { radius, alpha } => Lights::Spheres(SphereLights::new(
                 vpls,
                 radius,
@@ -113,7 +129,7 @@ impl LightSet {
                 Selection::Resampled { candidates: candidates.max(1), samples: samples.max(1) }
             }
         };
-        LightSet { lights, selection }
+        LightSet { lights, selection, mis: None }
     }
 }
 

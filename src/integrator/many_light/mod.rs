@@ -46,6 +46,7 @@ pub mod lanes;
 pub mod light_paths;
 pub mod light_set;
 pub mod light_tree;
+pub mod mis;
 pub mod resample;
 pub mod schedule;
 pub mod shadow_batch;
@@ -57,10 +58,14 @@ pub use light_set::LightSet;
 
 use glam::Vec3;
 
+use super::direct::{Sampled, sample_emitters_weighted};
 use super::walker::{Vertex, VertexHook, walk};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::Ray;
+use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
+use light_set::Mis;
+use mis::{Technique, Weighing};
 use schedule::clamp_bound;
 
 /// Light paths per iteration when `--vpls` is not given. An iteration costs pixels × VPLs
@@ -114,6 +119,9 @@ pub enum Radius {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum VirtualLights {
     Points(Clamping),
+    /// Points whose connections are weighed against a BSDF-sampled bounce ([`mis`]), the
+    /// clamping applied to the weighted connection instead of to G.
+    WeighedPoints(Clamping),
     /// Spheres; with `alpha` the radius shrinks as r_1 · i^((α−1)/2).
     Spheres {
         radius: Radius,
@@ -174,7 +182,38 @@ impl VertexHook for LightSet {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Option<Vec3> {
-        Some(self.gather(ctx, v, ctx.max_depth - v.depth - 1, sampler, counters))
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        let Some(mis) = &self.mis else {
+            return Some(self.gather(ctx, v, max_vpl_depth, &Weighing::PLAIN, sampler, counters));
+        };
+        let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+        let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: mis.bound };
+        Some(self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
+    }
+
+    #[inline]
+    fn uses_bounces(&self) -> bool {
+        self.mis.is_some()
+    }
+
+    /// The bounce's share ([`mis`]): the emitters sampled from y and the gather at y, each
+    /// weighed against the connection of the gathering vertex to the VPLs at y.
+    fn at_bounce(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        how: &Sampled,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Option<Vec3> {
+        let mis = self.mis.as_ref()?;
+        let bounce = how.pdf / (v.sp.p - how.from).length_squared();
+        let direct = sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| {
+            mis::emitter_weight(bounce, mis.paths, s.cos_light, s.dist2)
+        });
+        let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: mis.bound };
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        Some(direct + self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
     }
 }
 
@@ -184,6 +223,9 @@ impl Integrator for InstantRadiosity {
             VirtualLights::Points(Clamping::None) => "ir",
             VirtualLights::Points(Clamping::Constant { .. }) => "ir-clamp",
             VirtualLights::Points(Clamping::Progressive { .. }) => "pir-clamp",
+            VirtualLights::WeighedPoints(Clamping::None) => "ir-mis",
+            VirtualLights::WeighedPoints(Clamping::Constant { .. }) => "ir-mis-clamp",
+            VirtualLights::WeighedPoints(Clamping::Progressive { .. }) => "pir-mis",
             VirtualLights::Spheres { alpha: None, .. } => "vsl",
             VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
         }
@@ -204,9 +246,13 @@ impl Integrator for InstantRadiosity {
             }
         }
         match self.lights {
-            VirtualLights::Points(Clamping::None) => {}
-            VirtualLights::Points(Clamping::Constant { b }) => p.push(("clamp".into(), b.to_string())),
-            VirtualLights::Points(Clamping::Progressive { b1, alpha }) => {
+            VirtualLights::Points(Clamping::None) | VirtualLights::WeighedPoints(Clamping::None) => {}
+            VirtualLights::Points(Clamping::Constant { b })
+            | VirtualLights::WeighedPoints(Clamping::Constant { b }) => {
+                p.push(("clamp".into(), b.to_string()))
+            }
+            VirtualLights::Points(Clamping::Progressive { b1, alpha })
+            | VirtualLights::WeighedPoints(Clamping::Progressive { b1, alpha }) => {
                 p.push(("clamp".into(), b1.to_string()));
                 p.push(("alpha".into(), alpha.to_string()));
             }
@@ -231,6 +277,9 @@ impl Integrator for InstantRadiosity {
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
         self.set = LightSet::new(ctx, &self.lights, vpls, iteration, self.gather);
+        if let VirtualLights::WeighedPoints(clamping) = self.lights {
+            self.set.mis = Some(Mis { paths: self.paths as f32, bound: clamping.bound(iteration) });
+        }
     }
 
     fn radiance(

@@ -1,0 +1,154 @@
+//! Multiple importance sampling of the VPL connection against a BSDF-sampled bounce
+//! (`pir-mis`): an estimator of our own that needs no clamp where the thesis' methods spike.
+//!
+//! **The two techniques.** Take a path x → y → z → … whose first vertex x is where a camera
+//! path gathers (non-delta) and whose next vertex y is a non-delta surface. pir samples it in
+//! two ways:
+//! - **A, the connection** (every VPL method): light tracing reaches y from z and leaves a VPL
+//!   there; x connects to it. Per unit area at y its density is the light path's,
+//!   q_z p_z(ω_zy) cos θ_y / ‖y − z‖², with q_z the light path's survival probability at z and
+//!   p_z the density of z's BSDF sampling; N light paths per iteration give N such samples.
+//! - **B, the bounce**: x samples its BSDF and the ray hits y, with density
+//!   p_x(ω_xy) cos θ_y / ‖y − x‖²; y then connects to z's VPL (the same N light paths) or, if
+//!   z lies on an emitter, samples the emitters once (next-event estimation).
+//!
+//! The prefix up to z is common to both (the same light paths) except where z is on an
+//! emitter: light tracing picks that point N times, next-event estimation once, with the same
+//! density (both use [`crate::light::Emitters::sample`]). The cosine at y cancels too. So with
+//! a = [`Vpl::arrival`] (q_z p_z / ‖y − z‖², or N · (cos θ_e / π) / ‖y − e‖² for a VPL lit
+//! directly) and b = p_x / ‖y − x‖², the balance heuristic weighs A by a / (a + b) and B by
+//! b / (a + b). The weights of one path sum to 1, so the pair is unbiased for the iteration
+//! wherever both are unclamped: every path x → y → … with y non-delta is counted exactly
+//! once. A VPL reached through a delta vertex has a = ∞ (B cannot produce it): weight 1.
+//!
+//! **Why no spike is left where the thesis' methods clamp.** Near a crease (x close to y),
+//! b ∝ 1 / ‖y − x‖² grows as fast as G, so a/(a + b) · G stays below π a: the 1/d² spike goes
+//! to B, which samples exactly that solid angle. At a glossy receiver, p_x is large exactly
+//! where f_x is (the lobe), so the lobe goes to B as well. What neither technique samples is
+//! the VPL's own lobe (f_y large towards x, at a glossy y), and the mirror case of it in B
+//! (f_z at a glossy z); for those the weighted connection keeps a progressive bound,
+//! [`Weighing::apply`]: π² · w · max(c) / max(Φ) ≤ b_i, which for two white Lambertian ends
+//! is exactly w · G ≤ b_i, the thesis' clamp applied to what MIS leaves, with the thesis'
+//! schedule b_i = b_1 · i^α. Its bias vanishes as b_i → ∞ for the same reason as
+//! `pir-clamp`'s, so `pir-mis` is consistent; where nothing is clamped it is unbiased per
+//! iteration.
+//!
+//! Costs: B adds, per gathering vertex, one ray (the walker traces it anyway for the
+//! emission that MIS-weights direct light) and a second gather and emitter sample at y.
+
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+use super::light_paths::Vpl;
+use crate::material::PreparedBsdf;
+
+/// Which technique a gather is, with what its weights need.
+#[derive(Clone, Copy)]
+pub enum Technique<'a> {
+    /// The thesis' methods: every connection counts in full.
+    Plain,
+    /// A at the gathering vertex x, whose BSDF for its `wo` is `fx`.
+    Connect { fx: &'a PreparedBsdf },
+    /// B at y, reached from the gathering vertex with density `bounce` = p_x / ‖y − x‖².
+    Bounce { bounce: f32 },
+}
+
+/// How a gather weighs its connections: the technique's MIS weight, and the bound on the
+/// weighted connection (infinite for the plain technique).
+#[derive(Clone, Copy)]
+pub struct Weighing<'a> {
+    pub technique: Technique<'a>,
+    pub bound: f32,
+}
+
+impl Weighing<'_> {
+    /// The thesis' gather: every contribution as it is.
+    pub const PLAIN: Weighing<'static> = Weighing { technique: Technique::Plain, bound: f32::INFINITY };
+
+    /// Whether contributions change at all.
+    #[inline]
+    pub fn is_plain(&self) -> bool {
+        matches!(self.technique, Technique::Plain)
+    }
+
+    /// VPL `vpl`'s contribution `c` at the receiver `x` (its BSDF `emitting` prepared for its
+    /// incoming direction), weighted and bounded.
+    #[inline]
+    pub fn apply(&self, x: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, c: Vec3) -> Vec3 {
+        let (a, b) = match self.technique {
+            Technique::Plain => return c,
+            Technique::Connect { fx } => {
+                if vpl.arrival.is_infinite() {
+                    return bounded(c, vpl.flux, 1.0, self.bound);
+                }
+                let d = vpl.p - x;
+                let dist2 = d.length_squared();
+                (vpl.arrival, fx.pdf(d / dist2.sqrt()) / dist2)
+            }
+            Technique::Bounce { bounce } => {
+                let d = x - vpl.p;
+                let dist2 = d.length_squared();
+                (vpl.survival * emitting.pdf(d / dist2.sqrt()) / dist2, bounce)
+            }
+        };
+        let w = match self.technique {
+            Technique::Connect { .. } => balance(a, b),
+            _ => balance(b, a),
+        };
+        bounded(c, vpl.flux, w, self.bound)
+    }
+}
+
+/// The balance heuristic's weight of the technique with density `a` against one with `b`:
+/// 1 when `b` is zero (or `a` infinite), 0 when `a` is zero.
+#[inline]
+pub fn balance(a: f32, b: f32) -> f32 {
+    if a.is_infinite() || b <= 0.0 {
+        return 1.0;
+    }
+    let w = a / (a + b);
+    if w.is_finite() { w } else { 0.0 }
+}
+
+/// B's weight for next-event estimation at y (the emitter point at `dist2` from y, its cosine
+/// `cos_e` towards y) against the VPLs that `paths` light paths leave at y.
+#[inline]
+pub fn emitter_weight(bounce: f32, paths: f32, cos_e: f32, dist2: f32) -> f32 {
+    balance(bounce, paths * cos_e * FRAC_1_PI / dist2)
+}
+
+/// `w` · `c`, scaled down so that the connection's size π² · w · max(c) / max(Φ) (w · G for
+/// two white Lambertian ends) stays below `bound`.
+#[inline]
+fn bounded(c: Vec3, flux: Vec3, w: f32, bound: f32) -> Vec3 {
+    let c = c * w;
+    let size = PI * PI * c.max_element() / flux.max_element();
+    if size > bound { c * (bound / size) } else { c }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn balance_weights_sum_to_one() {
+        for (a, b) in [(1.0, 2.0), (1e-30, 1e30), (3.0, 3.0), (0.5, 1e-8)] {
+            let s = balance(a, b) + balance(b, a);
+            assert!((s - 1.0).abs() < 1e-6, "{a} {b}: {s}");
+        }
+        assert_eq!(balance(f32::INFINITY, 1.0), 1.0);
+        assert_eq!(balance(1.0, 0.0), 1.0);
+        assert_eq!(balance(0.0, 1.0), 0.0);
+    }
+
+    #[test]
+    fn the_bound_is_the_clamp_for_white_lambertian_ends() {
+        // c = Φ (1/π)(1/π) G: size w · G.
+        let flux = Vec3::splat(2.0);
+        let g = 40.0;
+        let c = flux * (g / (PI * PI));
+        let out = bounded(c, flux, 0.5, 10.0);
+        assert!((out.x - flux.x * 10.0 / (PI * PI)).abs() < 1e-5, "{out}");
+        assert_eq!(bounded(c, flux, 0.5, 100.0), c * 0.5);
+    }
+}
