@@ -313,6 +313,7 @@ mod tests {
                         depth: (j % 4) as u32,
                         arrival: 1.0,
                         survival: 1.0,
+                        nee_pdf: 0.0,
                     }
                 })
                 .collect();
@@ -378,6 +379,7 @@ mod tests {
                         depth: (j % 4) as u32,
                         arrival: 1.0,
                         survival: 1.0,
+                        nee_pdf: 0.0,
                     }
                 })
                 .collect();

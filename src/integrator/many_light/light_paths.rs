@@ -48,6 +48,9 @@ pub struct Vpl {
     /// The probability that the light path continues from here (Russian roulette; 0 at the
     /// last vertex traced).
     pub survival: f32,
+    /// For a vertex lit directly: the solid-angle density with which next-event estimation
+    /// from here picks the emitter point that lit it; 0 otherwise.
+    pub nee_pdf: f32,
 }
 
 impl Vpl {
@@ -111,6 +114,7 @@ fn trace_path(
     // solid angle, times the survival probability there (infinite after a delta vertex).
     let mut from = es.point.p;
     let mut density = n_paths * local.z * std::f32::consts::FRAC_1_PI;
+    let emitter_point = (es.point.p, es.pdf_area, local.z);
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;
@@ -138,6 +142,12 @@ fn trace_path(
                 depth,
                 arrival: density / (sp.p - from).length_squared(),
                 survival,
+                nee_pdf: if depth == 1 {
+                    let (e, pdf_area, cos_e) = emitter_point;
+                    pdf_area * (sp.p - e).length_squared() / cos_e
+                } else {
+                    0.0
+                },
             });
         }
         if depth == max_depth {

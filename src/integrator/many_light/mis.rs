@@ -33,22 +33,33 @@
 //! `pir-clamp`'s, so `pir-mis` is consistent; where nothing is clamped it is unbiased per
 //! iteration.
 //!
+//! **Light that reaches y straight from an emitter** (x → y → e) has a third technique, C:
+//! y samples its BSDF and the ray hits the emitter, which is what handles a glossy y that
+//! reflects a light (the VPL's own lobe, which neither A nor B samples). Its density
+//! relative to B is p_y(ω_ye) / p_light(ω_ye) (y's BSDF against next-event estimation's
+//! solid-angle density), and the three weigh by the balance heuristic ([`EmitterPath`]); a
+//! VPL lit directly stores the density of next-event estimation for its emitter point
+//! ([`Vpl::nee_pdf`]) so that A can weigh against C.
+//!
 //! Costs: B adds, per gathering vertex, one ray (the walker traces it anyway for the
-//! emission that MIS-weights direct light) and a second gather and emitter sample at y.
+//! emission that MIS-weights direct light) and a second gather and emitter sample at y; C
+//! one more ray from y.
 
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use super::light_paths::Vpl;
 use crate::material::PreparedBsdf;
+use crate::scene::Scene;
 
 /// Which technique a gather is, with what its weights need.
 #[derive(Clone, Copy)]
 pub enum Technique<'a> {
     /// The thesis' methods: every connection counts in full.
     Plain,
-    /// A at the gathering vertex x, whose BSDF for its `wo` is `fx`.
-    Connect { fx: &'a PreparedBsdf },
+    /// A at the gathering vertex x, whose BSDF for its `wo` is `fx`, in `scene` (the VPLs'
+    /// materials).
+    Connect { fx: &'a PreparedBsdf, scene: &'a Scene },
     /// B at y, reached from the gathering vertex with density `bounce` = p_x / ‖y − x‖².
     Bounce { bounce: f32 },
 }
@@ -77,13 +88,22 @@ impl Weighing<'_> {
     pub fn apply(&self, x: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, c: Vec3) -> Vec3 {
         let (a, b) = match self.technique {
             Technique::Plain => return c,
-            Technique::Connect { fx } => {
+            Technique::Connect { fx, scene } => {
                 if vpl.arrival.is_infinite() {
                     return bounded(c, vpl.flux, 1.0, self.bound);
                 }
                 let d = vpl.p - x;
                 let dist2 = d.length_squared();
-                (vpl.arrival, fx.pdf(d / dist2.sqrt()) / dist2)
+                let to_vpl = d / dist2.sqrt();
+                let b = fx.pdf(to_vpl) / dist2;
+                if vpl.depth == 1 && vpl.nee_pdf > 0.0 {
+                    // Lit directly: C, BSDF sampling from y towards the emitter, competes too.
+                    let bsdf = scene.material(vpl.material).bsdf;
+                    let p_y = bsdf.pdf(&vpl.geometry(), -to_vpl, vpl.w_in);
+                    let w = share(vpl.arrival, vpl.arrival + b + b * p_y / vpl.nee_pdf);
+                    return bounded(c, vpl.flux, w, self.bound);
+                }
+                (vpl.arrival, b)
             }
             Technique::Bounce { bounce } => {
                 let d = x - vpl.p;
@@ -110,11 +130,55 @@ pub fn balance(a: f32, b: f32) -> f32 {
     if w.is_finite() { w } else { 0.0 }
 }
 
-/// B's weight for next-event estimation at y (the emitter point at `dist2` from y, its cosine
-/// `cos_e` towards y) against the VPLs that `paths` light paths leave at y.
+/// The density `t` of one technique over the sum `total` of all of them: 1 when `t` is
+/// infinite, 0 when the sum is not positive and finite.
 #[inline]
-pub fn emitter_weight(bounce: f32, paths: f32, cos_e: f32, dist2: f32) -> f32 {
-    balance(bounce, paths * cos_e * FRAC_1_PI / dist2)
+fn share(t: f32, total: f32) -> f32 {
+    if t.is_infinite() {
+        return 1.0;
+    }
+    let w = t / total;
+    if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 }
+}
+
+/// A path x → y → e that ends on an emitter: what the bounce's two techniques at y weigh
+/// against each other and against the connection of x to the VPL that light tracing leaves
+/// at y. Densities per unit area at y and at e, the factors common to all three divided out.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterPath {
+    /// p_x / ‖y − x‖² of the bounce.
+    pub bounce: f32,
+    /// Light paths of the iteration.
+    pub paths: f32,
+    /// The emitter point's cosine towards y, and its squared distance from y.
+    pub cos_e: f32,
+    pub dist2: f32,
+    /// Solid-angle densities at y of the emitter point's direction: next-event estimation's,
+    /// and y's BSDF sampling's.
+    pub pdf_light: f32,
+    pub pdf_bsdf: f32,
+}
+
+impl EmitterPath {
+    /// (A, B, C): the connection (N light paths, each leaving y with density cos θ_e / π),
+    /// next-event estimation from y, BSDF sampling from y.
+    fn densities(&self) -> (f32, f32, f32) {
+        let a = self.paths * self.cos_e * FRAC_1_PI / self.dist2;
+        let c = if self.pdf_light > 0.0 { self.bounce * self.pdf_bsdf / self.pdf_light } else { 0.0 };
+        (a, self.bounce, c)
+    }
+
+    /// B's weight: next-event estimation from y.
+    pub fn light_weight(&self) -> f32 {
+        let (a, b, c) = self.densities();
+        share(b, a + b + c)
+    }
+
+    /// C's weight: BSDF sampling from y that hits the emitter.
+    pub fn bsdf_weight(&self) -> f32 {
+        let (a, b, c) = self.densities();
+        share(c, a + b + c)
+    }
 }
 
 /// `w` · `c`, scaled down so that the connection's size π² · w · max(c) / max(Φ) (w · G for

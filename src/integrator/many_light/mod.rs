@@ -59,13 +59,16 @@ pub use light_set::LightSet;
 use glam::Vec3;
 
 use super::direct::{Sampled, sample_emitters_weighted};
+use super::scatter::scatter;
 use super::walker::{Vertex, VertexHook, walk};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::Ray;
+use crate::geometry::offset_origin;
+use crate::light::emitted;
 use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use light_set::Mis;
-use mis::{Technique, Weighing};
+use mis::{EmitterPath, Technique, Weighing};
 use schedule::clamp_bound;
 
 /// Light paths per iteration when `--vpls` is not given. An iteration costs pixels × VPLs
@@ -187,7 +190,8 @@ impl VertexHook for LightSet {
             return Some(self.gather(ctx, v, max_vpl_depth, &Weighing::PLAIN, sampler, counters));
         };
         let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-        let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: mis.bound };
+        let weighing =
+            Weighing { technique: Technique::Connect { fx: &fx, scene: ctx.scene }, bound: mis.bound };
         Some(self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
     }
 
@@ -208,12 +212,42 @@ impl VertexHook for LightSet {
     ) -> Option<Vec3> {
         let mis = self.mis.as_ref()?;
         let bounce = how.pdf / (v.sp.p - how.from).length_squared();
+        let path = |cos_e, dist2, pdf_light, pdf_bsdf| EmitterPath {
+            bounce,
+            paths: mis.paths,
+            cos_e,
+            dist2,
+            pdf_light,
+            pdf_bsdf,
+        };
         let direct = sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| {
-            mis::emitter_weight(bounce, mis.paths, s.cos_light, s.dist2)
+            path(s.cos_light, s.dist2, s.pdf_light, s.pdf_bsdf).light_weight()
         });
         let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: mis.bound };
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        Some(direct + self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
+        let gathered = self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+        // C: y's BSDF sample, where it hits an emitter.
+        let mut beta = Vec3::ONE;
+        let Some(s) = scatter(v.bsdf, &v.sp, v.wo, TransportMode::Radiance, sampler, &mut beta) else {
+            return Some(direct + gathered);
+        };
+        counters.rays += 1;
+        let ray = Ray::new(offset_origin(v.sp.p, v.sp.ng, s.wi), s.wi);
+        let mut found = Vec3::ZERO;
+        if let Some(hit) = ctx.accel.intersect(&ray)
+            && let material = ctx.scene.material_of(hit.prim)
+            && material.is_emitter()
+        {
+            let e = ctx.scene.surface_of_hit(&hit);
+            let le = emitted(material.emission, e.ng, -s.wi);
+            let cos_e = e.ng.dot(s.wi).abs();
+            let dist2 = (e.p - v.sp.p).length_squared();
+            if le != Vec3::ZERO && cos_e > 0.0 && !s.delta {
+                let pdf_light = ctx.emitters.pdf_area(hit.prim) * dist2 / cos_e;
+                found = beta * le * path(cos_e, dist2, pdf_light, s.pdf).bsdf_weight();
+            }
+        }
+        Some(direct + gathered + found)
     }
 }
 

@@ -457,6 +457,7 @@ mod tests {
                     depth: 1 + (j % 3) as u32,
                     arrival: 1.0,
                     survival: 1.0,
+                    nee_pdf: 0.0,
                 }
             })
             .collect()
