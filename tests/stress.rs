@@ -116,26 +116,36 @@ fn corner_creases_and_gaps_spike_plain_vpls_only() {
     assert_converging(&rows, "pir-clamp", 8);
 }
 
-/// The corner with its glossy floor: a bound on G does not bound a glossy lobe.
+/// The corner with its glossy floor: a bound on G does not bound a glossy lobe; weighing
+/// the connection against BSDF sampling does (`pir-mis`), with less error than spheres.
 #[test]
 fn corner_glossy_floor_spikes_point_lights_but_not_spherical_lights() {
     let d = stress("corner");
-    let rows = study(&d.join("scene.toml"), &d.join("reference-64.exr"), "ir,pir-clamp,pir-vsl", 32);
+    let rows = study(&d.join("scene.toml"), &d.join("reference-64.exr"), "ir,pir-clamp,pir-vsl,pir-mis", 32);
     assert_spikes(&rows, "ir", "pir-vsl");
     assert_spikes(&rows, "pir-clamp", "pir-vsl");
+    assert_spikes(&rows, "pir-clamp", "pir-mis");
+    let (mis, vsl) = (last(&rows, "pir-mis").rel_mse, last(&rows, "pir-vsl").rel_mse);
+    assert!(mis < vsl, "pir-mis's relative MSE {mis:.3e} must be below pir-vsl's {vsl:.3e}");
 }
 
-/// The glossy scene: a near-mirror floor reflecting a lit wall. Every point-light method
-/// spikes, constant clamp or not; spherical lights do not, and the progressive radius
+/// The glossy scene: a near-mirror floor reflecting a lit wall. Every point-light method of
+/// the thesis spikes, constant clamp or not; spherical lights and weighed connections
+/// (`pir-mis`) do not, and the progressive radius
 /// darkens the image less than the constant one.
 #[test]
 fn glossy_floor_spikes_every_point_light_method_and_no_spherical_one() {
     let d = stress("glossy");
-    let rows =
-        study(&d.join("scene.toml"), &d.join("reference-128.exr"), "ir,ir-clamp,pir-clamp,vsl,pir-vsl", 32);
+    let rows = study(
+        &d.join("scene.toml"),
+        &d.join("reference-128.exr"),
+        "ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis",
+        32,
+    );
     for spiky in ["ir", "ir-clamp", "pir-clamp"] {
         assert_spikes(&rows, spiky, "vsl");
         assert_spikes(&rows, spiky, "pir-vsl");
+        assert_spikes(&rows, spiky, "pir-mis");
     }
     let (vsl, pvsl) = (last(&rows, "vsl").mean_rel_diff, last(&rows, "pir-vsl").mean_rel_diff);
     assert!(vsl < pvsl, "the constant radius must darken more: vsl {vsl:+.4}, pir-vsl {pvsl:+.4}");
