@@ -6,7 +6,7 @@ mod common;
 
 use common::{Job, Rendered, closed_cube, diffuse};
 use glam::Vec3;
-use pir::integrator::{Clamping, InstantRadiosity, PathTracer, VirtualLights};
+use pir::integrator::{Clamping, Gather, InstantRadiosity, PathTracer, VirtualLights};
 use pir::material::{Bsdf, Material};
 use pir::scene::Scene;
 
@@ -52,17 +52,22 @@ fn weighed_vpls_are_unbiased_in_the_furnace_for_every_max_depth() {
 
 /// The same with glossy receivers and glossy VPLs, where the weights depend on the lobes:
 /// the weighed gather without a bound agrees with the path tracer (two independent renders,
-/// z of their difference), also where Russian roulette plays on the light paths.
+/// z of their difference), also where Russian roulette plays on the light paths, and also
+/// when the gather is resampled (its estimates fold in an approximate weight).
 #[test]
 fn weighed_vpls_match_the_path_tracer_on_glossy_walls() {
     let scene = glossy_cube();
     for depth in [3u32, 6] {
         let job = Job { iterations: 64, max_depth: depth, ..Job::default() };
-        let mis = job.run(&scene, &mut weighed(Clamping::None, 64));
         let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
-        let (m, p, z) = z_between(&mis, &pt);
-        eprintln!("glossy cube, max_depth {depth}: ir-mis {m:.5}, pt {p:.5} (z {z:+.2})");
-        assert!(z.abs() < Z, "max_depth {depth}: z = {z:.2}");
+        for (name, gather) in
+            [("all", Gather::All), ("resample", Gather::Resampled { candidates: 32, samples: 4 })]
+        {
+            let mis = job.run(&scene, &mut weighed(Clamping::None, 64).with_gather(gather));
+            let (m, p, z) = z_between(&mis, &pt);
+            eprintln!("glossy cube, max_depth {depth}, gather {name}: ir-mis {m:.5}, pt {p:.5} (z {z:+.2})");
+            assert!(z.abs() < Z, "max_depth {depth}, gather {name}: z = {z:.2}");
+        }
     }
 }
 
