@@ -99,8 +99,10 @@ pub struct Job {
 
 const FORMAT_KEY: &str = "pir.job.format";
 const STATE_KEY: &str = "pir.job.state";
-/// The layout this pir writes and reads; format 1 stored the job as formatted text.
-const FORMAT: &str = "2";
+/// The layout this pir writes and reads; format 1 stored the job as formatted text, format 2
+/// came before the gather's defaults depended on the method and before light paths decided
+/// Russian roulette from the flux arriving at a vertex (which changes the VPLs of a seed).
+const FORMAT: &str = "3";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -220,8 +222,8 @@ pub fn read_state(path: &Path) -> Result<Saved> {
     };
     match get(FORMAT_KEY)? {
         FORMAT => {}
-        "1" => bail!(
-            "{}: written by an older pir (resumable-state format 1), which this pir cannot resume or \
+        old @ ("1" | "2") => bail!(
+            "{}: written by an older pir (resumable-state format {old}), which this pir cannot resume or \
              merge (it reads format {FORMAT}): render it again with this pir",
             path.display()
         ),
