@@ -35,6 +35,7 @@ mod wide;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::{Accelerator, Hit};
 use crate::geometry::{Aabb, Ray};
@@ -107,18 +108,23 @@ impl Bvh {
     pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
         let start = Instant::now();
         let verts = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
-        let mut prims = Vec::with_capacity(indices.len());
-        for (i, t) in indices.iter().enumerate() {
-            let v = verts(t);
-            if v.iter().all(|p| p.is_finite()) {
-                let b = Aabb::from_points(&v);
-                let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
-                    + Vec3::splat(f32::MIN_POSITIVE);
-                prims.push(build::Prim::new(Aabb { min: b.min - pad, max: b.max + pad }, i as u32));
-            }
-        }
+        // Parallel iterators that keep their order: the result does not depend on the threads.
+        let prims = indices
+            .par_iter()
+            .enumerate()
+            .with_min_len(4096)
+            .filter_map(|(i, t)| {
+                let v = verts(t);
+                v.iter().all(|p| p.is_finite()).then(|| {
+                    let b = Aabb::from_points(&v);
+                    let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
+                        + Vec3::splat(f32::MIN_POSITIVE);
+                    build::Prim::new(Aabb { min: b.min - pad, max: b.max + pad }, i as u32)
+                })
+            })
+            .collect();
         let built = build::build(prims);
-        let tris = built.order.iter().map(|&p| verts(&indices[p as usize])).collect();
+        let tris = built.order.par_iter().with_min_len(4096).map(|&p| verts(&indices[p as usize])).collect();
         let nodes = wide::collapse(&built.pairs);
         Bvh {
             nodes,
@@ -230,6 +236,25 @@ mod tests {
             validate(&bvh, m.indices.len());
             let mean = m.indices.len() as f32 / bvh.leaf_count() as f32;
             assert!(mean <= build::MAX_LEAF as f32, "mean leaf size {mean}");
+        }
+    }
+
+    /// Large nodes are binned and partitioned in parallel chunks: the tree must be the same
+    /// whatever the number of threads, and well formed.
+    #[test]
+    fn tree_is_the_same_for_any_thread_count() {
+        let m = testmesh::closed_scene(200_000);
+        let with = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| Bvh::new(&m.positions, &m.indices))
+        };
+        let one = with(1);
+        validate(&one, m.indices.len());
+        for threads in [2, 3] {
+            let other = with(threads);
+            assert!(one.nodes == other.nodes, "{threads} threads: nodes differ");
+            assert_eq!(one.prim_ids, other.prim_ids, "{threads} threads");
+            assert_eq!(one.tris, other.tris, "{threads} threads");
         }
     }
 

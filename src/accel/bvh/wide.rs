@@ -27,7 +27,7 @@ impl ChildRef {
 }
 
 /// Four children's boxes (SoA) and references.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct Node4 {
     pub min: [Vec4; 3],
