@@ -2,8 +2,9 @@
 //!
 //! Each node's primitives are binned on their centroids into [`BINS`] bins along all three axes
 //! in one pass; the split with the lowest surface-area-heuristic cost
-//! (`C_TRAV + Σ area·count / area`) wins, or a leaf is made when that is cheaper than
-//! intersecting every triangle (up to [`MAX_LEAF`]). Nodes whose centroids all coincide are
+//! (`C_TRAV + Σ area·⌈count/4⌉ / area`, in units of tests of a pack of four triangles) wins,
+//! or a leaf is made when that is cheaper than intersecting its packs (up to [`MAX_LEAF`]
+//! triangles). Nodes whose centroids all coincide are
 //! split in the middle of their range so that leaves stay small, and the depth is capped at
 //! [`MAX_DEPTH`]. Primitive records (box and id, SIMD-aligned `Vec3A`) are partitioned in
 //! place, so every pass reads memory sequentially. Subtrees with many primitives are built in
@@ -26,7 +27,7 @@ use crate::geometry::Aabb;
 const BINS: usize = 32;
 /// Most triangles in a leaf (unless the depth cap or coincident centroids force more).
 pub(super) const MAX_LEAF: usize = 8;
-/// Cost of a box test relative to one triangle test, for the SAH.
+/// Cost of a box test relative to one test of a pack of four triangles, for the SAH.
 const C_TRAV: f32 = 1.0;
 /// Deepest node of the binary tree; it bounds the traversal stack.
 pub(super) const MAX_DEPTH: usize = 60;
@@ -207,7 +208,7 @@ fn choose_split(prims: &mut [Prim], bounds: Box3, depth: usize) -> Option<(usize
         return None;
     }
     match best_split(prims, bounds) {
-        Some(s) if s.cost < n as f32 || n > MAX_LEAF => Some((partition(prims, &s), s.left, s.right)),
+        Some(s) if s.cost < leaf_cost(n) || n > MAX_LEAF => Some((partition(prims, &s), s.left, s.right)),
         // The SAH prefers a leaf and the leaf is small enough.
         Some(_) => None,
         None if n <= MAX_LEAF => None,
@@ -286,7 +287,7 @@ fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
             acc = acc.union(bins[i].bounds);
             cnt += bins[i].count;
             right_bounds[i] = acc;
-            right_cost[i] = acc.half_area() * cnt as f32;
+            right_cost[i] = acc.half_area() * leaf_cost(cnt as usize);
         }
         let (mut acc, mut cnt) = (Box3::EMPTY, 0u32);
         for i in 1..nb {
@@ -295,7 +296,7 @@ fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
             if cnt == 0 || cnt as usize == prims.len() {
                 continue;
             }
-            let cost = C_TRAV + (acc.half_area() * cnt as f32 + right_cost[i]) / parent_area;
+            let cost = C_TRAV + (acc.half_area() * leaf_cost(cnt as usize) + right_cost[i]) / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split {
                     axis,
@@ -311,6 +312,13 @@ fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
         }
     }
     best
+}
+
+/// The cost of intersecting a leaf of `n` triangles: one test per pack of four (see
+/// [`leaf`](super::leaf)), so leaves of up to four cost the same.
+#[inline]
+fn leaf_cost(n: usize) -> f32 {
+    n.div_ceil(4) as f32
 }
 
 /// Moves the primitives left of the split to the front; returns how many there are.

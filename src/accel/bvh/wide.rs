@@ -12,7 +12,7 @@ use glam::Vec4;
 use super::{Node, NodePair};
 
 /// A reference to a child: an interior node (`count == 0`, `index` is its [`Node4`]) or a leaf
-/// (`count > 0` triangles from `index` in leaf order).
+/// (`count > 0` triangle packs from `index`, see [`leaf`](super::leaf)).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct ChildRef {
     pub index: u32,
