@@ -17,7 +17,7 @@
 //! left and right parts to offsets from a prefix sum. Chunk size and thresholds are constants,
 //! so the tree is the same whatever the number of threads.
 
-use glam::Vec3A;
+use glam::{BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::{Node, NodePair};
@@ -71,22 +71,41 @@ impl Box3 {
     }
 }
 
-/// One primitive as the builder sees it: its (padded) box and its index.
+/// One primitive as the builder sees it: its (padded) box and its index, in 32 bytes (the
+/// index's bits ride in the fourth lane of the minimum, which no arithmetic touches): every
+/// level of the build streams all primitives through memory, so their size matters.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Prim {
-    bounds: Box3,
-    id: u32,
+    min_id: Vec4,
+    max: Vec3A,
 }
 
 impl Prim {
     pub fn new(bounds: Aabb, id: u32) -> Self {
-        Prim { bounds: Box3 { min: bounds.min.into(), max: bounds.max.into() }, id }
+        Prim { min_id: bounds.min.extend(f32::from_bits(id)), max: bounds.max.into() }
+    }
+
+    /// The minimum with the index bits cleared (a bit mask, not arithmetic: the bits may
+    /// read as a subnormal float, which arithmetic can be slow on).
+    #[inline]
+    fn min(&self) -> Vec3A {
+        Vec3A::from_vec4(Vec4::select(BVec4A::new(true, true, true, false), self.min_id, Vec4::ZERO))
+    }
+
+    #[inline]
+    fn bounds(&self) -> Box3 {
+        Box3 { min: self.min(), max: self.max }
+    }
+
+    #[inline]
+    fn id(&self) -> u32 {
+        self.min_id.w.to_bits()
     }
 
     /// Twice the centroid (the factor does not matter for binning).
     #[inline]
     fn centroid2(&self) -> Vec3A {
-        self.bounds.min + self.bounds.max
+        self.min() + self.max
     }
 }
 
@@ -113,7 +132,7 @@ pub(super) fn build(mut prims: Vec<Prim>) -> Built {
     let mut pairs = Vec::with_capacity(sub.pairs.len() + 1);
     pairs.push(root_pair);
     append_shifted(&mut pairs, sub.pairs);
-    let order = prims.iter().map(|p| p.id).collect();
+    let order = prims.iter().map(Prim::id).collect();
     Built { pairs, order, leaves: sub.leaves, depth: sub.depth }
 }
 
@@ -158,7 +177,7 @@ fn range_bounds(prims: &[Prim]) -> Box3 {
     if prims.len() >= PARALLEL_PASS_MIN {
         return prims.par_chunks(CHUNK).map(range_bounds).reduce(|| Box3::EMPTY, Box3::union);
     }
-    prims.iter().fold(Box3::EMPTY, |b, p| b.union(p.bounds))
+    prims.iter().fold(Box3::EMPTY, |b, p| b.union(p.bounds()))
 }
 
 /// The bounds of the primitives' doubled centroids.
@@ -193,7 +212,7 @@ fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize) -> Bins {
         let idx = bin_index(p.centroid2(), min, scale, nb);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             let b = &mut axis_bins[idx[axis]];
-            b.bounds = b.bounds.union(p.bounds);
+            b.bounds = b.bounds.union(p.bounds());
             b.count += 1;
         }
     }
@@ -204,7 +223,9 @@ fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize) -> Bins {
 /// bounds, or `None` for a leaf.
 fn choose_split(prims: &mut [Prim], bounds: Box3, depth: usize) -> Option<(usize, Box3, Box3)> {
     let n = prims.len();
-    if n <= 2 || depth >= MAX_DEPTH {
+    // A split costs more than C_TRAV = one pack test, which is what a leaf of up to four costs:
+    // such nodes are always leaves, without binning them.
+    if n <= 4 || depth >= MAX_DEPTH {
         return None;
     }
     match best_split(prims, bounds) {
