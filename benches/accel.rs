@@ -5,7 +5,8 @@
 //! scattered surface points, occlusion: the VPL gathering pattern), each with single-ray calls
 //! and with the batched calls (`*-batch`: Embree's 16-wide packets; the BVH's batch is a loop
 //! of single rays). Backends: Embree when pir is built with it, the BVH, and brute force on
-//! small meshes. Build times for the BVH and Embree. Scenes: a generated
+//! small meshes. Workloads run one after another, each on every backend in turn, so that the
+//! rates of one ratio are measured close together in time. Build times for the BVH and Embree. Scenes: a generated
 //! Cornell-like box, a generated ~1M-triangle closed scene and, when present, the Stanford bunny
 //! and dragon from `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
 //! brute force only runs on small meshes.
@@ -89,32 +90,42 @@ fn bench_queries(c: &mut Criterion) {
         let from = b.min.lerp(b.max, 0.85);
         let gather = testmesh::gather_rays(&m, from, 1_024, 13);
         let vertices = VertexBuffer::from(m.positions.clone());
-        for acc in backends(&m, &vertices) {
+        let accs = backends(&m, &vertices);
+        for acc in &accs {
             println!("{scene}: {}", acc.describe());
-            let mut g = c.benchmark_group(format!("{scene}/{}", acc.name()));
-            g.throughput(Throughput::Elements(rays.len() as u64));
-            g.bench_function("closest", |bch| {
-                bch.iter(|| rays.iter().filter(|r| acc.intersect(black_box(r)).is_some()).count())
-            });
-            g.bench_function("occluded", |bch| bch.iter(|| count_occluded(acc.as_ref(), &segs)));
-            let mut hits = vec![None; rays.len()];
-            g.bench_function("closest-batch", |bch| {
-                bch.iter(|| {
-                    acc.intersect_batch(black_box(&rays), &mut hits);
-                    hits.iter().filter(|h| h.is_some()).count()
-                })
-            });
-            let mut occ = vec![false; rays.len()];
-            g.bench_function("occluded-batch", |bch| {
-                bch.iter(|| count_occluded_batch(acc.as_ref(), &segs, &mut occ))
-            });
-            g.throughput(Throughput::Elements(gather.len() as u64));
-            g.bench_function("gather", |bch| bch.iter(|| count_occluded(acc.as_ref(), &gather)));
-            let mut occ = vec![false; gather.len()];
-            g.bench_function("gather-batch", |bch| {
-                bch.iter(|| count_occluded_batch(acc.as_ref(), &gather, &mut occ))
-            });
-            g.finish();
+        }
+        // Workload by workload, every backend in turn: the rates compared in a ratio are taken
+        // seconds apart, not a whole scene apart, so a machine whose load drifts skews them less.
+        let mut hits = vec![None; rays.len()];
+        let mut occ = vec![false; rays.len()];
+        let mut gather_occ = vec![false; gather.len()];
+        for case in ["closest", "occluded", "closest-batch", "occluded-batch", "gather", "gather-batch"] {
+            for acc in &accs {
+                let acc = acc.as_ref();
+                let mut g = c.benchmark_group(format!("{scene}/{}", acc.name()));
+                let n = if case.starts_with("gather") { gather.len() } else { rays.len() };
+                g.throughput(Throughput::Elements(n as u64));
+                match case {
+                    "closest" => g.bench_function(case, |bch| {
+                        bch.iter(|| rays.iter().filter(|r| acc.intersect(black_box(r)).is_some()).count())
+                    }),
+                    "occluded" => g.bench_function(case, |bch| bch.iter(|| count_occluded(acc, &segs))),
+                    "closest-batch" => g.bench_function(case, |bch| {
+                        bch.iter(|| {
+                            acc.intersect_batch(black_box(&rays), &mut hits);
+                            hits.iter().filter(|h| h.is_some()).count()
+                        })
+                    }),
+                    "occluded-batch" => {
+                        g.bench_function(case, |bch| bch.iter(|| count_occluded_batch(acc, &segs, &mut occ)))
+                    }
+                    "gather" => g.bench_function(case, |bch| bch.iter(|| count_occluded(acc, &gather))),
+                    _ => g.bench_function(case, |bch| {
+                        bch.iter(|| count_occluded_batch(acc, &gather, &mut gather_occ))
+                    }),
+                };
+                g.finish();
+            }
         }
     }
 }

@@ -2,14 +2,23 @@
 //!
 //! Each node's primitives are binned on their centroids into [`BINS`] bins along all three axes
 //! in one pass; the split with the lowest surface-area-heuristic cost
-//! (`C_TRAV + Σ area·count / area`) wins, or a leaf is made when that is cheaper than
-//! intersecting every triangle (up to [`MAX_LEAF`]). Nodes whose centroids all coincide are
+//! (`C_TRAV + Σ area·⌈count/4⌉ / area`, in units of tests of a pack of four triangles) wins,
+//! or a leaf is made when that is cheaper than intersecting its packs (up to [`MAX_LEAF`]
+//! triangles). Nodes whose centroids all coincide are
 //! split in the middle of their range so that leaves stay small, and the depth is capped at
 //! [`MAX_DEPTH`]. Primitive records (box and id, SIMD-aligned `Vec3A`) are partitioned in
 //! place, so every pass reads memory sequentially. Subtrees with many primitives are built in
 //! parallel with rayon and stitched together afterwards.
+//!
+//! Large nodes (the top levels, where the two subtrees are not yet running on their own
+//! threads) are also binned and partitioned in parallel: their primitives are cut into chunks
+//! of [`CHUNK`] records, each chunk is binned on a rayon task and the bins are merged (exact:
+//! minima, maxima and integer counts), and the partition is a stable scatter of each chunk's
+//! left and right parts to offsets from a prefix sum. Chunk size and thresholds are constants,
+//! so the tree is the same whatever the number of threads.
 
-use glam::Vec3A;
+use glam::{BVec4A, Vec3A, Vec4};
+use rayon::prelude::*;
 
 use super::{Node, NodePair};
 use crate::geometry::Aabb;
@@ -18,12 +27,17 @@ use crate::geometry::Aabb;
 const BINS: usize = 32;
 /// Most triangles in a leaf (unless the depth cap or coincident centroids force more).
 pub(super) const MAX_LEAF: usize = 8;
-/// Cost of a box test relative to one triangle test, for the SAH.
+/// Cost of a box test relative to one test of a pack of four triangles, for the SAH.
 const C_TRAV: f32 = 1.0;
 /// Deepest node of the binary tree; it bounds the traversal stack.
 pub(super) const MAX_DEPTH: usize = 60;
 /// Ranges at least this large are built on two rayon tasks.
 const PARALLEL_MIN: usize = 16 * 1024;
+/// Nodes with at least this many primitives are binned and partitioned in chunks in parallel.
+const PARALLEL_PASS_MIN: usize = 64 * 1024;
+/// Primitives per chunk of a parallel pass (a constant: the result must not depend on the
+/// thread count).
+const CHUNK: usize = 16 * 1024;
 
 /// A box in SIMD-friendly form.
 #[derive(Clone, Copy, Debug)]
@@ -57,22 +71,41 @@ impl Box3 {
     }
 }
 
-/// One primitive as the builder sees it: its (padded) box and its index.
+/// One primitive as the builder sees it: its (padded) box and its index, in 32 bytes (the
+/// index's bits ride in the fourth lane of the minimum, which no arithmetic touches): every
+/// level of the build streams all primitives through memory, so their size matters.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Prim {
-    bounds: Box3,
-    id: u32,
+    min_id: Vec4,
+    max: Vec3A,
 }
 
 impl Prim {
     pub fn new(bounds: Aabb, id: u32) -> Self {
-        Prim { bounds: Box3 { min: bounds.min.into(), max: bounds.max.into() }, id }
+        Prim { min_id: bounds.min.extend(f32::from_bits(id)), max: bounds.max.into() }
+    }
+
+    /// The minimum with the index bits cleared (a bit mask, not arithmetic: the bits may
+    /// read as a subnormal float, which arithmetic can be slow on).
+    #[inline]
+    fn min(&self) -> Vec3A {
+        Vec3A::from_vec4(Vec4::select(BVec4A::new(true, true, true, false), self.min_id, Vec4::ZERO))
+    }
+
+    #[inline]
+    fn bounds(&self) -> Box3 {
+        Box3 { min: self.min(), max: self.max }
+    }
+
+    #[inline]
+    fn id(&self) -> u32 {
+        self.min_id.w.to_bits()
     }
 
     /// Twice the centroid (the factor does not matter for binning).
     #[inline]
     fn centroid2(&self) -> Vec3A {
-        self.bounds.min + self.bounds.max
+        self.min() + self.max
     }
 }
 
@@ -99,7 +132,7 @@ pub(super) fn build(mut prims: Vec<Prim>) -> Built {
     let mut pairs = Vec::with_capacity(sub.pairs.len() + 1);
     pairs.push(root_pair);
     append_shifted(&mut pairs, sub.pairs);
-    let order = prims.iter().map(|p| p.id).collect();
+    let order = prims.iter().map(Prim::id).collect();
     Built { pairs, order, leaves: sub.leaves, depth: sub.depth }
 }
 
@@ -141,18 +174,62 @@ struct Split {
 }
 
 fn range_bounds(prims: &[Prim]) -> Box3 {
-    prims.iter().fold(Box3::EMPTY, |b, p| b.union(p.bounds))
+    if prims.len() >= PARALLEL_PASS_MIN {
+        return prims.par_chunks(CHUNK).map(range_bounds).reduce(|| Box3::EMPTY, Box3::union);
+    }
+    prims.iter().fold(Box3::EMPTY, |b, p| b.union(p.bounds()))
+}
+
+/// The bounds of the primitives' doubled centroids.
+fn centroid_bounds(prims: &[Prim]) -> Box3 {
+    if prims.len() >= PARALLEL_PASS_MIN {
+        return prims.par_chunks(CHUNK).map(centroid_bounds).reduce(|| Box3::EMPTY, Box3::union);
+    }
+    prims.iter().fold(Box3::EMPTY, |b, p| b.grow(p.centroid2()))
+}
+
+type Bins = [[Bin; BINS]; 3];
+const EMPTY_BINS: Bins = [[Bin { bounds: Box3::EMPTY, count: 0 }; BINS]; 3];
+
+/// Bins `prims` on all three axes (`nb` bins from `min`, `scale` bins per unit).
+fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize) -> Bins {
+    if prims.len() >= PARALLEL_PASS_MIN {
+        return prims.par_chunks(CHUNK).map(|c| bin_prims(c, min, scale, nb)).reduce(
+            || EMPTY_BINS,
+            |mut a, b| {
+                for (aa, ba) in a.iter_mut().zip(&b) {
+                    for (x, y) in aa.iter_mut().zip(ba) {
+                        x.bounds = x.bounds.union(y.bounds);
+                        x.count += y.count;
+                    }
+                }
+                a
+            },
+        );
+    }
+    let mut bins = EMPTY_BINS;
+    for p in prims {
+        let idx = bin_index(p.centroid2(), min, scale, nb);
+        for (axis, axis_bins) in bins.iter_mut().enumerate() {
+            let b = &mut axis_bins[idx[axis]];
+            b.bounds = b.bounds.union(p.bounds());
+            b.count += 1;
+        }
+    }
+    bins
 }
 
 /// Where to split the node over `prims`: the size of the left part and both children's
 /// bounds, or `None` for a leaf.
 fn choose_split(prims: &mut [Prim], bounds: Box3, depth: usize) -> Option<(usize, Box3, Box3)> {
     let n = prims.len();
-    if n <= 2 || depth >= MAX_DEPTH {
+    // A split costs more than C_TRAV = one pack test, which is what a leaf of up to four costs:
+    // such nodes are always leaves, without binning them.
+    if n <= 4 || depth >= MAX_DEPTH {
         return None;
     }
     match best_split(prims, bounds) {
-        Some(s) if s.cost < n as f32 || n > MAX_LEAF => Some((partition(prims, &s), s.left, s.right)),
+        Some(s) if s.cost < leaf_cost(n) || n > MAX_LEAF => Some((partition(prims, &s), s.left, s.right)),
         // The SAH prefers a leaf and the leaf is small enough.
         Some(_) => None,
         None if n <= MAX_LEAF => None,
@@ -214,20 +291,12 @@ fn build_into(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize, out
 /// The best binned-SAH split, in units of triangle tests, or `None` when all centroids
 /// coincide.
 fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
-    let cb = prims.iter().fold(Box3::EMPTY, |b, p| b.grow(p.centroid2()));
+    let cb = centroid_bounds(prims);
     let ext = cb.max - cb.min;
     // Axes without extent get scale 0: everything lands in bin 0 and no split is proposed.
     let nb = bins_for(prims.len());
     let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(nb as f32) / ext, Vec3A::ZERO);
-    let mut bins = [[Bin { bounds: Box3::EMPTY, count: 0 }; BINS]; 3];
-    for p in prims {
-        let idx = bin_index(p.centroid2(), cb.min, scale, nb);
-        for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[idx[axis]];
-            b.bounds = b.bounds.union(p.bounds);
-            b.count += 1;
-        }
-    }
+    let bins = bin_prims(prims, cb.min, scale, nb);
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     let mut best: Option<Split> = None;
     for (axis, bins) in bins.iter().enumerate() {
@@ -239,7 +308,7 @@ fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
             acc = acc.union(bins[i].bounds);
             cnt += bins[i].count;
             right_bounds[i] = acc;
-            right_cost[i] = acc.half_area() * cnt as f32;
+            right_cost[i] = acc.half_area() * leaf_cost(cnt as usize);
         }
         let (mut acc, mut cnt) = (Box3::EMPTY, 0u32);
         for i in 1..nb {
@@ -248,7 +317,7 @@ fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
             if cnt == 0 || cnt as usize == prims.len() {
                 continue;
             }
-            let cost = C_TRAV + (acc.half_area() * cnt as f32 + right_cost[i]) / parent_area;
+            let cost = C_TRAV + (acc.half_area() * leaf_cost(cnt as usize) + right_cost[i]) / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split {
                     axis,
@@ -266,9 +335,19 @@ fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
     best
 }
 
+/// The cost of intersecting a leaf of `n` triangles: one test per pack of four (see
+/// [`leaf`](super::leaf)), so leaves of up to four cost the same.
+#[inline]
+fn leaf_cost(n: usize) -> f32 {
+    n.div_ceil(4) as f32
+}
+
 /// Moves the primitives left of the split to the front; returns how many there are.
 fn partition(prims: &mut [Prim], s: &Split) -> usize {
     let goes_left = |p: &Prim| bin_of(p.centroid2()[s.axis], s.min, s.scale, s.bins) < s.bin;
+    if prims.len() >= PARALLEL_PASS_MIN {
+        return partition_parallel(prims, &goes_left);
+    }
     let mut i = 0;
     let mut j = prims.len();
     while i < j {
@@ -280,6 +359,38 @@ fn partition(prims: &mut [Prim], s: &Split) -> usize {
         }
     }
     i
+}
+
+/// A stable partition in chunks on rayon tasks: each chunk counts its left primitives, then
+/// copies its left and right parts to their places (after the left parts of the chunks before
+/// it, and after all left parts plus the right parts before it).
+fn partition_parallel(prims: &mut [Prim], goes_left: &(dyn Fn(&Prim) -> bool + Sync)) -> usize {
+    let src = prims.to_vec();
+    let lefts: Vec<usize> =
+        src.par_chunks(CHUNK).map(|c| c.iter().filter(|p| goes_left(p)).count()).collect();
+    let n_left: usize = lefts.iter().sum();
+    let (mut left, mut right) = prims.split_at_mut(n_left);
+    let mut jobs = Vec::with_capacity(lefts.len());
+    for (chunk, &l) in src.chunks(CHUNK).zip(&lefts) {
+        let (l_out, l_rest) = std::mem::take(&mut left).split_at_mut(l);
+        let (r_out, r_rest) = std::mem::take(&mut right).split_at_mut(chunk.len() - l);
+        left = l_rest;
+        right = r_rest;
+        jobs.push((chunk, l_out, r_out));
+    }
+    jobs.into_par_iter().for_each(|(chunk, l_out, r_out)| {
+        let (mut i, mut j) = (0, 0);
+        for p in chunk {
+            if goes_left(p) {
+                l_out[i] = *p;
+                i += 1;
+            } else {
+                r_out[j] = *p;
+                j += 1;
+            }
+        }
+    });
+    n_left
 }
 
 /// The bins of doubled centroid `c` on all three axes.

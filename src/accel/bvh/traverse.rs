@@ -20,9 +20,10 @@ use glam::{Vec3, Vec4};
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
+use super::leaf::Ray4;
 use super::wide::{ChildRef, Node4};
 use crate::accel::Hit;
-use crate::geometry::{Ray, intersect_triangle};
+use crate::geometry::Ray;
 
 /// Widening of the exit distance: 1 + 2γ₃ rounded up generously.
 const EXIT_SCALE: f32 = 1.0 + 1e-6;
@@ -130,6 +131,7 @@ impl Bvh {
     #[inline(always)]
     fn closest_hit_with<const N: usize>(&self, ray: &Ray) -> Result<Option<Hit>, Overflow> {
         let rb = RayBoxes::new(ray);
+        let r4 = Ray4::new(ray.origin, ray.dir);
         let mut best: Option<Hit> = None;
         let mut tmax = ray.tmax;
         let mut stack = [(ChildRef::default(), 0f32); N];
@@ -138,12 +140,12 @@ impl Bvh {
         loop {
             if cur.is_leaf() {
                 let first = cur.index as usize;
-                let last = first + cur.count as usize;
-                for (tri, &id) in self.tris[first..last].iter().zip(&self.prim_ids[first..last]) {
-                    let [a, b, c] = *tri;
-                    if let Some(h) = intersect_triangle(ray.origin, ray.dir, ray.tmin, tmax, a, b, c) {
-                        tmax = h.t;
-                        best = Some(Hit { t: h.t, prim: id, u: h.u, v: h.v });
+                for pack in &self.packs[first..first + cur.count as usize] {
+                    let h = pack.hit(&r4, ray.tmin, tmax);
+                    if h.mask != 0 {
+                        let lane = h.nearest();
+                        tmax = h.t[lane];
+                        best = Some(Hit { t: tmax, prim: pack.id[lane], u: h.u[lane], v: h.v[lane] });
                     }
                 }
             } else {
@@ -179,6 +181,7 @@ impl Bvh {
     #[inline(always)]
     fn any_hit_with<const N: usize>(&self, ray: &Ray) -> Result<bool, Overflow> {
         let rb = RayBoxes::new(ray);
+        let r4 = Ray4::new(ray.origin, ray.dir);
         let tmax = ray.tmax;
         let mut stack = [(ChildRef::default(), 0f32); N];
         let mut sp = 0;
@@ -186,9 +189,8 @@ impl Bvh {
         loop {
             if cur.is_leaf() {
                 let first = cur.index as usize;
-                let last = first + cur.count as usize;
-                for &[a, b, c] in &self.tris[first..last] {
-                    if intersect_triangle(ray.origin, ray.dir, ray.tmin, tmax, a, b, c).is_some() {
+                for pack in &self.packs[first..first + cur.count as usize] {
+                    if pack.hit(&r4, ray.tmin, tmax).mask != 0 {
                         return Ok(true);
                     }
                 }

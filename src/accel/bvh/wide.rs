@@ -12,7 +12,7 @@ use glam::Vec4;
 use super::{Node, NodePair};
 
 /// A reference to a child: an interior node (`count == 0`, `index` is its [`Node4`]) or a leaf
-/// (`count > 0` triangles from `index` in leaf order).
+/// (`count > 0` triangle packs from `index`, see [`leaf`](super::leaf)).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct ChildRef {
     pub index: u32,
@@ -27,7 +27,7 @@ impl ChildRef {
 }
 
 /// Four children's boxes (SoA) and references.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct Node4 {
     pub min: [Vec4; 3],
@@ -67,20 +67,27 @@ pub(super) fn collapse(pairs: &[NodePair]) -> Vec<Node4> {
 
 /// Fills `nodes[at]` with the (up to four) descendants of the binary interior node `n`.
 fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut Vec<Node4>) {
-    let mut kids: Vec<Node> = pairs[n.index as usize].nodes.to_vec();
-    while kids.len() < 4 {
+    let mut kids = [Node::default(); 4];
+    kids[..2].copy_from_slice(&pairs[n.index as usize].nodes);
+    let mut len = 2;
+    while len < 4 {
         // Open the largest interior child.
-        let best = kids
+        let best = kids[..len]
             .iter()
             .enumerate()
             .filter(|(_, k)| !k.is_leaf())
             .max_by(|(_, a), (_, b)| half_area(a).total_cmp(&half_area(b)))
             .map(|(i, _)| i);
         let Some(i) = best else { break };
-        let k = kids.swap_remove(i);
-        kids.extend_from_slice(&pairs[k.index as usize].nodes);
+        // As `Vec::swap_remove` then a push of both grandchildren.
+        let k = kids[i];
+        kids[i] = kids[len - 1];
+        let [l, r] = pairs[k.index as usize].nodes;
+        kids[len - 1] = l;
+        kids[len] = r;
+        len += 1;
     }
-    for (lane, k) in kids.iter().enumerate() {
+    for (lane, k) in kids[..len].iter().enumerate() {
         if k.is_leaf() {
             nodes[at].set(lane, k, ChildRef { index: k.index, count: k.count });
         } else {
