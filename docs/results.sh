@@ -5,7 +5,8 @@
 #
 # Every study races the methods at equal wall-clock time, one at a time on all threads, so the
 # machine should be otherwise idle. TIME_SCALE=0.25 docs/results.sh makes every budget a
-# quarter as long (a quick look, not the published figures). The Cornell box's reference is
+# quarter as long (a quick look, not the published figures). ONLY=REGEX docs/results.sh runs
+# only the studies whose names match (e.g. ONLY=mis for the weighed connections' studies). The Cornell box's reference is
 # the project's shared Mitsuba 3 reference (../shared, beside the checkout); without it that
 # study is skipped with a message. The others use references committed under scenes/.
 set -euo pipefail
@@ -25,6 +26,7 @@ trap 'rm -rf "$tmp"' EXIT
 study() {
     local name=$1 scene=$2 reference=$3 time=$4
     shift 4
+    [[ $name =~ ${ONLY:-.} ]] || return 0
     echo "== $name: $scene, $(secs "$time") s per line" >&2
     rm -rf "${out:?}/$name"
     "$pir" study "$scene" --reference "$reference" --time "$(secs "$time")" --out "$out/$name" "$@"
@@ -39,6 +41,10 @@ if [ -f "$shared/references/cornell-box-original.exr" ]; then
     target=$("$pir" compare "$tmp/pt-1024.exr" "$shared/references/cornell-box-original.exr" |
         awk '/^relative MSE/ { print $3 }')
     echo "pt at 1,024 spp: relative MSE $target" >&2
+    # pir-mis at its defaults (docs/results.md, "Weighed connections") against pt and pir-clamp.
+    study cornell-box-mis "$shared/scenes/cornell-box/original.toml" \
+        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" \
+        --methods pt,pir-clamp,pir-mis
     study cornell-box "$shared/scenes/cornell-box/original.toml" \
         "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target"
     # The resampled gather (docs/results.md, "The resampled gather") against pt, same target.
@@ -65,4 +71,13 @@ study slit scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20
 study slit-resample scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
     --methods pt,pir-clamp --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4
 study caustic scenes/stress/caustic/scene.toml scenes/stress/caustic/reference-128.exr 20
+# pir-mis at its defaults on the glossy scenes and the slit, against pt and the thesis' best.
+study cornell-glossy-mis scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30 \
+    --methods pt,pir-clamp,pir-vsl,pir-mis
+study glossy-mis scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20 \
+    --methods pt,pir-clamp,pir-vsl,pir-mis
+study corner-glossy-mis scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10 \
+    --methods pt,pir-clamp,pir-vsl,pir-mis
+study slit-mis scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
+    --methods pt,pir-clamp,pir-mis
 echo "done: $out" >&2
