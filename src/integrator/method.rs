@@ -113,8 +113,9 @@ pub struct MethodParams {
     /// vertex).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
     pub vpls: usize,
-    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length² [default:
-    /// 100 / scene diagonal², the G of facing surfaces a tenth of the scene apart].
+    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis: b_1 of
+    /// the bound on the weighted connection, in the same units [default: 100 / scene
+    /// diagonal², the G of facing surfaces a tenth of the scene apart].
     #[arg(long, value_name = "B", allow_negative_numbers = true)]
     pub clamp: Option<f32>,
     /// vsl, pir-vsl: the radius r (or r_1) of every virtual spherical light, in scene units
@@ -122,7 +123,7 @@ pub struct MethodParams {
     /// diagonal].
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
-    /// pir-clamp, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
+    /// pir-clamp, pir-mis, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
     /// r_i = r_1 · i^((α−1)/2), in (0, 1).
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
