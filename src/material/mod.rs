@@ -146,7 +146,8 @@ impl Bsdf {
         mode: TransportMode,
     ) -> Option<BsdfSample> {
         match *self {
-            Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
+            Bsdf::Diffuse { albedo } => sample_diffuse(albedo, g, wo, u, mode),
+            Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
             Bsdf::Mirror { specular } => {
                 let n = g.frame.n;
                 if !(wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0) {
@@ -168,6 +169,8 @@ impl Bsdf {
         }
     }
 
+    /// BSDF sampling through [`PreparedBsdf`], for every non-delta lobe (the Lambertian one
+    /// takes [`sample_diffuse`] in [`Bsdf::sample`]; this stays its reference).
     fn sample_non_delta(
         &self,
         g: &LocalGeometry,
@@ -199,6 +202,40 @@ impl Bsdf {
     }
 }
 
+/// [`Bsdf::sample`] of the Lambertian lobe, the common case, with the operations and checks of
+/// the general path ([`Bsdf::sample_non_delta`] through [`PreparedBsdf`]) but only the
+/// cosines of `wo` and `wi` with the two normals: the lobe needs no other shading-frame
+/// coordinate. Bit for bit the general path's sample.
+#[inline]
+fn sample_diffuse(
+    albedo: Vec3,
+    g: &LocalGeometry,
+    wo: Vec3,
+    u: Vec2,
+    mode: TransportMode,
+) -> Option<BsdfSample> {
+    let n = g.frame.n;
+    let (wo_ng, wo_ns) = (wo.dot(g.ng), wo.dot(n));
+    if !(wo_ng > 0.0 && wo_ns > 0.0 && albedo.max_element() > 0.0) {
+        return None;
+    }
+    let wi = g.frame.to_world(diffuse::sample(u)).try_normalize()?;
+    let wi_ng = wi.dot(g.ng);
+    if wi_ng.is_nan() || wi_ng <= 0.0 {
+        return None;
+    }
+    let wi_ns = wi.dot(n);
+    if wi_ns.is_nan() || wi_ns <= 0.0 {
+        return None;
+    }
+    let (f, pdf) = diffuse::eval_pdf_cos(albedo, wi_ns);
+    let f = prepared::finish(mode, f, wo_ns, wo_ng, wi_ng, wi_ns);
+    if pdf <= 0.0 {
+        return None;
+    }
+    finite_sample(wi, f / pdf, pdf, false, 1.0)
+}
+
 /// The local (shading-frame) coordinates of `wo` and `wi` when both are in front of the
 /// geometric normal and above the shading horizon; `None` otherwise.
 fn reflection_pair(g: &LocalGeometry, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
@@ -220,6 +257,7 @@ fn mode_factor(g: &LocalGeometry, wo: Vec3, wi: Vec3, mode: TransportMode) -> f3
     }
 }
 
+#[inline(always)]
 fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Option<BsdfSample> {
     (weight.is_finite() && pdf.is_finite() && pdf > 0.0 && wi.is_finite()).then_some(BsdfSample {
         wi,
@@ -228,4 +266,54 @@ fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Opt
         delta,
         eta,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{Domain, Sampler};
+
+    /// The Lambertian fast paths give bit for bit what the general paths give, for shading
+    /// normals tilted off the geometric one, directions on both sides and both modes.
+    #[test]
+    fn diffuse_fast_paths_are_the_general_paths() {
+        let mut rng = Sampler::new(5, 0, Domain::Iteration, 0);
+        let dir = |rng: &mut Sampler| {
+            let u = rng.next_2d();
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * u.y;
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        };
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for albedo in [Vec3::new(0.8, 0.5, 0.2), Vec3::ZERO, Vec3::new(0.0, 0.3, 0.0)] {
+            let bsdf = Bsdf::Diffuse { albedo };
+            for _ in 0..2000 {
+                let ng = dir(&mut rng);
+                let ns = (ng + 0.4 * dir(&mut rng)).normalize();
+                let g = LocalGeometry { ng, frame: Frame::from_normal(ns) };
+                let (wo, wi) = (dir(&mut rng), dir(&mut rng));
+                let u = rng.next_2d();
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let fast = sample_diffuse(albedo, &g, wo, u, mode);
+                    let general = bsdf.sample_non_delta(&g, wo, 0.5, u, mode);
+                    match (fast, general) {
+                        (None, None) => {}
+                        (Some(a), Some(b)) => {
+                            assert_eq!(bits(a.wi), bits(b.wi));
+                            assert_eq!(bits(a.weight), bits(b.weight));
+                            assert_eq!((a.pdf.to_bits(), a.delta, a.eta), (b.pdf.to_bits(), b.delta, b.eta));
+                        }
+                        _ => panic!("{fast:?} != {general:?}"),
+                    }
+                    let p = PreparedBsdf::new(bsdf, g, wo, mode);
+                    for w in [wi, fast.map_or(wi, |s| s.wi)] {
+                        let ((f, pdf), (fg, pdfg)) = (p.eval_pdf(w), p.eval_pdf_general(w));
+                        assert_eq!((bits(f), pdf.to_bits()), (bits(fg), pdfg.to_bits()));
+                        assert_eq!(bits(p.eval(w)), bits(fg));
+                    }
+                }
+            }
+        }
+    }
 }
