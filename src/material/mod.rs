@@ -137,7 +137,26 @@ impl Bsdf {
     /// `None` when `wo` is below the (geometric or shading) surface of a reflective material,
     /// in the plane of a glass interface, when the sampled direction is rejected (below either
     /// horizon), or when the weight would not be finite.
+    ///
+    /// The Lambertian lobe, the common case, inlines into the caller; the others are a call.
+    #[inline]
     pub fn sample(
+        &self,
+        g: &LocalGeometry,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        match *self {
+            Bsdf::Diffuse { albedo } => sample_diffuse(albedo, g, wo, u, mode),
+            _ => self.sample_other(g, wo, u_lobe, u, mode),
+        }
+    }
+
+    /// [`Bsdf::sample`] of the lobes other than the Lambertian one.
+    #[inline(never)]
+    fn sample_other(
         &self,
         g: &LocalGeometry,
         wo: Vec3,
@@ -209,7 +228,7 @@ impl Bsdf {
 /// [`Bsdf::pdf`]'s value for the returned `wi`, bit for bit, as multiple importance sampling
 /// wants. Of `wo` and `wi` only the cosines with the two normals are computed. The general
 /// path ([`Bsdf::sample_non_delta`]) gives the same sample up to rounding.
-#[inline]
+#[inline(always)]
 fn sample_diffuse(
     albedo: Vec3,
     g: &LocalGeometry,

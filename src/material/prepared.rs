@@ -103,7 +103,7 @@ impl PreparedBsdf {
     ///
     /// The Lambertian lobe, the common case, is inlined into the caller and needs only the
     /// cosines of `wi`; the other lobes take the general path.
-    #[inline]
+    #[inline(always)]
     pub fn eval_pdf(&self, wi: Vec3) -> (Vec3, f32) {
         if let Bsdf::Diffuse { albedo } = self.bsdf {
             let Some((wi_ng, wi_ns)) = self.incident_cosines(wi) else { return (Vec3::ZERO, 0.0) };
