@@ -11,6 +11,7 @@ pub struct Frame {
 
 impl Frame {
     /// Builds a basis around the unit vector `n` (Duff et al. 2017, branchless).
+    #[inline]
     pub fn from_normal(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
@@ -20,10 +21,12 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    #[inline]
     pub fn to_local(&self, w: Vec3) -> Vec3 {
         Vec3::new(w.dot(self.s), w.dot(self.t), w.dot(self.n))
     }
 
+    #[inline]
     pub fn to_world(&self, w: Vec3) -> Vec3 {
         self.s * w.x + self.t * w.y + self.n * w.z
     }

@@ -137,6 +137,9 @@ impl Bsdf {
     /// `None` when `wo` is below the (geometric or shading) surface of a reflective material,
     /// in the plane of a glass interface, when the sampled direction is rejected (below either
     /// horizon), or when the weight would not be finite.
+    ///
+    /// The Lambertian lobe, the common case, inlines into the caller; the others are a call.
+    #[inline]
     pub fn sample(
         &self,
         g: &LocalGeometry,
@@ -146,7 +149,24 @@ impl Bsdf {
         mode: TransportMode,
     ) -> Option<BsdfSample> {
         match *self {
-            Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
+            Bsdf::Diffuse { albedo } => sample_diffuse(albedo, g, wo, u, mode),
+            _ => self.sample_other(g, wo, u_lobe, u, mode),
+        }
+    }
+
+    /// [`Bsdf::sample`] of the lobes other than the Lambertian one.
+    #[inline(never)]
+    fn sample_other(
+        &self,
+        g: &LocalGeometry,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        match *self {
+            Bsdf::Diffuse { albedo } => sample_diffuse(albedo, g, wo, u, mode),
+            Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
             Bsdf::Mirror { specular } => {
                 let n = g.frame.n;
                 if !(wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0) {
@@ -168,6 +188,8 @@ impl Bsdf {
         }
     }
 
+    /// BSDF sampling through [`PreparedBsdf`], for every non-delta lobe (the Lambertian one
+    /// takes [`sample_diffuse`] in [`Bsdf::sample`]; this stays its reference).
     fn sample_non_delta(
         &self,
         g: &LocalGeometry,
@@ -199,6 +221,35 @@ impl Bsdf {
     }
 }
 
+/// [`Bsdf::sample`] of the Lambertian lobe, the common case, in few dependent operations: the
+/// direction is the cosine warp taken to world space, not normalized again (the warp is unit
+/// and the frame orthonormal, up to rounding), and the weight eval / pdf is the albedo itself
+/// (cos θi / π cancels), times the transport mode's factor. The pdf is
+/// [`Bsdf::pdf`]'s value for the returned `wi`, bit for bit, as multiple importance sampling
+/// wants. Of `wo` and `wi` only the cosines with the two normals are computed. The general
+/// path ([`Bsdf::sample_non_delta`]) gives the same sample up to rounding.
+#[inline(always)]
+fn sample_diffuse(
+    albedo: Vec3,
+    g: &LocalGeometry,
+    wo: Vec3,
+    u: Vec2,
+    mode: TransportMode,
+) -> Option<BsdfSample> {
+    let (wo_ng, wo_ns) = (wo.dot(g.ng), wo.dot(g.frame.n));
+    if !(wo_ng > 0.0 && wo_ns > 0.0 && albedo.max_element() > 0.0) {
+        return None;
+    }
+    let wi = g.frame.to_world(diffuse::sample(u));
+    let (wi_ng, wi_ns) = (wi.dot(g.ng), wi.dot(g.frame.n));
+    let pdf = diffuse::eval_pdf_cos(albedo, wi_ns).1;
+    if !(wi_ng > 0.0 && wi_ns > 0.0 && pdf > 0.0) {
+        return None;
+    }
+    let weight = prepared::finish(mode, albedo, wo_ns, wo_ng, wi_ng, wi_ns);
+    finite_sample(wi, weight, pdf, false, 1.0)
+}
+
 /// The local (shading-frame) coordinates of `wo` and `wi` when both are in front of the
 /// geometric normal and above the shading horizon; `None` otherwise.
 fn reflection_pair(g: &LocalGeometry, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
@@ -220,6 +271,7 @@ fn mode_factor(g: &LocalGeometry, wo: Vec3, wi: Vec3, mode: TransportMode) -> f3
     }
 }
 
+#[inline(always)]
 fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Option<BsdfSample> {
     (weight.is_finite() && pdf.is_finite() && pdf > 0.0 && wi.is_finite()).then_some(BsdfSample {
         wi,
@@ -228,4 +280,66 @@ fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Opt
         delta,
         eta,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{Domain, Sampler};
+
+    /// The Lambertian fast paths give what the general paths give: the evaluation bit for bit,
+    /// the sample up to rounding (both or neither, except at grazing angles), for shading
+    /// normals tilted off the geometric one, directions on both sides and both modes.
+    #[test]
+    fn diffuse_fast_paths_are_the_general_paths() {
+        let mut rng = Sampler::new(5, 0, Domain::Iteration, 0);
+        let dir = |rng: &mut Sampler| {
+            let u = rng.next_2d();
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * u.y;
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        };
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() <= 1e-5;
+        let (mut both, mut grazing) = (0, 0);
+        for albedo in [Vec3::new(0.8, 0.5, 0.2), Vec3::ZERO, Vec3::new(0.0, 0.3, 0.0)] {
+            let bsdf = Bsdf::Diffuse { albedo };
+            for _ in 0..2000 {
+                let ng = dir(&mut rng);
+                let ns = (ng + 0.4 * dir(&mut rng)).normalize();
+                let g = LocalGeometry { ng, frame: Frame::from_normal(ns) };
+                let (wo, wi) = (dir(&mut rng), dir(&mut rng));
+                let u = rng.next_2d();
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let fast = sample_diffuse(albedo, &g, wo, u, mode);
+                    let general = bsdf.sample_non_delta(&g, wo, 0.5, u, mode);
+                    match (fast, general) {
+                        (None, None) => {}
+                        (Some(a), Some(b)) => {
+                            both += 1;
+                            // Importance mode divides by wi·ns: relative rounding 1e-7 / cos θi.
+                            let tol = 1e-5 + 1e-7 / (std::f32::consts::PI * b.pdf);
+                            let rel = (a.weight - b.weight).abs().max_element() / b.weight.max_element();
+                            assert!(close(a.wi, b.wi) && rel <= tol, "{a:?} {b:?}");
+                            // The cosine up to rounding of the unit vectors (absolute, not relative, at grazing).
+                            assert!((a.pdf - b.pdf).abs() <= 1e-6, "{a:?} {b:?}");
+                            assert_eq!((a.delta, a.eta), (b.delta, b.eta));
+                        }
+                        (Some(s), None) | (None, Some(s)) => {
+                            assert!(s.wi.dot(ng).min(s.pdf) < 1e-5, "{fast:?} {general:?}");
+                            grazing += 1;
+                        }
+                    }
+                    let p = PreparedBsdf::new(bsdf, g, wo, mode);
+                    for w in [wi, fast.map_or(wi, |s| s.wi)] {
+                        let ((f, pdf), (fg, pdfg)) = (p.eval_pdf(w), p.eval_pdf_general(w));
+                        assert_eq!((bits(f), pdf.to_bits()), (bits(fg), pdfg.to_bits()));
+                        assert_eq!(bits(p.eval(w)), bits(fg));
+                    }
+                }
+            }
+        }
+        assert!(both > 1000 && grazing * 1000 < both, "{both} samples, {grazing} grazing");
+    }
 }

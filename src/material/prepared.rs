@@ -76,8 +76,12 @@ impl PreparedBsdf {
     /// f(wo, wi) · |cos θi|, exactly [`Bsdf::eval`] for the fixed `wo`.
     #[inline]
     pub fn eval(&self, wi: Vec3) -> Vec3 {
+        if let Bsdf::Diffuse { albedo } = self.bsdf {
+            let Some((wi_ng, wi_ns)) = self.incident_cosines(wi) else { return Vec3::ZERO };
+            return self.finish(diffuse::eval_pdf_cos(albedo, wi_ns).0, wi_ng, wi_ns);
+        }
         let Some((wi_ng, wi_l)) = self.incident(wi) else { return Vec3::ZERO };
-        self.finish(self.lobe_eval(wi_l), wi_ng, wi_l)
+        self.finish(self.lobe_eval(wi_l), wi_ng, wi_l.z)
     }
 
     /// The lobe's f · cos θi at `wi_l` (shading frame, above the horizon), before the
@@ -96,10 +100,17 @@ impl PreparedBsdf {
     /// [`PreparedBsdf::eval`] and [`Bsdf::pdf`] of `wi` at once, with the same values as the
     /// two calls: the checks and the shading-frame coordinates of `wi` are computed once.
     /// Next-event estimation needs both, and so does BSDF sampling for its weight eval / pdf.
-    #[inline]
+    ///
+    /// The Lambertian lobe, the common case, is inlined into the caller and needs only the
+    /// cosines of `wi`; the other lobes take the general path.
+    #[inline(always)]
     pub fn eval_pdf(&self, wi: Vec3) -> (Vec3, f32) {
-        let Some((wi_ng, wi_l)) = self.incident(wi) else { return (Vec3::ZERO, 0.0) };
-        (self.finish(self.lobe_eval(wi_l), wi_ng, wi_l), self.bsdf.local_pdf(self.wo_l, wi_l))
+        if let Bsdf::Diffuse { albedo } = self.bsdf {
+            let Some((wi_ng, wi_ns)) = self.incident_cosines(wi) else { return (Vec3::ZERO, 0.0) };
+            let (f, pdf) = diffuse::eval_pdf_cos(albedo, wi_ns);
+            return (self.finish(f, wi_ng, wi_ns), pdf);
+        }
+        self.eval_pdf_general(wi)
     }
 
     /// [`Bsdf::pdf`] of `wi` alone (zero wherever [`PreparedBsdf::eval`] is): the density with
@@ -110,10 +121,17 @@ impl PreparedBsdf {
         self.bsdf.local_pdf(self.wo_l, wi_l)
     }
 
-    /// `wi · ng` and `wi` in the shading frame when the BSDF is active and `wi` is in front
-    /// of the geometric normal and above the shading horizon; `None` otherwise.
+    /// [`PreparedBsdf::eval_pdf`] of any lobe.
+    #[inline(never)]
+    pub(super) fn eval_pdf_general(&self, wi: Vec3) -> (Vec3, f32) {
+        let Some((wi_ng, wi_l)) = self.incident(wi) else { return (Vec3::ZERO, 0.0) };
+        (self.finish(self.lobe_eval(wi_l), wi_ng, wi_l.z), self.bsdf.local_pdf(self.wo_l, wi_l))
+    }
+
+    /// `wi · ng` and `wi · ns` when the BSDF is active and `wi` is in front of the geometric
+    /// normal and above the shading horizon; `None` otherwise.
     #[inline]
-    fn incident(&self, wi: Vec3) -> Option<(f32, Vec3)> {
+    fn incident_cosines(&self, wi: Vec3) -> Option<(f32, f32)> {
         if !self.active {
             return None;
         }
@@ -121,22 +139,41 @@ impl PreparedBsdf {
         if wi_ng.is_nan() || wi_ng <= 0.0 {
             return None;
         }
-        let wi_l = self.g.frame.to_local(wi);
-        if wi_l.z.is_nan() || wi_l.z <= 0.0 {
-            return None;
-        }
-        Some((wi_ng, wi_l))
+        let wi_ns = wi.dot(self.g.frame.n);
+        (wi_ns > 0.0).then_some((wi_ng, wi_ns))
+    }
+
+    /// [`PreparedBsdf::incident_cosines`] with the whole of `wi` in the shading frame (its z
+    /// is `wi · ns`).
+    #[inline]
+    fn incident(&self, wi: Vec3) -> Option<(f32, Vec3)> {
+        let (wi_ng, _) = self.incident_cosines(wi)?;
+        Some((wi_ng, self.g.frame.to_local(wi)))
     }
 
     /// The transport-mode factor applied to a lobe's value, then zero unless finite, clamped
     /// at 0.
     #[inline]
-    fn finish(&self, value: Vec3, wi_ng: f32, wi_l: Vec3) -> Vec3 {
-        let factor = match self.mode {
-            TransportMode::Radiance => 1.0,
-            TransportMode::Importance => shading_correction(self.wo_l.z, self.wo_ng, wi_ng, wi_l.z),
-        };
-        let value = value * factor;
-        if value.is_finite() { value.max(Vec3::ZERO) } else { Vec3::ZERO }
+    fn finish(&self, value: Vec3, wi_ng: f32, wi_ns: f32) -> Vec3 {
+        finish(self.mode, value, self.wo_l.z, self.wo_ng, wi_ng, wi_ns)
     }
+}
+
+/// A lobe's value for `wo`, `wi` with the cosines `wo · ns`, `wo · ng`, `wi · ng`, `wi · ns`:
+/// times the transport-mode factor, then zero unless finite, clamped at 0. In radiance mode
+/// the factor is 1 and not multiplied in (the same value).
+#[inline]
+pub(super) fn finish(
+    mode: TransportMode,
+    value: Vec3,
+    wo_ns: f32,
+    wo_ng: f32,
+    wi_ng: f32,
+    wi_ns: f32,
+) -> Vec3 {
+    let value = match mode {
+        TransportMode::Radiance => value,
+        TransportMode::Importance => value * shading_correction(wo_ns, wo_ng, wi_ng, wi_ns),
+    };
+    if value.is_finite() { value.max(Vec3::ZERO) } else { Vec3::ZERO }
 }

@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use super::Film;
 use super::state::Shard;
 use crate::integrator::{Counters, Integrator, RenderContext};
-use crate::sampling::{Domain, Sampler};
+use crate::sampling::{Domain, Streams};
 
 /// When to stop: after `iterations` (in the film, counting any it started with), after `time`
 /// (of this run), or whichever comes first.
@@ -139,6 +139,8 @@ pub fn render_from(
         integrator.begin_iteration(ctx, iteration, &mut stats.counters);
         let t1 = Instant::now();
         let integ: &dyn Integrator = integrator;
+        // Pixel p's sampler is `Sampler::new(seed, iteration, Domain::Camera, p)`.
+        let streams = Streams::new(ctx.seed, iteration, Domain::Camera);
         let results: Vec<(Vec<glam::Vec3>, Counters)> = tiles
             .par_iter()
             .map(|t| {
@@ -146,8 +148,7 @@ pub fn render_from(
                 let mut out = Vec::with_capacity((t.x1 - t.x0) * (t.y1 - t.y0));
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
-                        let mut sampler =
-                            Sampler::new(ctx.seed, iteration, Domain::Camera, (y * w + x) as u64);
+                        let mut sampler = streams.sampler((y * w + x) as u64);
                         let film_pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                         let ray = camera.generate_ray(film_pos);
                         out.push(integ.radiance(ctx, ray, &mut sampler, &mut counters));

@@ -67,7 +67,9 @@ impl AliasTable {
     pub fn sample(&self, u: f32) -> usize {
         let n = self.bins.len();
         let x = u as f64 * n as f64;
-        let i = (x as usize).min(n - 1);
+        // `new` keeps n ≤ u32::MAX, so x < 2³² and the u32 conversion (a shorter saturating
+        // sequence than usize's) gives the same index.
+        let i = (x as u32 as usize).min(n - 1);
         let bin = self.bins[i];
         if ((x - i as f64) as f32) < bin.keep { i } else { bin.alias as usize }
     }

@@ -6,5 +6,5 @@ mod rng;
 mod warp;
 
 pub use alias::AliasTable;
-pub use rng::{Domain, Sampler};
+pub use rng::{Domain, Sampler, Streams};
 pub use warp::*;

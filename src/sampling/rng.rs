@@ -33,13 +33,31 @@ pub struct Sampler {
     dim: u64,
 }
 
-impl Sampler {
-    pub fn new(seed: u64, iteration: u64, domain: Domain, index: u64) -> Self {
+/// The samplers of one `(seed, iteration, domain)`, with the part of the key they share
+/// hashed once: [`Streams::sampler`] of `index` is `Sampler::new(seed, iteration, domain,
+/// index)`, for a loop over many indices (the pixels of an iteration).
+#[derive(Clone, Copy, Debug)]
+pub struct Streams {
+    prefix: u64,
+}
+
+impl Streams {
+    pub fn new(seed: u64, iteration: u64, domain: Domain) -> Self {
         let k = mix64(seed ^ GAMMA);
         let k = mix64(k ^ iteration.wrapping_mul(0xD6E8_FEB8_6659_FD93));
-        let k = mix64(k ^ (domain as u64).wrapping_mul(0xA076_1D64_78BD_642F));
-        let k = mix64(k ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
-        Sampler { key: k, dim: 0 }
+        Streams { prefix: mix64(k ^ (domain as u64).wrapping_mul(0xA076_1D64_78BD_642F)) }
+    }
+
+    /// The sampler of stream `index`.
+    #[inline]
+    pub fn sampler(&self, index: u64) -> Sampler {
+        Sampler { key: mix64(self.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB)), dim: 0 }
+    }
+}
+
+impl Sampler {
+    pub fn new(seed: u64, iteration: u64, domain: Domain, index: u64) -> Self {
+        Streams::new(seed, iteration, domain).sampler(index)
     }
 
     /// The number of dimensions drawn so far.
@@ -88,6 +106,15 @@ mod tests {
         ] {
             let mut o = other;
             assert_ne!(o.next_u64(), a[0]);
+        }
+    }
+
+    #[test]
+    fn streams_are_the_samplers_of_their_key() {
+        let streams = Streams::new(7, 3, Domain::Camera);
+        for index in [0, 1, 42, u64::MAX] {
+            let (mut a, mut b) = (streams.sampler(index), Sampler::new(7, 3, Domain::Camera, index));
+            assert_eq!([a.next_u64(), a.next_u64()], [b.next_u64(), b.next_u64()]);
         }
     }
 

@@ -4,6 +4,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Cosine-weighted direction about +z (Malley's method); pdf = cos θ / π.
+#[inline]
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = concentric_disk(u);
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
@@ -18,6 +19,7 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 ///
 /// The map's angle is π/4 · (a ratio in [−1, 1]) or π/2 minus that, so its cosine and sine
 /// come from [`sin_cos_quarter`] (a polynomial) instead of a libm `sincosf` call per sample.
+#[inline]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
     if o == Vec2::ZERO {
@@ -45,6 +47,7 @@ pub fn sin_cos_quarter(x: f32) -> (f32, f32) {
 }
 
 /// Uniform barycentrics `(u, v)` on a triangle (the point is `(1-u-v) a + u b + v c`).
+#[inline]
 pub fn uniform_triangle(u: Vec2) -> Vec2 {
     let su = u.x.sqrt();
     Vec2::new(1.0 - su, u.y * su)

@@ -56,15 +56,16 @@ pub struct Scene {
     degenerate_dropped: usize,
 }
 
-/// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, its
-/// unit geometric normal, its material and whether it is smooth-shaded. One record per
-/// triangle (56 bytes, one cache line) instead of an index load, three position loads, a cross
-/// product and a square root per hit.
+/// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, the
+/// shading frame of its unit geometric normal, its material and whether it is smooth-shaded.
+/// One record per triangle (80 bytes) instead of an index load, three position loads, a cross
+/// product, a square root and (for flat triangles, whose shading frame it is) the frame's
+/// construction per hit.
 #[derive(Clone, Copy, Debug)]
 struct TriangleShading {
     corners: [Vec3; 3],
-    /// normalize((b − a) × (c − a)).
-    ng: Vec3,
+    /// `Frame::from_normal(ng)`, ng = normalize((b − a) × (c − a)) its `n`.
+    flat: Frame,
     material: u32,
     /// All three vertices carry a shading normal.
     smooth: bool,
@@ -139,7 +140,7 @@ impl Scene {
                 let [a, b, c] = tri.map(|i| positions[i as usize]);
                 TriangleShading {
                     corners: [a, b, c],
-                    ng: (b - a).cross(c - a).normalize(),
+                    flat: Frame::from_normal((b - a).cross(c - a).normalize()),
                     material,
                     smooth: tri.iter().all(|&i| normals[i as usize] != Vec3::ZERO),
                 }
@@ -241,7 +242,7 @@ impl Scene {
     pub fn point_at(&self, prim: u32, uv: Vec2) -> (Vec3, Vec3) {
         let t = &self.shading[prim as usize];
         let [a, b, c] = t.corners;
-        (a * (1.0 - uv.x - uv.y) + b * uv.x + c * uv.y, t.ng)
+        (a * (1.0 - uv.x - uv.y) + b * uv.x + c * uv.y, t.flat.n)
     }
 
     /// Area of a triangle.
@@ -258,18 +259,18 @@ impl Scene {
         let [a, b, c] = t.corners;
         let w = 1.0 - uv.x - uv.y;
         let p = a * w + b * uv.x + c * uv.y;
-        let ng = t.ng;
-        let mut ns = ng;
+        let ng = t.flat.n;
+        let mut frame = t.flat;
         if t.smooth {
             let [ia, ib, ic] = self.indices[prim as usize];
             let (na, nb, nc) =
                 (self.normals[ia as usize], self.normals[ib as usize], self.normals[ic as usize]);
             let n = (na * w + nb * uv.x + nc * uv.y).normalize_or_zero();
             if n != Vec3::ZERO {
-                ns = n;
+                frame = Frame::from_normal(n);
             }
         }
-        SurfacePoint { p, ng, frame: Frame::from_normal(ns), prim, material: t.material }
+        SurfacePoint { p, ng, frame, prim, material: t.material }
     }
 
     /// The surface point of a ray's hit; the position is recomputed from the barycentrics.
