@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::{Counters, RenderContext};
-use crate::geometry::{OffsetPoint, Ray};
+use crate::geometry::{OffsetPoint, Ray, offset_origin};
 use crate::light::emitted;
 use crate::material::{Bsdf, LocalGeometry, Material, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
@@ -24,7 +24,10 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 /// neither surface occludes it. The interval is `(0, 1)` in units of the segment.
 #[inline]
 pub fn shadow_ray(p: Vec3, ng: Vec3, q: Vec3, nq: Vec3) -> Ray {
-    shadow_segment(&OffsetPoint::new(p, ng), &OffsetPoint::new(q, nq))
+    // [`shadow_segment`] of the two points, each offset only on the side it needs.
+    let o = offset_origin(p, ng, q - p);
+    let t = offset_origin(q, nq, p - q);
+    Ray { origin: o, dir: t - o, tmin: 0.0, tmax: 1.0 }
 }
 
 /// [`shadow_ray`] between two points whose offsets are already computed.
