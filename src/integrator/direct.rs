@@ -141,22 +141,30 @@ pub fn emission(
     if !material.is_emitter() {
         return Vec3::ZERO;
     }
+    emission_weighted(ctx, material, sp, wo, how, |s| power_heuristic(s.pdf_bsdf, s.pdf_light))
+}
+
+/// [`emission`] with the MIS weight of a BSDF-sampled ray given by `weight` (from the
+/// emitter point as light sampling from `how.from` would see it) instead of the power
+/// heuristic against light sampling.
+#[inline]
+pub fn emission_weighted(
+    ctx: &RenderContext,
+    material: &Material,
+    sp: &SurfacePoint,
+    wo: Vec3,
+    how: &Sampled,
+    weight: impl FnOnce(LightSample) -> f32,
+) -> Vec3 {
     let le = emitted(material.emission, sp.ng, wo);
     if le == Vec3::ZERO || how.delta {
         return le;
     }
-    le * emission_weight(ctx, how.from, how.pdf, sp, wo)
-}
-
-/// The MIS weight of emission found by BSDF sampling: the BSDF sampled the direction from
-/// `prev_p` with solid-angle density `pdf_bsdf` and hit emitter point `hit` seen from
-/// direction `wo` (pointing back to `prev_p`).
-#[inline]
-fn emission_weight(ctx: &RenderContext, prev_p: Vec3, pdf_bsdf: f32, hit: &SurfacePoint, wo: Vec3) -> f32 {
-    let cos = hit.ng.dot(wo).abs();
-    if cos <= 0.0 {
-        return 0.0;
+    let cos_light = sp.ng.dot(wo).abs();
+    if cos_light <= 0.0 {
+        return Vec3::ZERO;
     }
-    let pdf_light = ctx.emitters.pdf_area(hit.prim) * (hit.p - prev_p).length_squared() / cos;
-    power_heuristic(pdf_bsdf, pdf_light)
+    let dist2 = (sp.p - how.from).length_squared();
+    let pdf_light = ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light;
+    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2 })
 }

@@ -165,8 +165,8 @@ impl Bsdf {
         mode: TransportMode,
     ) -> Option<BsdfSample> {
         match *self {
-            Bsdf::Diffuse { albedo } => sample_diffuse(albedo, g, wo, u, mode),
-            Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
+            // The Lambertian lobe never comes here ([`Bsdf::sample`] takes it first).
+            Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
             Bsdf::Mirror { specular } => {
                 let n = g.frame.n;
                 if !(wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0) {

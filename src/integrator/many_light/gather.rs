@@ -217,8 +217,7 @@ impl PointLights {
                     _ => point_contribution(sp.p, sp.frame.n, &fx, vpl, &self.emitting[j], self.bound),
                 };
                 if c != Vec3::ZERO {
-                    let c =
-                        if weighing.is_plain() { c } else { weighing.apply(sp.p, vpl, &self.emitting[j], c) };
+                    let c = weighing.apply(sp.p, vpl, &self.emitting[j], c);
                     batch.push(shadow_segment(&x, self.lanes.end(j)), c);
                 }
             }

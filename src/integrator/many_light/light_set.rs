@@ -95,15 +95,22 @@ impl Default for LightSet {
 }
 
 impl LightSet {
-    /// The set of `lights` made from iteration `iteration`'s VPLs, with the light tree when
-    /// `gather` samples from one.
+    /// The set of `lights` made from iteration `iteration`'s VPLs (left by `paths` light
+    /// paths), with the light tree when `gather` samples from one.
     pub fn new(
         ctx: &RenderContext,
         lights: &VirtualLights,
         vpls: Vec<Vpl>,
+        paths: usize,
         iteration: u64,
         gather: Gather,
     ) -> Self {
+        let mis = match *lights {
+            VirtualLights::WeighedPoints(clamping) => {
+                Some(Mis { paths: paths as f32, bound: clamping.bound(iteration) })
+            }
+            _ => None,
+        };
         let lights = match *lights {
             VirtualLights::Points(clamping) => {
                 Lights::Points(PointLights::new(vpls, clamping, iteration, ctx))
@@ -129,7 +136,7 @@ impl LightSet {
                 Selection::Resampled { candidates: candidates.max(1), samples: samples.max(1) }
             }
         };
-        LightSet { lights, selection, mis: None }
+        LightSet { lights, selection, mis }
     }
 }
 

@@ -49,6 +49,7 @@ use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use super::light_paths::Vpl;
+use crate::integrator::direct::LightSample;
 use crate::material::PreparedBsdf;
 use crate::scene::Scene;
 
@@ -76,44 +77,32 @@ impl Weighing<'_> {
     /// The thesis' gather: every contribution as it is.
     pub const PLAIN: Weighing<'static> = Weighing { technique: Technique::Plain, bound: f32::INFINITY };
 
-    /// Whether contributions change at all.
-    #[inline]
-    pub fn is_plain(&self) -> bool {
-        matches!(self.technique, Technique::Plain)
-    }
-
     /// VPL `vpl`'s contribution `c` at the receiver `x` (its BSDF `emitting` prepared for its
     /// incoming direction), weighted and bounded.
     #[inline]
     pub fn apply(&self, x: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, c: Vec3) -> Vec3 {
-        let (a, b) = match self.technique {
+        let w = match self.technique {
             Technique::Plain => return c,
+            Technique::Connect { .. } if vpl.arrival.is_infinite() => 1.0,
             Technique::Connect { fx, scene } => {
-                if vpl.arrival.is_infinite() {
-                    return bounded(c, vpl.flux, 1.0, self.bound);
-                }
                 let d = vpl.p - x;
                 let dist2 = d.length_squared();
                 let to_vpl = d / dist2.sqrt();
                 let b = fx.pdf(to_vpl) / dist2;
-                if vpl.depth == 1 && vpl.nee_pdf > 0.0 {
+                if vpl.nee_pdf > 0.0 {
                     // Lit directly: C, BSDF sampling from y towards the emitter, competes too.
                     let bsdf = scene.material(vpl.material).bsdf;
                     let p_y = bsdf.pdf(&vpl.geometry(), -to_vpl, vpl.w_in);
-                    let w = share(vpl.arrival, vpl.arrival + b + b * p_y / vpl.nee_pdf);
-                    return bounded(c, vpl.flux, w, self.bound);
+                    share(vpl.arrival, vpl.arrival + b + b * p_y / vpl.nee_pdf)
+                } else {
+                    balance(vpl.arrival, b)
                 }
-                (vpl.arrival, b)
             }
             Technique::Bounce { bounce } => {
                 let d = x - vpl.p;
                 let dist2 = d.length_squared();
-                (vpl.survival * emitting.pdf(d / dist2.sqrt()) / dist2, bounce)
+                balance(bounce, vpl.survival * emitting.pdf(d / dist2.sqrt()) / dist2)
             }
-        };
-        let w = match self.technique {
-            Technique::Connect { .. } => balance(a, b),
-            _ => balance(b, a),
         };
         bounded(c, vpl.flux, w, self.bound)
     }
@@ -150,21 +139,18 @@ pub struct EmitterPath {
     pub bounce: f32,
     /// Light paths of the iteration.
     pub paths: f32,
-    /// The emitter point's cosine towards y, and its squared distance from y.
-    pub cos_e: f32,
-    pub dist2: f32,
-    /// Solid-angle densities at y of the emitter point's direction: next-event estimation's,
-    /// and y's BSDF sampling's.
-    pub pdf_light: f32,
-    pub pdf_bsdf: f32,
+    /// The emitter point as seen from y: its cosine and squared distance, and the
+    /// solid-angle densities of its direction for next-event estimation and y's BSDF.
+    pub light: LightSample,
 }
 
 impl EmitterPath {
     /// (A, B, C): the connection (N light paths, each leaving y with density cos θ_e / π),
     /// next-event estimation from y, BSDF sampling from y.
     fn densities(&self) -> (f32, f32, f32) {
-        let a = self.paths * self.cos_e * FRAC_1_PI / self.dist2;
-        let c = if self.pdf_light > 0.0 { self.bounce * self.pdf_bsdf / self.pdf_light } else { 0.0 };
+        let l = &self.light;
+        let a = self.paths * l.cos_light * FRAC_1_PI / l.dist2;
+        let c = if l.pdf_light > 0.0 { self.bounce * l.pdf_bsdf / l.pdf_light } else { 0.0 };
         (a, self.bounce, c)
     }
 

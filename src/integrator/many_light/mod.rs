@@ -59,16 +59,14 @@ pub use light_set::LightSet;
 
 use glam::Vec3;
 
-use super::direct::{Sampled, sample_emitters_weighted};
+use super::direct::{Sampled, emission_weighted, sample_emitters_weighted};
 use super::scatter::scatter;
 use super::walker::{Vertex, VertexHook, walk};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::Ray;
 use crate::geometry::offset_origin;
-use crate::light::emitted;
 use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
-use light_set::Mis;
 use mis::{EmitterPath, Technique, Weighing};
 use schedule::clamp_bound;
 
@@ -213,17 +211,9 @@ impl VertexHook for LightSet {
     ) -> Option<Vec3> {
         let mis = self.mis.as_ref()?;
         let bounce = how.pdf / (v.sp.p - how.from).length_squared();
-        let path = |cos_e, dist2, pdf_light, pdf_bsdf| EmitterPath {
-            bounce,
-            paths: mis.paths,
-            cos_e,
-            dist2,
-            pdf_light,
-            pdf_bsdf,
-        };
-        let direct = sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| {
-            path(s.cos_light, s.dist2, s.pdf_light, s.pdf_bsdf).light_weight()
-        });
+        let path = |light| EmitterPath { bounce, paths: mis.paths, light };
+        let direct =
+            sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| path(s).light_weight());
         let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: mis.bound };
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let gathered = self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
@@ -240,13 +230,8 @@ impl VertexHook for LightSet {
             && material.is_emitter()
         {
             let e = ctx.scene.surface_of_hit(&hit);
-            let le = emitted(material.emission, e.ng, -s.wi);
-            let cos_e = e.ng.dot(s.wi).abs();
-            let dist2 = (e.p - v.sp.p).length_squared();
-            if le != Vec3::ZERO && cos_e > 0.0 && !s.delta {
-                let pdf_light = ctx.emitters.pdf_area(hit.prim) * dist2 / cos_e;
-                found = beta * le * path(cos_e, dist2, pdf_light, s.pdf).bsdf_weight();
-            }
+            let how = Sampled { from: v.sp.p, pdf: s.pdf, delta: s.delta };
+            found = beta * emission_weighted(ctx, material, &e, -s.wi, &how, |l| path(l).bsdf_weight());
         }
         Some(direct + gathered + found)
     }
@@ -311,10 +296,7 @@ impl Integrator for InstantRadiosity {
         let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, max_vpl_depth);
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
-        self.set = LightSet::new(ctx, &self.lights, vpls, iteration, self.gather);
-        if let VirtualLights::WeighedPoints(clamping) = self.lights {
-            self.set.mis = Some(Mis { paths: self.paths as f32, bound: clamping.bound(iteration) });
-        }
+        self.set = LightSet::new(ctx, &self.lights, vpls, self.paths, iteration, self.gather);
     }
 
     fn radiance(
