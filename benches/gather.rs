@@ -28,7 +28,7 @@ use pir::integrator::many_light::{Vpl, trace_vpls};
 use pir::integrator::walker::Vertex;
 use pir::integrator::{Clamping, Counters, Gather, RenderContext, VirtualLights};
 use pir::light::Emitters;
-use pir::sampling::{Domain, Sampler};
+use pir::sampling::{Domain, Sampler, SamplerKind};
 use pir::scene::{SurfacePoint, load};
 
 const COUNTS: [usize; 3] = [1_000, 10_000, 100_000];
@@ -38,8 +38,14 @@ fn bench(c: &mut Criterion) {
     let scene = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml")).unwrap();
     let accel = build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
     let emitters = Emitters::new(&scene).unwrap();
-    let ctx =
-        RenderContext { scene: &scene, accel: accel.as_ref(), emitters: &emitters, max_depth: 8, seed: 1 };
+    let ctx = RenderContext {
+        scene: &scene,
+        accel: accel.as_ref(),
+        emitters: &emitters,
+        max_depth: 8,
+        seed: 1,
+        sampler: SamplerKind::default(),
+    };
     let max_vpl_depth = ctx.max_depth - 2;
     let vpls_of = |n: usize| -> Vec<Vpl> {
         let mut paths = n / 2 + 1;

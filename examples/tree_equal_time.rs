@@ -14,6 +14,7 @@ use pir::image::{metrics, read_exr};
 use pir::integrator::{Clamping, Gather, InstantRadiosity, Integrator, PathTracer, RenderContext};
 use pir::light::Emitters;
 use pir::render::{Budget, Control, RenderSettings, render};
+use pir::sampling::SamplerKind;
 use pir::scene::load;
 
 fn main() {
@@ -39,6 +40,7 @@ fn main() {
         emitters: &emitters,
         max_depth: scene.defaults().max_depth,
         seed: 3,
+        sampler: SamplerKind::default(),
     };
     let settings = RenderSettings {
         width: 128,

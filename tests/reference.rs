@@ -24,6 +24,7 @@ use glam::DVec3;
 use common::{Job, shared_dir};
 use pir::image::{RgbImage, metrics, read_exr};
 use pir::integrator::PathTracer;
+use pir::sampling::SamplerKind;
 
 const REFERENCE_SPP: f64 = 16_384.0;
 const Z: f64 = 4.5;
@@ -65,6 +66,8 @@ fn check(scene_path: &std::path::Path, reference_path: &std::path::Path, spp: u6
         max_depth: scene.defaults().max_depth,
         threads,
         snapshot_at: vec![quarter],
+        // Independent iterations: the standard errors below come from their spread.
+        sampler: SamplerKind::Independent,
     };
     let r = job.run(&scene, &mut PathTracer);
     assert_eq!(r.stats.dropped, 0, "{scene_rel}: NaN/Inf samples");

@@ -24,6 +24,7 @@ mod common;
 use common::{Job, shared_dir};
 use pir::image::{RgbImage, metrics, read_exr};
 use pir::integrator::{Clamping, InstantRadiosity, Integrator, Radius, VirtualLights};
+use pir::sampling::SamplerKind;
 use pir::scene::Scene;
 
 const Z: f64 = 4.5;
@@ -66,6 +67,8 @@ fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
         max_depth: c.scene.defaults().max_depth,
         threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
         snapshot_at: vec![iterations / 4],
+        // Independent iterations: the standard errors below come from their spread.
+        sampler: SamplerKind::Independent,
     };
     let r = job.run(&c.scene, integrator);
     assert_eq!(r.stats.dropped, 0, "{}: NaN/Inf samples", c.name);

@@ -37,7 +37,7 @@ use glam::Vec3;
 use crate::accel::Accelerator;
 use crate::geometry::Ray;
 use crate::light::Emitters;
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::Scene;
 
 /// What every integrator reads while rendering.
@@ -48,6 +48,8 @@ pub struct RenderContext<'a> {
     /// Largest number of path segments from the camera to an emitter.
     pub max_depth: u32,
     pub seed: u64,
+    /// How camera samples and light paths draw their numbers.
+    pub sampler: SamplerKind,
 }
 
 /// Ray counts, kept per task and summed for the summary.

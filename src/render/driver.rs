@@ -2,7 +2,8 @@
 //!
 //! Iteration i (from 1) lets the integrator prepare (e.g. trace its VPLs), then renders one
 //! sample in every pixel, tiles spread over rayon's pool. The sample of pixel p in iteration
-//! i uses `Sampler::new(seed, i, Domain::Camera, p)`, and each pixel's sum is accumulated in
+//! i uses sampler p of `Streams::of(sampler, seed, i, Domain::Camera)` (with Sobol points,
+//! point i − 1 of the pixel's own scrambled sequence), and each pixel's sum is accumulated in
 //! iteration order, so the image depends on the seed only, never on the thread count.
 //!
 //! Samples that are NaN or infinite never reach the film: they are counted, dropped and
@@ -139,8 +140,8 @@ pub fn render_from(
         integrator.begin_iteration(ctx, iteration, &mut stats.counters);
         let t1 = Instant::now();
         let integ: &dyn Integrator = integrator;
-        // Pixel p's sampler is `Sampler::new(seed, iteration, Domain::Camera, p)`.
-        let streams = Streams::new(ctx.seed, iteration, Domain::Camera);
+        // Pixel p's sampler is `Streams::of(sampler, seed, iteration, Domain::Camera)`'s p-th.
+        let streams = Streams::of(ctx.sampler, ctx.seed, iteration, Domain::Camera);
         let results: Vec<(Vec<glam::Vec3>, Counters)> = tiles
             .par_iter()
             .map(|t| {

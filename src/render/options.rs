@@ -1,11 +1,12 @@
 //! The options every rendering command takes (`--seed`, `--threads`, `--max-depth`,
-//! `--resolution`, `--accel`), each defaulting to the scene file's value, and the resolution
+//! `--resolution`, `--accel`, `--sampler`), each defaulting to the scene file's value, and the resolution
 //! limit.
 
 use anyhow::{Result, bail};
 use clap::Args;
 
 use crate::accel::Backend;
+use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 /// Largest accepted image side, and pixel count (refused before anything is allocated).
@@ -34,6 +35,11 @@ pub struct SceneOptions {
     /// BVH) or brute (every triangle; tests only) [default: embree if built in, else bvh].
     #[arg(long, value_name = "BACKEND")]
     pub accel: Option<Backend>,
+    /// How samples are drawn: sobol (each pixel's samples over the iterations, and each
+    /// iteration's light paths, stratified by Owen-scrambled Sobol points) or independent
+    /// (independent uniform numbers, as pir drew them before) [default: sobol].
+    #[arg(long, value_name = "SAMPLER")]
+    pub sampler: Option<SamplerKind>,
 }
 
 impl SceneOptions {
@@ -65,6 +71,10 @@ impl SceneOptions {
             Some(r) => (r[0], r[1]),
             None => (scene.camera().width, scene.camera().height),
         }
+    }
+
+    pub fn sampler(&self) -> SamplerKind {
+        self.sampler.unwrap_or_default()
     }
 
     pub fn backend(&self) -> Backend {

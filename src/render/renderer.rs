@@ -33,6 +33,7 @@ use crate::accel::{Accelerator, build_accelerator, set_flush_denormals};
 use crate::image::{RgbImage, write_exr, write_preview};
 use crate::integrator::{Integrator, MethodConfig, RenderContext};
 use crate::light::Emitters;
+use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 /// A scene ready to render: emitters, worker pool, accelerator and render settings.
@@ -45,6 +46,7 @@ pub struct Renderer<'s> {
     width: u32,
     height: u32,
     seed: u64,
+    sampler: SamplerKind,
     max_depth: u32,
 }
 
@@ -76,6 +78,7 @@ impl<'s> Renderer<'s> {
             width,
             height,
             seed: options.seed(scene),
+            sampler: options.sampler(),
             max_depth: options.max_depth(scene),
         })
     }
@@ -95,6 +98,10 @@ impl<'s> Renderer<'s> {
 
     pub fn seed(&self) -> u64 {
         self.seed
+    }
+
+    pub fn sampler(&self) -> SamplerKind {
+        self.sampler
     }
 
     pub fn max_depth(&self) -> u32 {
@@ -124,7 +131,7 @@ impl<'s> Renderer<'s> {
     /// What a render of `config` is, for resuming and merging it.
     pub fn job(&self, config: &MethodConfig) -> Job {
         let (w, h) = (self.width as usize, self.height as usize);
-        Job::new(self.scene, config, self.max_depth, self.seed, w, h)
+        Job::new(self.scene, config, self.max_depth, self.seed, self.sampler, w, h)
     }
 
     /// Renders `config` from an empty film until the budget is spent or `on_iteration` (called
@@ -155,6 +162,7 @@ impl<'s> Renderer<'s> {
             emitters: &self.emitters,
             max_depth: self.max_depth,
             seed: self.seed,
+            sampler: self.sampler,
         };
         let settings = RenderSettings { width: self.width as usize, height: self.height as usize, budget };
         let mut integrator = self.integrator(config);
@@ -172,6 +180,7 @@ impl<'s> Renderer<'s> {
             ("pir.method".into(), integrator.name().into()),
             ("pir.max_depth".into(), self.max_depth.to_string()),
             ("pir.seed".into(), self.seed.to_string()),
+            ("pir.sampler".into(), self.sampler.name().into()),
             ("pir.iterations".into(), stats.iterations.to_string()),
             ("pir.spp".into(), stats.iterations.to_string()),
             ("pir.resolution".into(), format!("{} {}", self.width, self.height)),

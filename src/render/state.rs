@@ -8,9 +8,9 @@
 //! scene's fingerprint, the [`MethodConfig`] as it decides the image, path length, seed,
 //! resolution), the shard and the iterations done. Format 1, written by older pirs, stored
 //! the method's parameters as formatted text; it is refused with a message that says so.
-//! Progressive iterations are independent given the seed (iteration i draws from
-//! `Sampler::new(seed, i, …)`), so a render can continue from any iteration with the same
-//! random numbers, and the iterations of a render can be split into shards: shard K of N
+//! Iteration i's numbers are a function of the seed, the sampler and i alone (its samplers
+//! come from `Streams::of(sampler, seed, i, …)`), so a render can continue from any
+//! iteration with the same random numbers, and the iterations of a render can be split into shards: shard K of N
 //! renders the global iterations K+1, K+1+N, K+1+2N, … (the progressive schedules b_i, r_i
 //! use the global index). Merging adds sums and iteration counts.
 
@@ -24,6 +24,7 @@ use std::str::FromStr;
 use super::Film;
 use crate::image::{RgbImage, read_exr_with_channels, write_exr_with_channels};
 use crate::integrator::MethodConfig;
+use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
 /// Which share of a render's iterations this process renders: shard `index` of `count`.
@@ -93,6 +94,7 @@ pub struct Job {
     pub config: MethodConfig,
     pub max_depth: u32,
     pub seed: u64,
+    pub sampler: SamplerKind,
     pub width: usize,
     pub height: usize,
 }
@@ -101,8 +103,9 @@ const FORMAT_KEY: &str = "pir.job.format";
 const STATE_KEY: &str = "pir.job.state";
 /// The layout this pir writes and reads; format 1 stored the job as formatted text, format 2
 /// came before the gather's defaults depended on the method and before light paths decided
-/// Russian roulette from the flux arriving at a vertex (which changes the VPLs of a seed).
-const FORMAT: &str = "3";
+/// Russian roulette from the flux arriving at a vertex (which changes the VPLs of a seed),
+/// format 3 before the sampler was chosen (its renders drew independent numbers).
+const FORMAT: &str = "4";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -119,6 +122,7 @@ impl Job {
         config: &MethodConfig,
         max_depth: u32,
         seed: u64,
+        sampler: SamplerKind,
         width: usize,
         height: usize,
     ) -> Job {
@@ -127,6 +131,7 @@ impl Job {
             config: config.identity(scene.bounds().diagonal()),
             max_depth,
             seed,
+            sampler,
             width,
             height,
         }
@@ -151,6 +156,7 @@ impl Job {
         }
         cmp("max_depth", self.max_depth.to_string(), other.max_depth.to_string());
         cmp("seed", self.seed.to_string(), other.seed.to_string());
+        cmp("sampler", self.sampler.name().to_string(), other.sampler.name().to_string());
         cmp(
             "resolution",
             format!("{}×{}", self.width, self.height),
@@ -222,7 +228,7 @@ pub fn read_state(path: &Path) -> Result<Saved> {
     };
     match get(FORMAT_KEY)? {
         FORMAT => {}
-        old @ ("1" | "2") => bail!(
+        old @ ("1" | "2" | "3") => bail!(
             "{}: written by an older pir (resumable-state format {old}), which this pir cannot resume or \
              merge (it reads format {FORMAT}): render it again with this pir",
             path.display()
@@ -301,6 +307,7 @@ mod tests {
             config: config.identity(2.0),
             max_depth: 8,
             seed: 3,
+            sampler: SamplerKind::Sobol,
             width: 3,
             height: 2,
         };
@@ -324,6 +331,8 @@ mod tests {
         alpha.params.alpha = 0.25;
         let d = Job { config: alpha.identity(2.0), ..job.clone() }.differences(&job);
         assert_eq!(d, ["alpha: 0.25 here, 0.6 in the file"]);
+        let d = Job { sampler: SamplerKind::Independent, ..job.clone() }.differences(&job);
+        assert_eq!(d, ["sampler: independent here, sobol in the file"]);
         // A plain EXR is not resumable, with a message that says so.
         let plain = dir.path().join("p.exr");
         crate::image::write_exr(&plain, &film.image(), &[]).unwrap();

@@ -3,8 +3,9 @@
 
 mod alias;
 mod rng;
+mod sobol;
 mod warp;
 
 pub use alias::AliasTable;
-pub use rng::{Domain, Sampler, Streams};
+pub use rng::{Domain, Sampler, SamplerKind, Streams};
 pub use warp::*;

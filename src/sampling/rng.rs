@@ -18,6 +18,8 @@ pub enum Domain {
     Iteration = 3,
 }
 
+use super::sobol;
+
 const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
 
 #[inline]
@@ -27,10 +29,53 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Which numbers the camera and light-path samplers of a render draw (`--sampler`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplerKind {
+    /// Owen-scrambled Sobol points (see [`sobol`](super::sobol)): each pixel's samples over
+    /// the iterations, and each iteration's light paths, are stratified in every pair of
+    /// dimensions.
+    #[default]
+    Sobol,
+    /// Independent uniform numbers: every draw a hash of its key and dimension.
+    Independent,
+}
+
+impl SamplerKind {
+    /// The `--sampler` name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Sobol => "sobol",
+            SamplerKind::Independent => "independent",
+        }
+    }
+}
+
+impl std::str::FromStr for SamplerKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "sobol" => Ok(SamplerKind::Sobol),
+            "independent" => Ok(SamplerKind::Independent),
+            _ => Err(format!("unknown sampler {s:?} (expected sobol or independent)")),
+        }
+    }
+}
+
+/// A stream of numbers in `[0, 1)`, drawn one dimension at a time.
+///
+/// The `d`-th draw hashes the key and `d`. An independent sampler returns that hash; a Sobol
+/// sampler uses it as the seed of the scrambled Sobol sequence whose point number `index` it
+/// returns ([`Sampler::next_2d`] takes both coordinates of one point, one dimension).
+/// [`Sampler::next_u64`] is always the hash.
 #[derive(Clone, Debug)]
 pub struct Sampler {
     key: u64,
     dim: u64,
+    /// The point's number in the Sobol sequence, bit-reversed, when `sobol`.
+    index: u32,
+    sobol: bool,
 }
 
 /// The samplers of one `(seed, iteration, domain)`, with the part of the key they share
@@ -39,23 +84,72 @@ pub struct Sampler {
 #[derive(Clone, Copy, Debug)]
 pub struct Streams {
     prefix: u64,
+    sequence: Sequence,
+}
+
+/// What a [`Streams`]' Sobol sequence runs over.
+#[derive(Clone, Copy, Debug)]
+enum Sequence {
+    /// Independent samplers.
+    None,
+    /// Over the iterations: every index has its own scrambles, and this is its point number.
+    Fixed(u32),
+    /// Over the indices: one set of scrambles, the index is the point number.
+    Index,
 }
 
 impl Streams {
+    /// Independent samplers: [`Streams::sampler`] of `index` is `Sampler::new(seed, iteration,
+    /// domain, index)`.
     pub fn new(seed: u64, iteration: u64, domain: Domain) -> Self {
         let k = mix64(seed ^ GAMMA);
         let k = mix64(k ^ iteration.wrapping_mul(0xD6E8_FEB8_6659_FD93));
-        Streams { prefix: mix64(k ^ (domain as u64).wrapping_mul(0xA076_1D64_78BD_642F)) }
+        Streams {
+            prefix: mix64(k ^ (domain as u64).wrapping_mul(0xA076_1D64_78BD_642F)),
+            sequence: Sequence::None,
+        }
+    }
+
+    /// The samplers of a render's iteration (numbered from 1) drawn as `kind` says. With
+    /// [`SamplerKind::Sobol`]:
+    /// - [`Domain::Camera`]: the sequence runs over the iterations, with scrambles of its own
+    ///   for every index (pixel): a pixel's samples are stratified over the iterations, and
+    ///   pixels are independent of each other.
+    /// - [`Domain::LightPath`]: the sequence runs over the indices (the iteration's light
+    ///   paths), with scrambles of the iteration: the paths of an iteration are stratified,
+    ///   and iterations are independent of each other.
+    /// - [`Domain::Iteration`]: independent as well.
+    pub fn of(kind: SamplerKind, seed: u64, iteration: u64, domain: Domain) -> Self {
+        match (kind, domain) {
+            (SamplerKind::Independent, _) | (_, Domain::Iteration) => Streams::new(seed, iteration, domain),
+            (SamplerKind::Sobol, Domain::Camera) => Streams {
+                // Iteration u64::MAX is never rendered: these keys are not any independent
+                // sampler's.
+                prefix: Streams::new(seed, u64::MAX, domain).prefix,
+                sequence: Sequence::Fixed(iteration.wrapping_sub(1) as u32),
+            },
+            (SamplerKind::Sobol, Domain::LightPath) => {
+                Streams { sequence: Sequence::Index, ..Streams::new(seed, iteration, domain) }
+            }
+        }
     }
 
     /// The sampler of stream `index`.
     #[inline]
     pub fn sampler(&self, index: u64) -> Sampler {
-        Sampler { key: mix64(self.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB)), dim: 0 }
+        let key = mix64(self.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        match self.sequence {
+            Sequence::None => Sampler { key, dim: 0, index: 0, sobol: false },
+            Sequence::Fixed(i) => Sampler { key, dim: 0, index: i.reverse_bits(), sobol: true },
+            Sequence::Index => {
+                Sampler { key: self.prefix, dim: 0, index: (index as u32).reverse_bits(), sobol: true }
+            }
+        }
     }
 }
 
 impl Sampler {
+    /// An independent sampler.
     pub fn new(seed: u64, iteration: u64, domain: Domain, index: u64) -> Self {
         Streams::new(seed, iteration, domain).sampler(index)
     }
@@ -74,12 +168,24 @@ impl Sampler {
     /// A uniform number in `[0, 1)` with 24 random bits.
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+        let h = self.next_u64();
+        if self.sobol {
+            sobol::point_1d(self.index, h)
+        } else {
+            (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+        }
     }
 
+    /// A uniform point in `[0, 1)²`: two dimensions of an independent sampler, one of a Sobol
+    /// sampler.
     #[inline]
     pub fn next_2d(&mut self) -> glam::Vec2 {
-        glam::Vec2::new(self.next_f32(), self.next_f32())
+        if self.sobol {
+            let h = self.next_u64();
+            glam::Vec2::from(sobol::point_2d(self.index, h))
+        } else {
+            glam::Vec2::new(self.next_f32(), self.next_f32())
+        }
     }
 }
 
@@ -116,6 +222,62 @@ mod tests {
             let (mut a, mut b) = (streams.sampler(index), Sampler::new(7, 3, Domain::Camera, index));
             assert_eq!([a.next_u64(), a.next_u64()], [b.next_u64(), b.next_u64()]);
         }
+    }
+
+    /// Whether the 2^k points of `p` fall one in each cell of every 2^a × 2^(k−a) grid.
+    fn is_net(p: &[glam::Vec2]) -> bool {
+        let k = p.len().trailing_zeros();
+        (0..=k).all(|a| {
+            let (nx, ny) = (1usize << a, 1usize << (k - a));
+            let mut seen = vec![false; p.len()];
+            p.iter().all(|q| {
+                !std::mem::replace(
+                    &mut seen[(q.x * nx as f32) as usize + nx * (q.y * ny as f32) as usize],
+                    true,
+                )
+            })
+        })
+    }
+
+    #[test]
+    fn sobol_streams_stratify_what_they_say() {
+        // Camera: one pixel's draws of one dimension over iterations 1..=64 form a net (and
+        // 65..=128 another); pixels differ. Light paths: the 64 paths of an iteration do;
+        // iterations differ. Independent streams do not stratify.
+        for dim in 0..3 {
+            let draw = |mut s: Sampler| {
+                for _ in 0..dim {
+                    s.next_2d();
+                }
+                s.next_2d()
+            };
+            for block in [0u64, 1] {
+                let camera: Vec<_> = (1..=64)
+                    .map(|i| {
+                        draw(Streams::of(SamplerKind::Sobol, 5, 64 * block + i, Domain::Camera).sampler(7))
+                    })
+                    .collect();
+                assert!(is_net(&camera), "camera, dim {dim}, block {block}");
+            }
+            let paths = |it| -> Vec<_> {
+                let s = Streams::of(SamplerKind::Sobol, 5, it, Domain::LightPath);
+                (0..64).map(|k| draw(s.sampler(k))).collect()
+            };
+            assert!(is_net(&paths(3)), "light paths, dim {dim}");
+            assert_ne!(paths(3), paths(4));
+            let other_pixel = draw(Streams::of(SamplerKind::Sobol, 5, 1, Domain::Camera).sampler(8));
+            assert_ne!(other_pixel, draw(Streams::of(SamplerKind::Sobol, 5, 1, Domain::Camera).sampler(7)));
+            let independent: Vec<_> = (1..=64)
+                .map(|i| draw(Streams::of(SamplerKind::Independent, 5, i, Domain::Camera).sampler(7)))
+                .collect();
+            assert!(!is_net(&independent));
+        }
+        // Independent streams are the plain samplers.
+        let (mut a, mut b) = (
+            Streams::of(SamplerKind::Independent, 5, 2, Domain::Camera).sampler(3),
+            Sampler::new(5, 2, Domain::Camera, 3),
+        );
+        assert_eq!([a.next_u64(), a.next_u64()], [b.next_u64(), b.next_u64()]);
     }
 
     #[test]

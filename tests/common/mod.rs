@@ -18,6 +18,7 @@ use pir::integrator::{Integrator, RenderContext};
 use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render};
+use pir::sampling::SamplerKind;
 use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
 
 /// The inside of the cube [-1, 1]³, every face facing inwards, all of one material; the
@@ -122,6 +123,10 @@ pub struct Job {
     pub max_depth: u32,
     pub threads: usize,
     pub snapshot_at: Vec<u64>,
+    /// Independent by default: the z-tests estimate their standard error from the spread of
+    /// the iterations, which needs independent iterations (a Sobol sampler's are not; its
+    /// tests replicate over seeds instead).
+    pub sampler: SamplerKind,
 }
 
 impl Default for Job {
@@ -134,6 +139,7 @@ impl Default for Job {
             max_depth: 8,
             threads: 2,
             snapshot_at: Vec::new(),
+            sampler: SamplerKind::Independent,
         }
     }
 }
@@ -154,8 +160,14 @@ impl Job {
     ) -> Rendered {
         let (width, height) = (self.width, self.height);
         let emitters = Emitters::new(scene).expect("scene has emitters");
-        let ctx =
-            RenderContext { scene, accel, emitters: &emitters, max_depth: self.max_depth, seed: self.seed };
+        let ctx = RenderContext {
+            scene,
+            accel,
+            emitters: &emitters,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            sampler: self.sampler,
+        };
         let settings = RenderSettings {
             width,
             height,

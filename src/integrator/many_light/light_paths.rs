@@ -10,7 +10,8 @@
 //! glass) get none, but the path continues through them: that is how caustics reach diffuse
 //! surfaces.
 //!
-//! Path `k` of iteration `i` draws its numbers from `Sampler::new(seed, i, LightPath, k)`,
+//! Path `k` of iteration `i` draws its numbers from sampler k of `Streams::of(sampler, seed,
+//! i, LightPath)` (with Sobol points, point k of the iteration's scrambled sequence),
 //! and paths are traced in parallel but collected in path order, so the VPL set is a function
 //! of the seed alone.
 
@@ -21,7 +22,7 @@ use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
 use crate::material::{LocalGeometry, TransportMode};
-use crate::sampling::{Domain, Sampler, cosine_hemisphere};
+use crate::sampling::{Domain, Sampler, Streams, cosine_hemisphere};
 
 /// A virtual point light at a non-delta vertex of a light path.
 #[derive(Clone, Copy, Debug)]
@@ -69,13 +70,14 @@ const MAX_SURVIVAL: f32 = 0.95;
 /// vertices within `max_vpl_depth` segments of the emitter are traced.
 pub fn trace_vpls(ctx: &RenderContext, iteration: u64, paths: usize, max_vpl_depth: u32) -> (Vec<Vpl>, u64) {
     const CHUNK: usize = 64;
+    let streams = Streams::of(ctx.sampler, ctx.seed, iteration, Domain::LightPath);
     let chunks: Vec<(Vec<Vpl>, u64)> = (0..paths.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let mut vpls = Vec::new();
             let mut rays = 0u64;
             for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
-                let mut sampler = Sampler::new(ctx.seed, iteration, Domain::LightPath, k as u64);
+                let mut sampler = streams.sampler(k as u64);
                 rays += trace_path(ctx, &mut sampler, paths as f32, max_vpl_depth, &mut vpls);
             }
             (vpls, rays)
