@@ -24,6 +24,10 @@
 #                   no reference is skipped with a message.
 #   RUNS            renders per renderer and scene; the median time is used (default 1).
 #   SEED            seed of both renderers (default 1; the shared references use Mitsuba's 0).
+#   SAMPLERS        pir's samplers to measure, each against the same Mitsuba run (default
+#                   "sobol independent": pir's default, and the independent numbers that
+#                   Mitsuba's `independent` sampler, which mitsuba_ref.py uses, also draws);
+#                   "default" passes no --sampler, for a pir older than that option).
 #   PIR             a pir binary to measure instead of this checkout's (e.g. an older build, for
 #                   before/after figures); by default the script builds and uses target/release/pir.
 #
@@ -34,6 +38,7 @@ cd "$(dirname "$0")/.."
 spp=${1:-512}
 runs=${RUNS:-1}
 seed=${SEED:-1}
+samplers=${SAMPLERS:-sobol independent}
 shared=${SHARED:-../shared}
 py=${MITSUBA_PYTHON:-}
 if [[ -z $py && -x /tmp/mi/bin/python ]]; then py=/tmp/mi/bin/python; fi
@@ -89,7 +94,7 @@ measure() {
 eff() { awk -v t="$1" -v e="$2" 'BEGIN { printf "%.4g", 1 / (t * e) }'; }
 
 echo "pir pt vs Mitsuba 3 path, $spp spp, seed $seed, $(nproc) threads, $(date -u +%Y-%m-%d), load average $(cut -d' ' -f1-3 /proc/loadavg)"
-printf '%-13s %-8s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
+printf '%-13s %-17s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
     "pir/Mi wall" "pir/Mi cpu"
 for entry in "${scenes[@]}"; do
     read -r name scene ref <<<"$entry"
@@ -97,14 +102,22 @@ for entry in "${scenes[@]}"; do
         echo "$name: no reference ($ref); skipped" >&2
         continue
     fi
-    read -r w_pir c_pir e_pir < <(measure "$ref" "$tmp/pir.exr" \
-        "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" -o "$tmp/pir.exr")
-    printf '%-13s %-8s %8s %8s %12s %11s\n' "$name" pir "$w_pir" "$c_pir" "$e_pir" "$(eff "$w_pir" "$e_pir")"
     if [[ -n $py ]]; then
         read -r w_mi c_mi e_mi < <(measure "$ref" "$tmp/mi.exr" \
             "$py" "$shared/tools/mitsuba_ref.py" "$scene" "$tmp/mi.exr" --spp "$spp" --seed "$seed")
-        ratio() { awk -v a="$1" -v b="$2" -v x="$e_pir" -v y="$e_mi" 'BEGIN { printf "%.2f", (b * y) / (a * x) }'; }
-        printf '%-13s %-8s %8s %8s %12s %11s %12s %12s\n' "" mitsuba "$w_mi" "$c_mi" "$e_mi" \
-            "$(eff "$w_mi" "$e_mi")" "$(ratio "$w_pir" "$w_mi")" "$(ratio "$c_pir" "$c_mi")"
+        printf '%-13s %-17s %8s %8s %12s %11s\n' "$name" "mitsuba" "$w_mi" "$c_mi" "$e_mi" "$(eff "$w_mi" "$e_mi")"
     fi
+    for sampler in $samplers; do
+        choice=(--sampler "$sampler")
+        [[ $sampler == default ]] && choice=()
+        read -r w_pir c_pir e_pir < <(measure "$ref" "$tmp/pir.exr" \
+            "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" "${choice[@]}" -o "$tmp/pir.exr")
+        row=$(printf '%-13s %-17s %8s %8s %12s %11s' "$name" "pir ($sampler)" "$w_pir" "$c_pir" "$e_pir" \
+            "$(eff "$w_pir" "$e_pir")")
+        if [[ -n $py ]]; then
+            ratio() { awk -v a="$1" -v b="$2" -v x="$e_pir" -v y="$e_mi" 'BEGIN { printf "%.2f", (b * y) / (a * x) }'; }
+            row="$row $(printf '%12s %12s' "$(ratio "$w_pir" "$w_mi")" "$(ratio "$c_pir" "$c_mi")")"
+        fi
+        echo "$row"
+    done
 done

@@ -2,7 +2,7 @@
 //!
 //! Iteration i (from 1) lets the integrator prepare (e.g. trace its VPLs), then renders one
 //! sample in every pixel, tiles spread over rayon's pool. The sample of pixel p in iteration
-//! i uses sampler p of `Streams::of(sampler, seed, i, Domain::Camera)` (with Sobol points,
+//! i uses sampler p of `Streams::camera(sampler, seed, i)` (with Sobol points,
 //! point i − 1 of the pixel's own scrambled sequence), and each pixel's sum is accumulated in
 //! iteration order, so the image depends on the seed only, never on the thread count.
 //!
@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 use super::Film;
 use super::state::Shard;
 use crate::integrator::{Counters, Integrator, RenderContext};
-use crate::sampling::{Domain, Streams};
+use crate::sampling::Streams;
 
 /// When to stop: after `iterations` (in the film, counting any it started with), after `time`
 /// (of this run), or whichever comes first.
@@ -140,8 +140,7 @@ pub fn render_from(
         integrator.begin_iteration(ctx, iteration, &mut stats.counters);
         let t1 = Instant::now();
         let integ: &dyn Integrator = integrator;
-        // Pixel p's sampler is `Streams::of(sampler, seed, iteration, Domain::Camera)`'s p-th.
-        let streams = Streams::of(ctx.sampler, ctx.seed, iteration, Domain::Camera);
+        let streams = Streams::camera(ctx.sampler, ctx.seed, iteration);
         let results: Vec<(Vec<glam::Vec3>, Counters)> = tiles
             .par_iter()
             .map(|t| {

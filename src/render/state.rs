@@ -9,7 +9,7 @@
 //! resolution), the shard and the iterations done. Format 1, written by older pirs, stored
 //! the method's parameters as formatted text; it is refused with a message that says so.
 //! Iteration i's numbers are a function of the seed, the sampler and i alone (its samplers
-//! come from `Streams::of(sampler, seed, i, …)`), so a render can continue from any
+//! come from `Streams::camera(sampler, seed, i)` and `Streams::light_paths`), so a render can continue from any
 //! iteration with the same random numbers, and the iterations of a render can be split into shards: shard K of N
 //! renders the global iterations K+1, K+1+N, K+1+2N, … (the progressive schedules b_i, r_i
 //! use the global index). Merging adds sums and iteration counts.

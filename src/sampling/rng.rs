@@ -94,8 +94,8 @@ enum Sequence {
     None,
     /// Over the iterations: every index has its own scrambles, and this is its point number.
     Fixed(u32),
-    /// Over the indices: one set of scrambles, the index is the point number.
-    Index,
+    /// Over the indices: one set of scrambles, `base` + the index is the point number.
+    Index { base: u32 },
 }
 
 impl Streams {
@@ -110,27 +110,38 @@ impl Streams {
         }
     }
 
-    /// The samplers of a render's iteration (numbered from 1) drawn as `kind` says. With
-    /// [`SamplerKind::Sobol`]:
-    /// - [`Domain::Camera`]: the sequence runs over the iterations, with scrambles of its own
-    ///   for every index (pixel): a pixel's samples are stratified over the iterations, and
-    ///   pixels are independent of each other.
-    /// - [`Domain::LightPath`]: the sequence runs over the indices (the iteration's light
-    ///   paths), with scrambles of the iteration: the paths of an iteration are stratified,
-    ///   and iterations are independent of each other.
-    /// - [`Domain::Iteration`]: independent as well.
-    pub fn of(kind: SamplerKind, seed: u64, iteration: u64, domain: Domain) -> Self {
-        match (kind, domain) {
-            (SamplerKind::Independent, _) | (_, Domain::Iteration) => Streams::new(seed, iteration, domain),
-            (SamplerKind::Sobol, Domain::Camera) => Streams {
+    /// The camera samplers of a render's iteration (numbered from 1), one per pixel (the
+    /// index). With [`SamplerKind::Sobol`] the sequence runs over the iterations, with
+    /// scrambles of its own for every pixel: a pixel's samples are stratified over the
+    /// iterations, and pixels are independent of each other.
+    pub fn camera(kind: SamplerKind, seed: u64, iteration: u64) -> Self {
+        match kind {
+            SamplerKind::Independent => Streams::new(seed, iteration, Domain::Camera),
+            SamplerKind::Sobol => Streams {
                 // Iteration u64::MAX is never rendered: these keys are not any independent
                 // sampler's.
-                prefix: Streams::new(seed, u64::MAX, domain).prefix,
+                prefix: Streams::new(seed, u64::MAX, Domain::Camera).prefix,
                 sequence: Sequence::Fixed(iteration.wrapping_sub(1) as u32),
             },
-            (SamplerKind::Sobol, Domain::LightPath) => {
-                Streams { sequence: Sequence::Index, ..Streams::new(seed, iteration, domain) }
-            }
+        }
+    }
+
+    /// The light-path samplers of a render's iteration (numbered from 1) that traces `paths`
+    /// light paths, one per path (the index). With [`SamplerKind::Sobol`] one sequence, with
+    /// one set of scrambles, runs over all the light paths of the render, iteration after
+    /// iteration: the paths of an iteration are stratified (an aligned block when `paths` is
+    /// a power of two), and so are those of any number of iterations together, which is
+    /// what lets the many-light methods' error from their shared VPLs average out faster
+    /// than independent iterations would. (Point numbers wrap after 2^32 paths.)
+    pub fn light_paths(kind: SamplerKind, seed: u64, iteration: u64, paths: usize) -> Self {
+        match kind {
+            SamplerKind::Independent => Streams::new(seed, iteration, Domain::LightPath),
+            SamplerKind::Sobol => Streams {
+                prefix: Streams::new(seed, u64::MAX, Domain::LightPath).prefix,
+                sequence: Sequence::Index {
+                    base: iteration.wrapping_sub(1).wrapping_mul(paths as u64) as u32,
+                },
+            },
         }
     }
 
@@ -141,9 +152,12 @@ impl Streams {
         match self.sequence {
             Sequence::None => Sampler { key, dim: 0, index: 0, sobol: false },
             Sequence::Fixed(i) => Sampler { key, dim: 0, index: i.reverse_bits(), sobol: true },
-            Sequence::Index => {
-                Sampler { key: self.prefix, dim: 0, index: (index as u32).reverse_bits(), sobol: true }
-            }
+            Sequence::Index { base } => Sampler {
+                key: self.prefix,
+                dim: 0,
+                index: base.wrapping_add(index as u32).reverse_bits(),
+                sobol: true,
+            },
         }
     }
 }
@@ -242,8 +256,9 @@ mod tests {
     #[test]
     fn sobol_streams_stratify_what_they_say() {
         // Camera: one pixel's draws of one dimension over iterations 1..=64 form a net (and
-        // 65..=128 another); pixels differ. Light paths: the 64 paths of an iteration do;
-        // iterations differ. Independent streams do not stratify.
+        // 65..=128 another); pixels differ. Light paths: the 64 paths of an iteration do, and
+        // so do the paths of several iterations together; iterations differ. Independent
+        // streams do not stratify.
         for dim in 0..3 {
             let draw = |mut s: Sampler| {
                 for _ in 0..dim {
@@ -253,28 +268,27 @@ mod tests {
             };
             for block in [0u64, 1] {
                 let camera: Vec<_> = (1..=64)
-                    .map(|i| {
-                        draw(Streams::of(SamplerKind::Sobol, 5, 64 * block + i, Domain::Camera).sampler(7))
-                    })
+                    .map(|i| draw(Streams::camera(SamplerKind::Sobol, 5, 64 * block + i).sampler(7)))
                     .collect();
                 assert!(is_net(&camera), "camera, dim {dim}, block {block}");
             }
-            let paths = |it| -> Vec<_> {
-                let s = Streams::of(SamplerKind::Sobol, 5, it, Domain::LightPath);
-                (0..64).map(|k| draw(s.sampler(k))).collect()
+            let paths = |it, n| -> Vec<_> {
+                let s = Streams::light_paths(SamplerKind::Sobol, 5, it, n);
+                (0..n as u64).map(|k| draw(s.sampler(k))).collect()
             };
-            assert!(is_net(&paths(3)), "light paths, dim {dim}");
-            assert_ne!(paths(3), paths(4));
-            let other_pixel = draw(Streams::of(SamplerKind::Sobol, 5, 1, Domain::Camera).sampler(8));
-            assert_ne!(other_pixel, draw(Streams::of(SamplerKind::Sobol, 5, 1, Domain::Camera).sampler(7)));
-            let independent: Vec<_> = (1..=64)
-                .map(|i| draw(Streams::of(SamplerKind::Independent, 5, i, Domain::Camera).sampler(7)))
-                .collect();
+            assert!(is_net(&paths(3, 64)), "light paths, dim {dim}");
+            assert_ne!(paths(3, 64), paths(4, 64));
+            // Iterations 1 to 4 of 16 paths together are a net too.
+            assert!(is_net(&(1..=4).flat_map(|it| paths(it, 16)).collect::<Vec<_>>()), "dim {dim}");
+            let other_pixel = draw(Streams::camera(SamplerKind::Sobol, 5, 1).sampler(8));
+            assert_ne!(other_pixel, draw(Streams::camera(SamplerKind::Sobol, 5, 1).sampler(7)));
+            let independent: Vec<_> =
+                (1..=64).map(|i| draw(Streams::camera(SamplerKind::Independent, 5, i).sampler(7))).collect();
             assert!(!is_net(&independent));
         }
         // Independent streams are the plain samplers.
         let (mut a, mut b) = (
-            Streams::of(SamplerKind::Independent, 5, 2, Domain::Camera).sampler(3),
+            Streams::camera(SamplerKind::Independent, 5, 2).sampler(3),
             Sampler::new(5, 2, Domain::Camera, 3),
         );
         assert_eq!([a.next_u64(), a.next_u64()], [b.next_u64(), b.next_u64()]);

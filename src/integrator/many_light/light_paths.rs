@@ -10,8 +10,9 @@
 //! glass) get none, but the path continues through them: that is how caustics reach diffuse
 //! surfaces.
 //!
-//! Path `k` of iteration `i` draws its numbers from sampler k of `Streams::of(sampler, seed,
-//! i, LightPath)` (with Sobol points, point k of the iteration's scrambled sequence),
+//! Path `k` of iteration `i` draws its numbers from sampler k of `Streams::light_paths(sampler,
+//! seed, i, paths)` (with Sobol points, point (i − 1)·paths + k of the render's light-path
+//! sequence),
 //! and paths are traced in parallel but collected in path order, so the VPL set is a function
 //! of the seed alone.
 
@@ -22,7 +23,7 @@ use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
 use crate::material::{LocalGeometry, TransportMode};
-use crate::sampling::{Domain, Sampler, Streams, cosine_hemisphere};
+use crate::sampling::{Sampler, Streams, cosine_hemisphere};
 
 /// A virtual point light at a non-delta vertex of a light path.
 #[derive(Clone, Copy, Debug)]
@@ -70,7 +71,7 @@ const MAX_SURVIVAL: f32 = 0.95;
 /// vertices within `max_vpl_depth` segments of the emitter are traced.
 pub fn trace_vpls(ctx: &RenderContext, iteration: u64, paths: usize, max_vpl_depth: u32) -> (Vec<Vpl>, u64) {
     const CHUNK: usize = 64;
-    let streams = Streams::of(ctx.sampler, ctx.seed, iteration, Domain::LightPath);
+    let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration, paths);
     let chunks: Vec<(Vec<Vpl>, u64)> = (0..paths.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
