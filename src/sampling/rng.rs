@@ -94,8 +94,8 @@ enum Sequence {
     None,
     /// Over the iterations: every index has its own scrambles, and this is its point number.
     Fixed(u32),
-    /// Over the indices: one set of scrambles, `base` + the index is the point number.
-    Index { base: u32 },
+    /// Over the indices: one set of scrambles, the index is the point number.
+    Index,
 }
 
 impl Streams {
@@ -126,22 +126,23 @@ impl Streams {
         }
     }
 
-    /// The light-path samplers of a render's iteration (numbered from 1) that traces `paths`
-    /// light paths, one per path (the index). With [`SamplerKind::Sobol`] one sequence, with
-    /// one set of scrambles, runs over all the light paths of the render, iteration after
-    /// iteration: the paths of an iteration are stratified (an aligned block when `paths` is
-    /// a power of two), and so are those of any number of iterations together, which is
-    /// what lets the many-light methods' error from their shared VPLs average out faster
-    /// than independent iterations would. (Point numbers wrap after 2^32 paths.)
-    pub fn light_paths(kind: SamplerKind, seed: u64, iteration: u64, paths: usize) -> Self {
+    /// The light-path samplers of a render's iteration (numbered from 1), one per path (the
+    /// index). With [`SamplerKind::Sobol`] the sequence runs over the iteration's paths, with
+    /// scrambles of the iteration: the paths of an iteration are stratified (an aligned block
+    /// when their number is a power of two), and iterations are independent of each other.
+    ///
+    /// Independent iterations are what the consistency argument of the progressive methods
+    /// needs: each iteration's VPLs give an unbiased estimate of its own kernel, with a
+    /// variance that grows like b_i, and the variance of the mean of independent iterations
+    /// falls. One sequence over all the render's paths stratifies several iterations
+    /// together and measured lower error still (Cornell box 256×256, 64 iterations: `pir-mis`
+    /// relative MSE 2.50e-4 against 3.07e-4), but its iterations are dependent, and with the
+    /// unbounded 1/d² kernel in the limit we have no argument that its error vanishes.
+    pub fn light_paths(kind: SamplerKind, seed: u64, iteration: u64) -> Self {
+        let streams = Streams::new(seed, iteration, Domain::LightPath);
         match kind {
-            SamplerKind::Independent => Streams::new(seed, iteration, Domain::LightPath),
-            SamplerKind::Sobol => Streams {
-                prefix: Streams::new(seed, u64::MAX, Domain::LightPath).prefix,
-                sequence: Sequence::Index {
-                    base: iteration.wrapping_sub(1).wrapping_mul(paths as u64) as u32,
-                },
-            },
+            SamplerKind::Independent => streams,
+            SamplerKind::Sobol => Streams { sequence: Sequence::Index, ..streams },
         }
     }
 
@@ -152,12 +153,9 @@ impl Streams {
         match self.sequence {
             Sequence::None => Sampler { key, dim: 0, index: 0, sobol: false },
             Sequence::Fixed(i) => Sampler { key, dim: 0, index: i.reverse_bits(), sobol: true },
-            Sequence::Index { base } => Sampler {
-                key: self.prefix,
-                dim: 0,
-                index: base.wrapping_add(index as u32).reverse_bits(),
-                sobol: true,
-            },
+            Sequence::Index => {
+                Sampler { key: self.prefix, dim: 0, index: (index as u32).reverse_bits(), sobol: true }
+            }
         }
     }
 }
@@ -256,9 +254,8 @@ mod tests {
     #[test]
     fn sobol_streams_stratify_what_they_say() {
         // Camera: one pixel's draws of one dimension over iterations 1..=64 form a net (and
-        // 65..=128 another); pixels differ. Light paths: the 64 paths of an iteration do, and
-        // so do the paths of several iterations together; iterations differ. Independent
-        // streams do not stratify.
+        // 65..=128 another); pixels differ. Light paths: the 64 paths of an iteration do;
+        // iterations differ. Independent streams do not stratify.
         for dim in 0..3 {
             let draw = |mut s: Sampler| {
                 for _ in 0..dim {
@@ -272,14 +269,12 @@ mod tests {
                     .collect();
                 assert!(is_net(&camera), "camera, dim {dim}, block {block}");
             }
-            let paths = |it, n| -> Vec<_> {
-                let s = Streams::light_paths(SamplerKind::Sobol, 5, it, n);
-                (0..n as u64).map(|k| draw(s.sampler(k))).collect()
+            let paths = |it| -> Vec<_> {
+                let s = Streams::light_paths(SamplerKind::Sobol, 5, it);
+                (0..64).map(|k| draw(s.sampler(k))).collect()
             };
-            assert!(is_net(&paths(3, 64)), "light paths, dim {dim}");
-            assert_ne!(paths(3, 64), paths(4, 64));
-            // Iterations 1 to 4 of 16 paths together are a net too.
-            assert!(is_net(&(1..=4).flat_map(|it| paths(it, 16)).collect::<Vec<_>>()), "dim {dim}");
+            assert!(is_net(&paths(3)), "light paths, dim {dim}");
+            assert_ne!(paths(3), paths(4));
             let other_pixel = draw(Streams::camera(SamplerKind::Sobol, 5, 1).sampler(8));
             assert_ne!(other_pixel, draw(Streams::camera(SamplerKind::Sobol, 5, 1).sampler(7)));
             let independent: Vec<_> =

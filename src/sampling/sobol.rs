@@ -26,6 +26,17 @@
 //! against 2.09e-2 at 128): no gain, for 1.14× the time per sample (two bit reversals and two
 //! hashes more per pair); so pir shifts.
 //!
+//! The progressive many-light methods change their kernel with the iteration, and a pixel's
+//! camera samples are stratified over the iterations, so their iterations are no longer
+//! independent. They stay consistent: write iteration i's sample as X_i = h_i(c_i) + e_i,
+//! where c_i is the camera sample, h_i(c) the mean over the iteration's VPLs and e_i the rest.
+//! The e_i have mean zero and are independent across iterations (each iteration's light
+//! paths have scrambles of their own; see `Streams::light_paths`), so their mean falls as the
+//! thesis' argument has it. h_i tends to h, the unbiased contribution, which is bounded
+//! (the exact radiance arriving at the camera vertex); the mean of h(c_i) is the stratified
+//! estimate above, and that of h_i(c_i) − h(c_i) has a standard deviation at most the average
+//! of ‖h_i − h‖₂, which tends to zero with the bias.
+//!
 //! Seeds are hashed from the sampler's key and the dimension, so the points are a pure
 //! function of (seed, domain, index, dimension), as every random number in pir is.
 

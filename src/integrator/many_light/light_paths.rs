@@ -11,9 +11,7 @@
 //! surfaces.
 //!
 //! Path `k` of iteration `i` draws its numbers from sampler k of `Streams::light_paths(sampler,
-//! seed, i, paths)` (with Sobol points, point (i − 1)·paths + k of the render's light-path
-//! sequence),
-//! and paths are traced in parallel but collected in path order, so the VPL set is a function
+//! seed, i)` (with Sobol points, point k of the iteration's own scrambled sequence), and paths are traced in parallel but collected in path order, so the VPL set is a function
 //! of the seed alone.
 
 use glam::Vec3;
@@ -71,7 +69,7 @@ const MAX_SURVIVAL: f32 = 0.95;
 /// vertices within `max_vpl_depth` segments of the emitter are traced.
 pub fn trace_vpls(ctx: &RenderContext, iteration: u64, paths: usize, max_vpl_depth: u32) -> (Vec<Vpl>, u64) {
     const CHUNK: usize = 64;
-    let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration, paths);
+    let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
     let chunks: Vec<(Vec<Vpl>, u64)> = (0..paths.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
