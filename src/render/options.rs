@@ -36,7 +36,7 @@ pub struct SceneOptions {
     #[arg(long, value_name = "BACKEND")]
     pub accel: Option<Backend>,
     /// How samples are drawn: sobol (each pixel's samples over the iterations, and each
-    /// iteration's light paths, stratified by Owen-scrambled Sobol points) or independent
+    /// iteration's light paths, stratified by shuffled, randomly shifted Sobol points) or independent
     /// (independent uniform numbers, as pir drew them before) [default: sobol].
     #[arg(long, value_name = "SAMPLER")]
     pub sampler: Option<SamplerKind>,
