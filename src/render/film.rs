@@ -93,7 +93,9 @@ impl Film {
     }
 
     /// Per-channel unbiased sample variance of one sample of each pixel (zero before two
-    /// iterations). The variance of the pixel's mean is this divided by the iterations.
+    /// iterations). With independent iterations (`--sampler independent`) the variance of
+    /// the pixel's mean is this divided by the iterations; the Sobol sampler's samples are
+    /// stratified over the iterations, and its mean's variance is lower than that.
     pub fn sample_variance(&self) -> Vec<DVec3> {
         let n = self.iterations as f64;
         if n < 2.0 {
