@@ -43,7 +43,7 @@ use rayon::prelude::*;
 use super::{Accelerator, Hit};
 use crate::geometry::{Aabb, Ray};
 use leaf::Tri4;
-use wide::Node4;
+use wide::Node8;
 
 /// One node: its box and two indices. For a leaf, `index` is the first triangle (in leaf order)
 /// and `count > 0`; for an interior node, `index` is the pair holding its children and
@@ -93,7 +93,7 @@ const BOX_PAD: f32 = 1e-5;
 /// A binned-SAH BVH over triangles (see the module docs).
 pub struct Bvh {
     /// The 4-wide tree; `nodes[0]` is the root.
-    nodes: Vec<Node4>,
+    nodes: Vec<Node8>,
     /// Nodes of the binary tree it was collapsed from.
     binary_nodes: usize,
     /// Leaf triangles in packs of four, leaf by leaf in depth-first order.
@@ -232,13 +232,13 @@ mod tests {
     fn validate(bvh: &Bvh, n_tris: usize) {
         let mut seen = vec![0u32; n_tris];
         let mut leaves = 0;
-        let inside = |lo: [f32; 3], hi: [f32; 3], n: &Node4, lane: usize| {
+        let inside = |lo: [f32; 3], hi: [f32; 3], n: &Node8, lane: usize| {
             (0..3).all(|a| n.min[a][lane] <= lo[a] && hi[a] <= n.max[a][lane])
         };
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let n = &bvh.nodes[i];
-            for lane in 0..4 {
+            for lane in 0..wide::WIDTH {
                 let c = n.child[lane];
                 if c.is_leaf() {
                     leaves += 1;
@@ -252,7 +252,7 @@ mod tests {
                     }
                 } else if n.min[0][lane] <= n.max[0][lane] {
                     let child = &bvh.nodes[c.index as usize];
-                    for l in 0..4 {
+                    for l in 0..wide::WIDTH {
                         if child.min[0][l] <= child.max[0][l] {
                             let lo = [child.min[0][l], child.min[1][l], child.min[2][l]];
                             let hi = [child.max[0][l], child.max[1][l], child.max[2][l]];
@@ -311,7 +311,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<Node>(), 32);
         assert_eq!(std::mem::size_of::<NodePair>(), 64);
         assert_eq!(std::mem::align_of::<NodePair>(), 64);
-        assert_eq!(std::mem::size_of::<Node4>(), 128);
-        assert_eq!(std::mem::align_of::<Node4>(), 64);
+        assert_eq!(std::mem::size_of::<Node8>(), 32 * wide::WIDTH);
+        assert_eq!(std::mem::align_of::<Node8>(), 64);
     }
 }

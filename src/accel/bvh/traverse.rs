@@ -16,32 +16,34 @@
 //! distance is widened by a few ulps (Ize 2013) so rounding cannot cull a box the exact ray
 //! touches.
 
-use glam::{Vec3, Vec4};
+use glam::Vec4;
+use multiversion::multiversion;
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
 use super::leaf::Ray4;
-use super::wide::{ChildRef, Node4};
+use super::wide::{ChildRef, Node8, WIDTH};
 use crate::accel::Hit;
 use crate::geometry::Ray;
 
 /// Widening of the exit distance: 1 + 2γ₃ rounded up generously.
 const EXIT_SCALE: f32 = 1.0 + 1e-6;
-/// Stack entries of the fast path. Each wide level pushes at most three children, so a
-/// balanced tree over millions of triangles needs about 40 at worst and far fewer in practice;
-/// the stack is kept small because it is initialised for every ray.
-const STACK: usize = 32;
+/// Stack entries of the fast path. Each wide level pushes at most `WIDTH − 1` children, but a
+/// ray rarely enters more than two or three boxes of a node, so a tree over millions of
+/// triangles needs far fewer than the worst case; the stack is kept small because it is
+/// initialised for every ray.
+const STACK: usize = 40;
 /// Stack entries that no tree can exceed: the binary depth bounds the wide depth. A ray that
 /// would overflow the fast path's stack is traced again with this one.
-const STACK_MAX: usize = 3 * MAX_DEPTH + 4;
+const STACK_MAX: usize = (WIDTH - 1) * MAX_DEPTH + WIDTH;
 
 /// The fast path's stack would overflow.
 struct Overflow;
 
-/// A ray prepared for box tests: origin and inverse direction splatted over four lanes.
+/// A ray prepared for box tests: origin, inverse direction and direction signs.
 struct RayBoxes {
-    o: [Vec4; 3],
-    inv: [Vec4; 3],
+    o: [f32; 3],
+    inv: [f32; 3],
     neg: [bool; 3],
     tmin: f32,
 }
@@ -50,31 +52,45 @@ impl RayBoxes {
     #[inline]
     fn new(ray: &Ray) -> Self {
         // 1 / ±0 = ±∞: the slab then spans everything or nothing, as it should.
-        let inv = Vec3::ONE / ray.dir;
-        let o = ray.origin;
+        let inv = (1.0 / ray.dir).to_array();
         RayBoxes {
-            o: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+            o: ray.origin.to_array(),
+            inv,
             neg: [ray.dir.x.is_sign_negative(), ray.dir.y.is_sign_negative(), ray.dir.z.is_sign_negative()],
             tmin: ray.tmin,
         }
     }
 
-    /// Which of `n`'s four boxes the ray enters within `(tmin, tmax)` (bit per lane), and the
-    /// entry distances.
+    /// Which of `n`'s boxes the ray enters within `(tmin, tmax)` (bit per lane), and the entry
+    /// distances. Plain loops over the lanes, which LLVM turns into one vector operation per
+    /// plane (two SSE or one AVX operation for eight lanes).
     #[inline(always)]
-    fn enter(&self, n: &Node4, tmax: f32) -> (u32, [f32; 4]) {
-        let mut entry = Vec4::splat(self.tmin);
-        let mut exit = Vec4::splat(tmax);
+    fn enter(&self, n: &Node8, tmax: f32) -> (u32, [f32; WIDTH]) {
+        let mut entry = [self.tmin; WIDTH];
+        let mut exit = [tmax; WIDTH];
         for a in 0..3 {
-            let (near, far) = if self.neg[a] { (n.max[a], n.min[a]) } else { (n.min[a], n.max[a]) };
-            let t0 = (near - self.o[a]) * self.inv[a];
-            let t1 = (far - self.o[a]) * self.inv[a];
-            // NaN in t0 / t1 keeps the accumulated value (see the module docs).
-            entry = t0.max(entry);
-            exit = t1.min(exit);
+            let (near, far) = if self.neg[a] { (&n.max[a], &n.min[a]) } else { (&n.min[a], &n.max[a]) };
+            for l in 0..WIDTH {
+                let t0 = (near[l] - self.o[a]) * self.inv[a];
+                let t1 = (far[l] - self.o[a]) * self.inv[a];
+                // NaN in t0 / t1 keeps the accumulated value (see the module docs).
+                entry[l] = if t0 > entry[l] { t0 } else { entry[l] };
+                exit[l] = if t1 < exit[l] { t1 } else { exit[l] };
+            }
         }
-        (entry.cmple(exit * EXIT_SCALE).bitmask(), entry.to_array())
+        // The lanes missed become NaN, and the mask is read from the NaNs four lanes at a time
+        // with glam's `bitmask` (movmskps): LLVM does not turn a loop of per-lane bits into a
+        // mask instruction, and with the bits computed here it splits the whole test into
+        // scalar and 4-wide pieces.
+        for l in 0..WIDTH {
+            entry[l] = if entry[l] <= exit[l] * EXIT_SCALE { entry[l] } else { f32::NAN };
+        }
+        let mut mask = 0;
+        for (k, four) in entry.chunks_exact(4).enumerate() {
+            let v = Vec4::from_slice(four);
+            mask |= v.cmpeq(v).bitmask() << (4 * k);
+        }
+        (mask, entry)
     }
 }
 
@@ -82,13 +98,13 @@ impl RayBoxes {
 /// and returns the nearest one, which is not pushed.
 #[inline(always)]
 fn push_sorted<const N: usize>(
-    n: &Node4,
+    n: &Node8,
     mut mask: u32,
-    entry: &[f32; 4],
+    entry: &[f32; WIDTH],
     stack: &mut [(ChildRef, f32); N],
     sp: &mut usize,
 ) -> ChildRef {
-    let mut hits = [(0.0f32, ChildRef::default()); 4];
+    let mut hits = [(0.0f32, ChildRef::default()); WIDTH];
     let mut k = 0;
     while mask != 0 {
         let lane = mask.trailing_zeros() as usize;
@@ -110,21 +126,36 @@ fn push_sorted<const N: usize>(
     hits[k - 1].1
 }
 
+/// [`Bvh::closest_hit`], compiled for AVX2 as well as for the build's target and picked at run
+/// time by the CPU's features: the slab test then handles eight lanes per instruction. (FMA
+/// only widens the choice of instructions: Rust never fuses a multiply and an add on its own,
+/// so both versions round alike and give identical hits.)
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
+    match bvh.closest_hit_with::<STACK>(ray) {
+        Ok(hit) => hit,
+        Err(Overflow) => bvh.closest_hit_with::<STACK_MAX>(ray).ok().flatten(),
+    }
+}
+
+/// [`Bvh::any_hit`], compiled as [`closest_hit_dispatch`] is.
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn any_hit_dispatch(bvh: &Bvh, ray: &Ray) -> bool {
+    match bvh.any_hit_with::<STACK>(ray) {
+        Ok(hit) => hit,
+        Err(Overflow) => bvh.any_hit_with::<STACK_MAX>(ray).unwrap_or(true),
+    }
+}
+
 impl Bvh {
     /// The closest hit of a valid ray.
     pub(super) fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        match self.closest_hit_with::<STACK>(ray) {
-            Ok(hit) => hit,
-            Err(Overflow) => self.closest_hit_with::<STACK_MAX>(ray).ok().flatten(),
-        }
+        closest_hit_dispatch(self, ray)
     }
 
     /// Whether a valid ray hits anything.
     pub(super) fn any_hit(&self, ray: &Ray) -> bool {
-        match self.any_hit_with::<STACK>(ray) {
-            Ok(hit) => hit,
-            Err(Overflow) => self.any_hit_with::<STACK_MAX>(ray).unwrap_or(true),
-        }
+        any_hit_dispatch(self, ray)
     }
 
     /// Closest-hit traversal with an `N`-entry stack.
@@ -154,7 +185,7 @@ impl Bvh {
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         n.child[mask.trailing_zeros() as usize]
-                    } else if sp + 3 > N {
+                    } else if sp + WIDTH - 1 > N {
                         return Err(Overflow);
                     } else {
                         push_sorted(n, mask, &entry, &mut stack, &mut sp)
@@ -200,7 +231,7 @@ impl Bvh {
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         n.child[mask.trailing_zeros() as usize]
-                    } else if sp + 3 > N {
+                    } else if sp + WIDTH - 1 > N {
                         return Err(Overflow);
                     } else {
                         push_sorted(n, mask, &entry, &mut stack, &mut sp)
@@ -221,13 +252,13 @@ impl Bvh {
 mod tests {
     use super::*;
     use crate::accel::testmesh;
+    use glam::Vec3;
 
     /// Rays lying in a box's face plane (`0 · ∞ = NaN` in the slab test) enter the box; rays
     /// parallel to a slab and outside it do not; empty lanes are never entered.
     #[test]
     fn slab_test_handles_zero_direction_components() {
-        let mut n =
-            Node4 { min: [Vec4::INFINITY; 3], max: [Vec4::NEG_INFINITY; 3], child: [ChildRef::default(); 4] };
+        let mut n = Node8::EMPTY;
         for a in 0..3 {
             n.min[a][0] = 0.0;
             n.max[a][0] = 1.0;
