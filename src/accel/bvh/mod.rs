@@ -103,7 +103,13 @@ pub struct Bvh {
     leaves: usize,
     depth: usize,
     build_time: Duration,
+    /// Whether traversal prefetches the children it defers: only for trees larger than a
+    /// core's L2 cache, where they are likely to miss (see [`traverse`]).
+    prefetch: bool,
 }
+
+/// Trees of more bytes than this are prefetched.
+const PREFETCH_BYTES: usize = 256 << 10;
 
 impl Bvh {
     /// Builds the hierarchy over the triangles `indices` of `positions`. Accepts an empty list
@@ -130,6 +136,7 @@ impl Bvh {
         let mut built = build::build(prims);
         let packs = pack_leaves(&mut built, |p| verts(&indices[p as usize]));
         let nodes = wide::collapse(&built.pairs);
+        let bytes = std::mem::size_of_val(&nodes[..]) + std::mem::size_of_val(&packs[..]);
         Bvh {
             nodes,
             // Every pair but the root's holds two nodes.
@@ -139,6 +146,7 @@ impl Bvh {
             leaves: built.leaves,
             depth: built.depth,
             build_time: start.elapsed(),
+            prefetch: bytes > PREFETCH_BYTES,
         }
     }
 

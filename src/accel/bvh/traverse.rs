@@ -18,6 +18,7 @@
 
 use glam::Vec4;
 use multiversion::multiversion;
+use multiversion::target::match_target;
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
@@ -98,12 +99,24 @@ impl RayBoxes {
 /// and returns the nearest one, which is not pushed.
 #[inline(always)]
 fn push_sorted<const N: usize>(
+    pf: &impl Fn(ChildRef),
     n: &Node8,
     mut mask: u32,
     entry: &[f32; WIDTH],
     stack: &mut [(ChildRef, f32); N],
     sp: &mut usize,
 ) -> ChildRef {
+    // Two children, the most common case after one: a single comparison (ties as below).
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    if rest & (rest - 1) == 0 {
+        let second = rest.trailing_zeros() as usize;
+        let (near, far) = if entry[first] < entry[second] { (first, second) } else { (second, first) };
+        stack[*sp] = (n.child[far], entry[far]);
+        pf(n.child[far]);
+        *sp += 1;
+        return n.child[near];
+    }
     let mut hits = [(0.0f32, ChildRef::default()); WIDTH];
     let mut k = 0;
     while mask != 0 {
@@ -121,6 +134,7 @@ fn push_sorted<const N: usize>(
     }
     for &(t, c) in &hits[..k - 1] {
         stack[*sp] = (c, t);
+        pf(c);
         *sp += 1;
     }
     hits[k - 1].1
@@ -132,18 +146,52 @@ fn push_sorted<const N: usize>(
 /// so both versions round alike and give identical hits.)
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
-    match bvh.closest_hit_with::<STACK>(ray) {
+    let pf = match_target! {
+        "x86_64+avx2" => |c: ChildRef| {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            if !bvh.prefetch {
+                return;
+            }
+            let (p, lines) = if c.is_leaf() {
+                (bvh.packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 3)
+            } else {
+                (bvh.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 4)
+            };
+            for l in 0..lines {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * l));
+            }
+        },
+        _ => |_: ChildRef| {},
+    };
+    match bvh.closest_hit_with::<STACK>(ray, &pf) {
         Ok(hit) => hit,
-        Err(Overflow) => bvh.closest_hit_with::<STACK_MAX>(ray).ok().flatten(),
+        Err(Overflow) => bvh.closest_hit_with::<STACK_MAX>(ray, &pf).ok().flatten(),
     }
 }
 
 /// [`Bvh::any_hit`], compiled as [`closest_hit_dispatch`] is.
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn any_hit_dispatch(bvh: &Bvh, ray: &Ray) -> bool {
-    match bvh.any_hit_with::<STACK>(ray) {
+    let pf = match_target! {
+        "x86_64+avx2" => |c: ChildRef| {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            if !bvh.prefetch {
+                return;
+            }
+            let (p, lines) = if c.is_leaf() {
+                (bvh.packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 3)
+            } else {
+                (bvh.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 4)
+            };
+            for l in 0..lines {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * l));
+            }
+        },
+        _ => |_: ChildRef| {},
+    };
+    match bvh.any_hit_with::<STACK>(ray, &pf) {
         Ok(hit) => hit,
-        Err(Overflow) => bvh.any_hit_with::<STACK_MAX>(ray).unwrap_or(true),
+        Err(Overflow) => bvh.any_hit_with::<STACK_MAX>(ray, &pf).unwrap_or(true),
     }
 }
 
@@ -160,7 +208,11 @@ impl Bvh {
 
     /// Closest-hit traversal with an `N`-entry stack.
     #[inline(always)]
-    fn closest_hit_with<const N: usize>(&self, ray: &Ray) -> Result<Option<Hit>, Overflow> {
+    fn closest_hit_with<const N: usize>(
+        &self,
+        ray: &Ray,
+        pf: &impl Fn(ChildRef),
+    ) -> Result<Option<Hit>, Overflow> {
         let rb = RayBoxes::new(ray);
         let r4 = Ray4::new(ray.origin, ray.dir);
         let mut best: Option<Hit> = None;
@@ -188,7 +240,7 @@ impl Bvh {
                     } else if sp + WIDTH - 1 > N {
                         return Err(Overflow);
                     } else {
-                        push_sorted(n, mask, &entry, &mut stack, &mut sp)
+                        push_sorted(pf, n, mask, &entry, &mut stack, &mut sp)
                     };
                     continue;
                 }
@@ -210,7 +262,7 @@ impl Bvh {
 
     /// Any-hit traversal with an `N`-entry stack.
     #[inline(always)]
-    fn any_hit_with<const N: usize>(&self, ray: &Ray) -> Result<bool, Overflow> {
+    fn any_hit_with<const N: usize>(&self, ray: &Ray, pf: &impl Fn(ChildRef)) -> Result<bool, Overflow> {
         let rb = RayBoxes::new(ray);
         let r4 = Ray4::new(ray.origin, ray.dir);
         let tmax = ray.tmax;
@@ -234,7 +286,7 @@ impl Bvh {
                     } else if sp + WIDTH - 1 > N {
                         return Err(Overflow);
                     } else {
-                        push_sorted(n, mask, &entry, &mut stack, &mut sp)
+                        push_sorted(pf, n, mask, &entry, &mut stack, &mut sp)
                     };
                     continue;
                 }
@@ -284,15 +336,15 @@ mod tests {
         let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
         let mut overflows = 0;
         for r in testmesh::random_rays(&grown, 2_000, 9) {
-            let full = bvh.closest_hit_with::<STACK_MAX>(&r).ok().flatten();
-            assert_eq!(bvh.closest_hit_with::<STACK>(&r).ok(), Some(full));
-            match bvh.closest_hit_with::<4>(&r) {
+            let full = bvh.closest_hit_with::<STACK_MAX>(&r, &|_| {}).ok().flatten();
+            assert_eq!(bvh.closest_hit_with::<STACK>(&r, &|_| {}).ok(), Some(full));
+            match bvh.closest_hit_with::<4>(&r, &|_| {}) {
                 Ok(h) => assert_eq!(h, full),
                 Err(Overflow) => overflows += 1,
             }
-            let occ = bvh.any_hit_with::<STACK_MAX>(&r).ok();
+            let occ = bvh.any_hit_with::<STACK_MAX>(&r, &|_| {}).ok();
             assert_eq!(occ, Some(full.is_some()));
-            if let Ok(o) = bvh.any_hit_with::<4>(&r) {
+            if let Ok(o) = bvh.any_hit_with::<4>(&r, &|_| {}) {
                 assert_eq!(Some(o), occ);
             }
         }
