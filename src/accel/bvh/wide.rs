@@ -1,11 +1,13 @@
 //! The wide node layout that traversal runs on, collapsed from the binary SAH tree.
 //!
 //! A [`Node8`] holds the boxes of up to [`WIDTH`] children in structure-of-arrays form (one
-//! `[f32; WIDTH]` per bound and axis), so one ray is tested against all of them with one
-//! vector operation per plane (see [`traverse`](super::traverse)). Collapsing pulls
-//! grandchildren up into a node, always opening the interior child with the largest surface
-//! area, until the node is full: this divides the tree's depth and the number of nodes a ray
-//! visits. Unused lanes hold the empty box (`+∞` min, `−∞` max), which no ray enters.
+//! `[f32; WIDTH]` per bound and axis: 192 bytes; with the child references 256 bytes, four
+//! cache lines, like Embree's 8-wide nodes), so one ray is tested against all of them with one
+//! AVX2 operation per plane (see [`traverse`](super::traverse)); with SSE2 only, eight lanes
+//! take two operations. Collapsing pulls grandchildren up into a node, always opening the
+//! interior child with the largest surface area, until the node is full: this divides the
+//! tree's depth, and the number of nodes a ray visits, by about three. Unused lanes hold the
+//! empty box (`+∞` min, `−∞` max), which no ray enters.
 
 use super::{Node, NodePair};
 
