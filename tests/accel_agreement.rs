@@ -123,7 +123,7 @@ fn check_all(m: &Mesh, rays: &[Ray], what: &str) -> usize {
     check_all_with(m, rays, what, 0.005)
 }
 
-fn sampler(k: u64) -> Sampler {
+fn sampler(k: u64) -> Sampler<'static> {
     Sampler::new(0xB1A5, 0, Domain::Iteration, k)
 }
 

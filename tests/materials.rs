@@ -34,7 +34,7 @@ fn dir_at(n: Vec3, theta_deg: f32, phi: f32) -> Vec3 {
     f.to_world(Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())).normalize()
 }
 
-fn sampler(tag: u64) -> Sampler {
+fn sampler(tag: u64) -> Sampler<'static> {
     Sampler::new(0x5eed, tag, Domain::Iteration, 0)
 }
 

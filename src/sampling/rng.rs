@@ -68,24 +68,35 @@ impl std::str::FromStr for SamplerKind {
 /// The `d`-th draw hashes the key and `d`. An independent sampler returns that hash; a Sobol
 /// sampler uses it as the seed of the scrambled Sobol sequence whose point number `index` it
 /// returns ([`Sampler::next_2d`] takes both coordinates of one point, one dimension).
-/// [`Sampler::next_u64`] is always the hash.
+/// [`Sampler::next_u64`] is always the hash. A camera sampler's first dimensions take their
+/// unshifted points from its iteration's table ([`Streams::camera`]) and only shift them.
 #[derive(Clone, Debug)]
-pub struct Sampler {
+pub struct Sampler<'a> {
     key: u64,
     dim: u64,
     /// The point's number in the Sobol sequence, bit-reversed, when `sobol`.
     index: u32,
     sobol: bool,
+    /// Unshifted points of the first dimensions, shared by the samplers of a [`Streams`].
+    table: &'a [[u32; 2]],
 }
 
 /// The samplers of one `(seed, iteration, domain)`, with the part of the key they share
 /// hashed once: [`Streams::sampler`] of `index` is `Sampler::new(seed, iteration, domain,
 /// index)`, for a loop over many indices (the pixels of an iteration).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Streams {
     prefix: u64,
     sequence: Sequence,
+    /// Camera streams with Sobol points: the unshifted points of the first [`TABLE_DIMS`]
+    /// dimensions at this iteration's index, the same for every pixel.
+    table: Vec<[u32; 2]>,
 }
+
+/// Dimensions whose Sobol points a camera [`Streams`] computes once per iteration: more than
+/// a path of `max_depth` 8 draws in `pt` (two a vertex, and the camera's). Later dimensions are
+/// computed draw by draw.
+const TABLE_DIMS: usize = 48;
 
 /// What a [`Streams`]' Sobol sequence runs over.
 #[derive(Clone, Copy, Debug)]
@@ -107,22 +118,33 @@ impl Streams {
         Streams {
             prefix: mix64(k ^ (domain as u64).wrapping_mul(0xA076_1D64_78BD_642F)),
             sequence: Sequence::None,
+            table: Vec::new(),
         }
     }
 
     /// The camera samplers of a render's iteration (numbered from 1), one per pixel (the
     /// index). With [`SamplerKind::Sobol`] the sequence runs over the iterations, with
-    /// scrambles of its own for every pixel: a pixel's samples are stratified over the
+    /// shifts of its own for every pixel: a pixel's samples are stratified over the
     /// iterations, and pixels are independent of each other.
     pub fn camera(kind: SamplerKind, seed: u64, iteration: u64) -> Self {
         match kind {
             SamplerKind::Independent => Streams::new(seed, iteration, Domain::Camera),
-            SamplerKind::Sobol => Streams {
+            SamplerKind::Sobol => {
                 // Iteration u64::MAX is never rendered: these keys are not any independent
                 // sampler's.
-                prefix: Streams::new(seed, u64::MAX, Domain::Camera).prefix,
-                sequence: Sequence::Fixed(iteration.wrapping_sub(1) as u32),
-            },
+                let prefix = Streams::new(seed, u64::MAX, Domain::Camera).prefix;
+                let rindex = (iteration.wrapping_sub(1) as u32).reverse_bits();
+                // The first dimensions' shuffles are per dimension, shared by the pixels, so
+                // their points are computed here once; each pixel's own shifts keep the pixels
+                // independent (a pixel's error is a function of its shifts alone, for any
+                // shuffle).
+                let table = (1..=TABLE_DIMS as u64)
+                    .map(|d| {
+                        sobol::shuffled_2d(rindex, sobol::shuffle_seed(mix64(prefix ^ d.wrapping_mul(GAMMA))))
+                    })
+                    .collect();
+                Streams { prefix, sequence: Sequence::Fixed(rindex), table }
+            }
         }
     }
 
@@ -148,24 +170,30 @@ impl Streams {
 
     /// The sampler of stream `index`.
     #[inline]
-    pub fn sampler(&self, index: u64) -> Sampler {
+    pub fn sampler(&self, index: u64) -> Sampler<'_> {
         let key = mix64(self.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        let table = &self.table[..];
         match self.sequence {
-            Sequence::None => Sampler { key, dim: 0, index: 0, sobol: false },
-            Sequence::Fixed(i) => Sampler { key, dim: 0, index: i.reverse_bits(), sobol: true },
+            Sequence::None => Sampler { key, dim: 0, index: 0, sobol: false, table },
+            Sequence::Fixed(rindex) => Sampler { key, dim: 0, index: rindex, sobol: true, table },
             Sequence::Index => {
-                Sampler { key: self.prefix, dim: 0, index: (index as u32).reverse_bits(), sobol: true }
+                let index = (index as u32).reverse_bits();
+                Sampler { key: self.prefix, dim: 0, index, sobol: true, table }
             }
         }
     }
 }
 
-impl Sampler {
+impl Sampler<'static> {
     /// An independent sampler.
     pub fn new(seed: u64, iteration: u64, domain: Domain, index: u64) -> Self {
-        Streams::new(seed, iteration, domain).sampler(index)
+        let s = Streams::new(seed, iteration, domain);
+        let key = mix64(s.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        Sampler { key, dim: 0, index: 0, sobol: false, table: &[] }
     }
+}
 
+impl Sampler<'_> {
     /// The number of dimensions drawn so far.
     pub fn dimension(&self) -> u64 {
         self.dim
@@ -182,7 +210,10 @@ impl Sampler {
     pub fn next_f32(&mut self) -> f32 {
         let h = self.next_u64();
         if self.sobol {
-            sobol::point_1d(self.index, h)
+            match self.table.get(self.dim as usize - 1) {
+                Some(&p) => sobol::shifted_1d(p, h),
+                None => sobol::point_1d(self.index, h),
+            }
         } else {
             (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
         }
@@ -194,7 +225,10 @@ impl Sampler {
     pub fn next_2d(&mut self) -> glam::Vec2 {
         if self.sobol {
             let h = self.next_u64();
-            glam::Vec2::from(sobol::point_2d(self.index, h))
+            glam::Vec2::from(match self.table.get(self.dim as usize - 1) {
+                Some(&p) => sobol::shifted(p, h),
+                None => sobol::point_2d(self.index, h),
+            })
         } else {
             glam::Vec2::new(self.next_f32(), self.next_f32())
         }
@@ -282,10 +316,8 @@ mod tests {
             assert!(!is_net(&independent));
         }
         // Independent streams are the plain samplers.
-        let (mut a, mut b) = (
-            Streams::camera(SamplerKind::Independent, 5, 2).sampler(3),
-            Sampler::new(5, 2, Domain::Camera, 3),
-        );
+        let independent = Streams::camera(SamplerKind::Independent, 5, 2);
+        let (mut a, mut b) = (independent.sampler(3), Sampler::new(5, 2, Domain::Camera, 3));
         assert_eq!([a.next_u64(), a.next_u64()], [b.next_u64(), b.next_u64()]);
     }
 

@@ -121,7 +121,7 @@ fn unit(x: u32) -> f32 {
 /// The seed of a pair's shuffle, hashed from its seed (all 64 bits, so that no simple
 /// relation between two pairs' seeds gives them the same shuffle).
 #[inline]
-fn shuffle_seed(seed: u64) -> u32 {
+pub(super) fn shuffle_seed(seed: u64) -> u32 {
     hash32((seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as u32)
 }
 
@@ -132,9 +132,27 @@ fn shuffle_seed(seed: u64) -> u32 {
 /// second needs `i` itself.
 #[inline]
 pub(super) fn point_2d(rindex: u32, seed: u64) -> [f32; 2] {
-    let j = laine_karras(rindex, shuffle_seed(seed));
-    let y = sobol1(j.reverse_bits()) ^ (seed >> 32) as u32;
-    [unit(j ^ seed as u32), unit(y)]
+    shifted(shuffled_2d(rindex, shuffle_seed(seed)), seed)
+}
+
+/// The unshifted point `index` (given as `rindex`) of a pair whose shuffle seed is `shuffle`:
+/// both Sobol coordinates of the shuffled index, as fractions of 2^32.
+#[inline]
+pub(super) fn shuffled_2d(rindex: u32, shuffle: u32) -> [u32; 2] {
+    let j = laine_karras(rindex, shuffle);
+    [j, sobol1(j.reverse_bits())]
+}
+
+/// An unshifted point shifted by `seed`'s two halves, in `[0, 1)²`.
+#[inline]
+pub(super) fn shifted(point: [u32; 2], seed: u64) -> [f32; 2] {
+    [unit(point[0] ^ seed as u32), unit(point[1] ^ (seed >> 32) as u32)]
+}
+
+/// The first coordinate of [`shifted`].
+#[inline]
+pub(super) fn shifted_1d(point: [u32; 2], seed: u64) -> f32 {
+    unit(point[0] ^ seed as u32)
 }
 
 /// The first coordinate of [`point_2d`]: a shuffled, shifted van der Corput sequence.
