@@ -24,7 +24,9 @@
 //! measured Owen-scrambled coordinates against shifted ones on the Cornell box (1.36e-4
 //! against 1.34e-4 relative MSE at 512 samples per pixel) and the mirror-and-glass box (2.08e-2
 //! against 2.09e-2 at 128): no gain, for 1.14× the time per sample (two bit reversals and two
-//! hashes more per pair); so pir shifts.
+//! hashes more per pair); so pir shifts. A shift also lets the camera samplers share the
+//! shuffled points of their first dimensions (see `Streams::camera`) and draw each with one
+//! hash and an XOR.
 //!
 //! The progressive many-light methods change their kernel with the iteration, and a pixel's
 //! camera samples are stratified over the iterations, so their iterations are no longer
