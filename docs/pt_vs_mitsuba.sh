@@ -93,6 +93,10 @@ measure() {
 
 eff() { awk -v t="$1" -v e="$2" 'BEGIN { printf "%.4g", 1 / (t * e) }'; }
 
+# ratio PIR_SECONDS MITSUBA_SECONDS : pir's efficiency over Mitsuba's, with the relative MSEs
+# e_pir and e_mi of the scene being measured
+ratio() { awk -v a="$1" -v b="$2" -v x="$e_pir" -v y="$e_mi" 'BEGIN { printf "%.2f", (b * y) / (a * x) }'; }
+
 echo "pir pt vs Mitsuba 3 path, $spp spp, seed $seed, $(nproc) threads, $(date -u +%Y-%m-%d), load average $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-13s %-17s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
     "pir/Mi wall" "pir/Mi cpu"
@@ -115,7 +119,6 @@ for entry in "${scenes[@]}"; do
         row=$(printf '%-13s %-17s %8s %8s %12s %11s' "$name" "pir ($sampler)" "$w_pir" "$c_pir" "$e_pir" \
             "$(eff "$w_pir" "$e_pir")")
         if [[ -n $py ]]; then
-            ratio() { awk -v a="$1" -v b="$2" -v x="$e_pir" -v y="$e_mi" 'BEGIN { printf "%.2f", (b * y) / (a * x) }'; }
             row="$row $(printf '%12s %12s' "$(ratio "$w_pir" "$w_mi")" "$(ratio "$c_pir" "$c_mi")")"
         fi
         echo "$row"

@@ -168,10 +168,16 @@ impl Streams {
         }
     }
 
+    /// The key of stream `index`: its own hash of the shared prefix.
+    #[inline]
+    fn key(&self, index: u64) -> u64 {
+        mix64(self.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB))
+    }
+
     /// The sampler of stream `index`.
     #[inline]
     pub fn sampler(&self, index: u64) -> Sampler<'_> {
-        let key = mix64(self.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        let key = self.key(index);
         let table = &self.table[..];
         match self.sequence {
             Sequence::None => Sampler { key, dim: 0, index: 0, sobol: false, table },
@@ -187,8 +193,7 @@ impl Streams {
 impl Sampler<'static> {
     /// An independent sampler.
     pub fn new(seed: u64, iteration: u64, domain: Domain, index: u64) -> Self {
-        let s = Streams::new(seed, iteration, domain);
-        let key = mix64(s.prefix ^ index.wrapping_mul(0xE703_7ED1_A0B4_28DB));
+        let key = Streams::new(seed, iteration, domain).key(index);
         Sampler { key, dim: 0, index: 0, sobol: false, table: &[] }
     }
 }

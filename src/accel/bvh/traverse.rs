@@ -153,26 +153,35 @@ fn push_sorted<const N: usize>(
     hits[k - 1].1
 }
 
+/// Prefetches the node or the triangle packs of a deferred child (its 4 or 3 cache lines) on
+/// trees large enough to profit (`Bvh::prefetch`). Called from the AVX2 versions only, where
+/// it was measured to pay; the intrinsic, and so this function, is safe to call only where the
+/// target features are enabled, as in those versions.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse")]
+#[inline]
+fn prefetch_child(bvh: &Bvh, c: ChildRef) {
+    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+    if !bvh.prefetch {
+        return;
+    }
+    let (p, lines) = if c.is_leaf() {
+        (bvh.packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 3)
+    } else {
+        (bvh.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 4)
+    };
+    for l in 0..lines {
+        _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * l));
+    }
+}
+
 /// [`Bvh::closest_hit`], compiled for AVX2 as well as for the build's target and picked at run
-/// time by the CPU's features (see the module docs). `pf` prefetches a pushed child; the
-/// intrinsic is safe only where the target features are enabled, i.e. in the AVX2 version.
+/// time by the CPU's features (see the module docs). `pf` prefetches a pushed child, in the
+/// AVX2 version only ([`prefetch_child`]).
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
     let pf = match_target! {
-        "x86_64+avx2" => |c: ChildRef| {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            if !bvh.prefetch {
-                return;
-            }
-            let (p, lines) = if c.is_leaf() {
-                (bvh.packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 3)
-            } else {
-                (bvh.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 4)
-            };
-            for l in 0..lines {
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * l));
-            }
-        },
+        "x86_64+avx2" => |c: ChildRef| prefetch_child(bvh, c),
         _ => |_: ChildRef| {},
     };
     match bvh.closest_hit_with::<STACK>(ray, &pf) {
@@ -185,20 +194,7 @@ fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn any_hit_dispatch(bvh: &Bvh, ray: &Ray) -> bool {
     let pf = match_target! {
-        "x86_64+avx2" => |c: ChildRef| {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            if !bvh.prefetch {
-                return;
-            }
-            let (p, lines) = if c.is_leaf() {
-                (bvh.packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 3)
-            } else {
-                (bvh.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>(), 4)
-            };
-            for l in 0..lines {
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * l));
-            }
-        },
+        "x86_64+avx2" => |c: ChildRef| prefetch_child(bvh, c),
         _ => |_: ChildRef| {},
     };
     match bvh.any_hit_with::<STACK>(ray, &pf) {
