@@ -123,7 +123,9 @@ fn bench(c: &mut Criterion) {
 
     // The descent alone, receivers as the gather builds them.
     let bound = match lights {
-        VirtualLights::Points(c) | VirtualLights::WeighedPoints(c) => c.bound(1),
+        VirtualLights::Points(c) | VirtualLights::WeighedPoints(c) | VirtualLights::Bidirectional(c) => {
+            c.bound(1)
+        }
         VirtualLights::Spheres { .. } => unreachable!(),
     };
     let rxs: Vec<Receiver> = receivers

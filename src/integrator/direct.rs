@@ -71,6 +71,8 @@ pub struct LightSample {
     /// The cosine at the emitter point, and its squared distance from the receiver.
     pub cos_light: f32,
     pub dist2: f32,
+    /// The unit direction from the receiver towards the emitter point.
+    pub wi: Vec3,
 }
 
 /// [`sample_emitters`] with the MIS weight given by `weight` instead of the power heuristic
@@ -107,7 +109,7 @@ pub fn sample_emitters_weighted(
         return Vec3::ZERO;
     }
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    f * es.radiance * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2 }) / pdf_light)
+    f * es.radiance * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi }) / pdf_light)
 }
 
 /// How the ray that reached a surface was sampled: what the MIS weight of the emission it
@@ -166,5 +168,5 @@ pub fn emission_weighted(
     }
     let dist2 = (sp.p - how.from).length_squared();
     let pdf_light = ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light;
-    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2 })
+    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo })
 }

@@ -40,10 +40,15 @@ pub enum Method {
     /// sampling, the weighted connection bounded progressively (b_i = b_1 · i^α): no spikes at
     /// creases or in a receiver's glossy lobe; consistent (pir's own, not the thesis').
     PirMis,
+    /// Bidirectional: a full camera path connects to the VPLs at every non-delta vertex, and
+    /// every technique (the path tracer's two and each connection) is weighed against the
+    /// others by the balance heuristic, the weighted connection bounded progressively:
+    /// consistent (pir's own).
+    PirBdpt,
 }
 
 impl Method {
-    pub const ALL: [Method; 7] = [
+    pub const ALL: [Method; 8] = [
         Method::Pt,
         Method::Ir,
         Method::IrClamp,
@@ -51,6 +56,7 @@ impl Method {
         Method::Vsl,
         Method::PirVsl,
         Method::PirMis,
+        Method::PirBdpt,
     ];
 
     pub fn name(self) -> &'static str {
@@ -62,6 +68,7 @@ impl Method {
             Method::Vsl => "vsl",
             Method::PirVsl => "pir-vsl",
             Method::PirMis => "pir-mis",
+            Method::PirBdpt => "pir-bdpt",
         }
     }
 
@@ -71,10 +78,10 @@ impl Method {
     }
     /// Whether the method uses α (the progressive schedules).
     pub fn uses_alpha(self) -> bool {
-        matches!(self, Method::PirClamp | Method::PirVsl | Method::PirMis)
+        matches!(self, Method::PirClamp | Method::PirVsl | Method::PirMis | Method::PirBdpt)
     }
     pub fn uses_clamp(self) -> bool {
-        matches!(self, Method::IrClamp | Method::PirClamp | Method::PirMis)
+        matches!(self, Method::IrClamp | Method::PirClamp | Method::PirMis | Method::PirBdpt)
     }
     pub fn uses_radius(self) -> bool {
         matches!(self, Method::Vsl | Method::PirVsl)
@@ -300,7 +307,9 @@ pub struct MethodConfig {
     /// clamp b_i = b_1 · i^α: consistent), vsl (virtual spherical lights of constant --radius:
     /// biased), pir-vsl (progressive radius r_i = r_1 · i^((α−1)/2): consistent), pir-mis
     /// (VPL connections weighed against a BSDF-sampled bounce, the weighted connection bounded
-    /// progressively: consistent, no spikes at creases or on glossy receivers).
+    /// progressively: consistent, no spikes at creases or on glossy receivers), pir-bdpt (a full
+    /// camera path connecting to the VPLs at every vertex, every technique weighed against the
+    /// others, the weighted connection bounded progressively: consistent).
     #[arg(long, default_value_t = Method::Pt, value_name = "METHOD")]
     pub method: Method,
     #[command(flatten)]
@@ -324,7 +333,7 @@ impl MethodConfig {
     pub fn gather_parameters(&self) -> (GatherKind, usize, usize) {
         let p = &self.params;
         let (kind, k, m) = match self.method {
-            Method::PirMis => MIS_GATHER,
+            Method::PirMis | Method::PirBdpt => MIS_GATHER,
             _ => (GatherKind::All, DEFAULT_GATHER_SAMPLES, DEFAULT_GATHER_CANDIDATES),
         };
         (p.gather.unwrap_or(kind), p.gather_samples.unwrap_or(k), p.gather_candidates.unwrap_or(m))
@@ -381,6 +390,9 @@ impl MethodConfig {
             Method::PirClamp => VirtualLights::Points(Clamping::Progressive { b1: bound, alpha: p.alpha }),
             Method::PirMis => {
                 VirtualLights::WeighedPoints(Clamping::Progressive { b1: bound, alpha: p.alpha })
+            }
+            Method::PirBdpt => {
+                VirtualLights::Bidirectional(Clamping::Progressive { b1: bound, alpha: p.alpha })
             }
             Method::Vsl | Method::PirVsl => {
                 let radius = p.radius.map_or(Radius::Density, Radius::Global);

@@ -24,6 +24,13 @@ use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
 /// The inside of the cube [-1, 1]³, every face facing inwards, all of one material; the
 /// camera sits at the centre looking down −z.
 pub fn closed_cube(material: Material) -> Scene {
+    closed_cube_of(vec![material], |_| 0)
+}
+
+/// [`closed_cube`] with several materials: face f (0 to 5: −x, +x, −y, +y, −z, +z) gets
+/// material `face_material(f)`.
+pub fn closed_cube_of(materials: Vec<Material>, face_material: impl Fn(usize) -> u32) -> Scene {
+    let mut tri_material = Vec::new();
     let mut positions = Vec::new();
     let mut indices = Vec::new();
     // For each axis and sign, a face at coordinate `sign` whose normal points to −sign.
@@ -46,6 +53,8 @@ pub fn closed_cube(material: Material) -> Scene {
             };
             let (a, b, c) =
                 (positions[base as usize], positions[base as usize + 1], positions[base as usize + 2]);
+            let face = 2 * axis + usize::from(sign > 0.0);
+            tri_material.extend([face_material(face); 2]);
             if (b - a).cross(c - a).dot(inward) > 0.0 {
                 indices.push([base, base + 1, base + 2]);
                 indices.push([base, base + 2, base + 3]);
@@ -55,7 +64,6 @@ pub fn closed_cube(material: Material) -> Scene {
             }
         }
     }
-    let n = indices.len();
     let camera = Camera {
         eye: Vec3::ZERO,
         target: Vec3::new(0.0, 0.0, -1.0),
@@ -68,10 +76,10 @@ pub fn closed_cube(material: Material) -> Scene {
         normals: vec![Vec3::ZERO; positions.len()],
         positions,
         indices,
-        tri_material: vec![0; n],
+        tri_material,
         degenerate_dropped: 0,
     };
-    Scene::new(PathBuf::from("closed-cube"), camera, RenderDefaults::default(), geometry, vec![material])
+    Scene::new(PathBuf::from("closed-cube"), camera, RenderDefaults::default(), geometry, materials)
         .expect("the closed cube is a valid scene")
 }
 

@@ -314,6 +314,7 @@ mod tests {
                         arrival: 1.0,
                         survival: 1.0,
                         nee_pdf: 0.0,
+                        mis: Default::default(),
                     }
                 })
                 .collect();
@@ -380,6 +381,7 @@ mod tests {
                         arrival: 1.0,
                         survival: 1.0,
                         nee_pdf: 0.0,
+                        mis: Default::default(),
                     }
                 })
                 .collect();

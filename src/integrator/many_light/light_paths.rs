@@ -17,6 +17,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::bidirectional::MisState;
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
@@ -51,6 +52,9 @@ pub struct Vpl {
     /// For a vertex lit directly: the solid-angle density with which next-event estimation
     /// from here picks the emitter point that lit it; 0 otherwise.
     pub nee_pdf: f32,
+    /// The light subpath's running sums for the bidirectional weights of `pir-bdpt`
+    /// ([`super::bidirectional`]), at this vertex.
+    pub mis: MisState,
 }
 
 impl Vpl {
@@ -116,6 +120,7 @@ fn trace_path(
     let mut from = es.point.p;
     let mut density = n_paths * local.z * std::f32::consts::FRAC_1_PI;
     let emitter_point = (es.point.p, es.pdf_area, local.z);
+    let mut mis = MisState::light(es.pdf_area, local.z, n_paths);
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;
@@ -123,6 +128,8 @@ fn trace_path(
         let sp = ctx.scene.surface_of_hit(&hit);
         let w_in = -ray.dir.normalize();
         let bsdf = &ctx.scene.material(sp.material).bsdf;
+        let dist2 = (sp.p - from).length_squared();
+        mis.arrive(dist2, sp.ng.dot(w_in).abs());
         // Survival by the flux arriving here relative to the path's start (importance
         // transport has no 1/η² radiance scaling to compensate), decided before the
         // direction is sampled so that a connection can be weighed against this
@@ -141,7 +148,7 @@ fn trace_path(
                 material: sp.material,
                 flux: beta,
                 depth,
-                arrival: density / (sp.p - from).length_squared(),
+                arrival: density / dist2,
                 survival,
                 nee_pdf: if depth == 1 {
                     let (e, pdf_area, cos_e) = emitter_point;
@@ -149,12 +156,15 @@ fn trace_path(
                 } else {
                     0.0
                 },
+                mis,
             });
         }
         if depth == max_depth {
             break;
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
+        let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
+        mis.scatter(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;
         }

@@ -48,6 +48,7 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
+use super::bidirectional::{CameraEnd, connection_weight};
 use super::light_paths::Vpl;
 use crate::integrator::direct::LightSample;
 use crate::material::PreparedBsdf;
@@ -63,6 +64,9 @@ pub enum Technique<'a> {
     Connect { fx: &'a PreparedBsdf, scene: &'a Scene },
     /// B at y, reached from the gathering vertex with density `bounce` = p_x / ‖y − x‖².
     Bounce { bounce: f32 },
+    /// A connection of `pir-bdpt`, weighed against every other technique of the path
+    /// ([`super::bidirectional`]), in `scene` (the VPLs' materials).
+    Bidirectional { end: CameraEnd<'a>, scene: &'a Scene },
 }
 
 /// How a gather weighs its connections: the technique's MIS weight, and the bound on the
@@ -97,6 +101,9 @@ impl Weighing<'_> {
                 } else {
                     balance(vpl.arrival, b)
                 }
+            }
+            Technique::Bidirectional { ref end, scene } => {
+                connection_weight(end, x, vpl, &scene.material(vpl.material).bsdf, emitting)
             }
             Technique::Bounce { bounce } => {
                 let d = x - vpl.p;

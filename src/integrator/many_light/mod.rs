@@ -41,6 +41,7 @@
 //! unbiased). Measurements behind the defaults are in
 //! `docs/measurements.md`.
 
+pub mod bidirectional;
 pub mod gather;
 pub mod knn;
 pub mod lanes;
@@ -124,6 +125,9 @@ pub enum VirtualLights {
     /// Points whose connections are weighed against a BSDF-sampled bounce ([`mis`]), the
     /// clamping applied to the weighted connection instead of to G.
     WeighedPoints(Clamping),
+    /// Points connected from every vertex of a full camera path, every technique weighed
+    /// against the others ([`bidirectional`]), the clamping applied to the weighted connection.
+    Bidirectional(Clamping),
     /// Spheres; with `alpha` the radius shrinks as r_1 · i^((α−1)/2).
     Spheres {
         radius: Radius,
@@ -246,6 +250,9 @@ impl Integrator for InstantRadiosity {
             VirtualLights::WeighedPoints(Clamping::None) => "ir-mis",
             VirtualLights::WeighedPoints(Clamping::Constant { .. }) => "ir-mis-clamp",
             VirtualLights::WeighedPoints(Clamping::Progressive { .. }) => "pir-mis",
+            VirtualLights::Bidirectional(Clamping::None) => "ir-bdpt",
+            VirtualLights::Bidirectional(Clamping::Constant { .. }) => "ir-bdpt-clamp",
+            VirtualLights::Bidirectional(Clamping::Progressive { .. }) => "pir-bdpt",
             VirtualLights::Spheres { alpha: None, .. } => "vsl",
             VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
         }
@@ -266,13 +273,17 @@ impl Integrator for InstantRadiosity {
             }
         }
         match self.lights {
-            VirtualLights::Points(Clamping::None) | VirtualLights::WeighedPoints(Clamping::None) => {}
+            VirtualLights::Points(Clamping::None)
+            | VirtualLights::WeighedPoints(Clamping::None)
+            | VirtualLights::Bidirectional(Clamping::None) => {}
             VirtualLights::Points(Clamping::Constant { b })
-            | VirtualLights::WeighedPoints(Clamping::Constant { b }) => {
+            | VirtualLights::WeighedPoints(Clamping::Constant { b })
+            | VirtualLights::Bidirectional(Clamping::Constant { b }) => {
                 p.push(("clamp".into(), b.to_string()))
             }
             VirtualLights::Points(Clamping::Progressive { b1, alpha })
-            | VirtualLights::WeighedPoints(Clamping::Progressive { b1, alpha }) => {
+            | VirtualLights::WeighedPoints(Clamping::Progressive { b1, alpha })
+            | VirtualLights::Bidirectional(Clamping::Progressive { b1, alpha }) => {
                 p.push(("clamp".into(), b1.to_string()));
                 p.push(("alpha".into(), alpha.to_string()));
             }
@@ -306,6 +317,11 @@ impl Integrator for InstantRadiosity {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
-        walk(ctx, ray, &self.set, sampler, counters)
+        match (&self.lights, &self.set.mis) {
+            (VirtualLights::Bidirectional(_), Some(mis)) => {
+                bidirectional::walk(ctx, ray, &self.set, mis.paths, mis.bound, sampler, counters)
+            }
+            _ => walk(ctx, ray, &self.set, sampler, counters),
+        }
     }
 }

@@ -458,6 +458,7 @@ mod tests {
                     arrival: 1.0,
                     survival: 1.0,
                     nee_pdf: 0.0,
+                    mis: Default::default(),
                 }
             })
             .collect()

@@ -1,0 +1,417 @@
+//! Bidirectional weighing of VPL connections (`pir-bdpt`): every camera path is a full path
+//! tracer's (next-event estimation and BSDF-sampled emission at every vertex, Russian
+//! roulette), and at every non-delta vertex it also connects to the iteration's VPLs; each
+//! path is counted by all the techniques that can make it, weighed by the balance heuristic.
+//!
+//! **The techniques.** Take a path z_1 … z_k from the camera's first hit z_1 to an emitter
+//! point z_k. pir can make it in k ways, by t = 1 … k camera vertices:
+//! - t = k: the camera path hits the emitter (BSDF sampling); one sample per camera path;
+//! - t = k − 1: next-event estimation at z_{k−1}; one sample;
+//! - t ≤ k − 2: the camera vertex z_t connects to the VPL that light tracing left at z_{t+1}
+//!   (its light path came from the emitter through z_k … z_{t+2}); the iteration's N light
+//!   paths give N samples, so this technique's density is N times its path density.
+//!
+//! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}; the hit is
+//! always possible. Every technique reaches every path length up to `max_depth`, so the set
+//! of techniques is the same for every path of a given shape and the balance heuristic's
+//! weights p_t n_t / Σ_u p_u n_u (n_u = N for connections, 1 otherwise) sum to one: without
+//! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests).
+//!
+//! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
+//! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
+//! subpath carries two running sums ([`MisState`]): `dvcm`, the density ratio of the
+//! technique that would end the other subpath one vertex earlier, and `dvc`, the sum over
+//! the techniques that end it earlier still. They are updated at every hit and scatter from
+//! the BSDF's densities in both directions, and a connection, a light sample or an emitter
+//! hit finishes the sum with its own end's densities. pir's changes: no light tracing to the
+//! camera (the camera subpath starts at zero), and the counts n_u: the light subpath's sums
+//! start divided by N (the two emitter techniques it carries count once, not N times), and
+//! the camera subpath's sums count N when next-event estimation or a hit weighs them.
+//! Russian roulette is left out of the densities: the weights still sum to one (every
+//! technique is weighed with the same densities), only a little less well balanced.
+//!
+//! **Why it is robust.** Every path that a path tracer samples well (a glossy lobe at any
+//! vertex, a camera ray that hits the light) is still sampled as the path tracer samples
+//! it, and its VPL connections get the share the balance heuristic gives them: where a
+//! connection spikes (a short segment, a receiver's or a VPL's lobe), the path tracer's
+//! density is the larger and takes the path. Where light arrives by long diffuse chains or
+//! through an opening, the N connections dominate. What is left of the connection keeps the
+//! progressive bound of `pir-mis` ([`super::mis::Weighing::apply`]), b_i = b_1 · i^α on
+//! π² · w · max(c) / max(Φ); its bias vanishes as b_i grows, so `pir-bdpt` is consistent.
+//!
+//! Cost: a path tracer's rays plus a gather at each non-delta vertex of the camera path
+//! (the resampled gather: k shadow rays of m candidates).
+
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+use super::light_paths::Vpl;
+use super::light_set::LightSet;
+use super::mis::{Technique, Weighing};
+use crate::geometry::{Ray, offset_origin};
+use crate::integrator::direct::{LightSample, sample_emitters_weighted};
+use crate::integrator::scatter::{scatter, survives_roulette};
+use crate::integrator::walker::Vertex;
+use crate::integrator::{Counters, RenderContext};
+use crate::light::emitted;
+use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
+use crate::sampling::Sampler;
+
+/// The camera vertex (from 1) from whose continuation on Russian roulette plays, as in the
+/// path tracer ([`crate::integrator::walker`]).
+const RR_DEPTH: u32 = 5;
+
+/// The running sums of one subpath's MIS weights (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MisState {
+    /// The density ratio of the technique that ends the other subpath at the previous vertex.
+    pub dvcm: f32,
+    /// The sum over the techniques that end it earlier still.
+    pub dvc: f32,
+}
+
+impl MisState {
+    /// A camera subpath: no technique reaches the camera from the light side.
+    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0 };
+
+    /// A light subpath of `paths` per iteration, started at an emitter point of area density
+    /// `pdf_area` (as next-event estimation picks it too) in a cosine-distributed direction of
+    /// cosine `cos_e`: the emitter techniques (next-event estimation, `dvcm`, and an
+    /// emitter hit, `dvc`) count once against the connections' N.
+    pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
+        MisState { dvcm: PI / (cos_e * paths), dvc: PI / (pdf_area * paths) }
+    }
+
+    /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
+    /// where it came from is `cos`.
+    #[inline]
+    pub fn arrive(&mut self, dist2: f32, cos: f32) {
+        self.dvcm = finite(self.dvcm * dist2 / cos);
+        self.dvc = finite(self.dvc / cos);
+    }
+
+    /// The subpath continues from a vertex by BSDF sampling: density `pdf` (per solid angle;
+    /// a delta lobe's probability), `pdf_rev` the density of sampling the way back from the
+    /// new direction, `cos_out` the cosine of the new direction at the vertex.
+    #[inline]
+    pub fn scatter(&mut self, pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool) {
+        if delta {
+            self.dvcm = 0.0;
+            self.dvc = finite(self.dvc * cos_out);
+        } else {
+            self.dvc = finite(cos_out / pdf * (self.dvc * pdf_rev + self.dvcm));
+            self.dvcm = finite(1.0 / pdf);
+        }
+    }
+}
+
+/// A ratio that overflowed counts as zero: the technique it stands for is negligible (or
+/// cannot make the path), and the weights stay finite.
+#[inline]
+fn finite(x: f32) -> f32 {
+    if x.is_finite() { x } else { 0.0 }
+}
+
+/// 1 / (1 + others): the balance heuristic's weight of a technique, given the other
+/// techniques' densities relative to its own; 0 when they are not finite.
+#[inline]
+fn weight(others: f32) -> f32 {
+    let w = 1.0 / (1.0 + others);
+    if w.is_finite() && others >= 0.0 { w } else { 0.0 }
+}
+
+/// The weight of an emitter hit by BSDF sampling, at an emitter point of area density
+/// `pdf_area` whose cosine towards the path is `cos_light`, with the camera subpath's
+/// `state` (after [`MisState::arrive`]).
+#[inline]
+pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32) -> f32 {
+    let emission_pdf = pdf_area * cos_light * FRAC_1_PI;
+    weight(pdf_area * state.dvcm + paths * emission_pdf * state.dvc)
+}
+
+/// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
+/// the density of the vertex's BSDF sampling back along the camera path from the light's
+/// direction, `cos_receiver` the cosine at the vertex towards the light.
+#[inline]
+pub fn light_weight(
+    state: &MisState,
+    light: &LightSample,
+    pdf_rev: f32,
+    cos_receiver: f32,
+    paths: f32,
+) -> f32 {
+    if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
+        return 0.0;
+    }
+    let hit = light.pdf_bsdf / light.pdf_light;
+    let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
+    weight(hit + extend * (state.dvcm + state.dvc * pdf_rev))
+}
+
+/// What a connection's weight needs of the camera vertex: its BSDF prepared for its `wo`,
+/// the BSDF and geometry again for the reverse density, and its subpath's sums.
+#[derive(Clone, Copy)]
+pub struct CameraEnd<'a> {
+    pub fx: &'a PreparedBsdf,
+    pub bsdf: &'a Bsdf,
+    pub geometry: LocalGeometry,
+    pub wo: Vec3,
+    pub state: MisState,
+}
+
+/// The weight of the connection from the camera vertex `x` (at `p`) to `vpl`, whose BSDF is
+/// `bsdf_y`, prepared for its incoming direction as `emitting`.
+#[inline]
+pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitting: &PreparedBsdf) -> f32 {
+    let d = vpl.p - p;
+    let dist2 = d.length_squared();
+    if dist2.is_nan() || dist2 <= 0.0 {
+        return 0.0;
+    }
+    let w = d / dist2.sqrt();
+    let cos_x = x.geometry.ng.dot(w).abs();
+    let cos_y = vpl.ng.dot(w).abs();
+    // The camera subpath extended to the VPL, and the light subpath extended to x.
+    let camera_pdf = x.fx.pdf(w) * cos_y / dist2;
+    let light_pdf = emitting.pdf(-w) * cos_x / dist2;
+    let camera_rev = x.bsdf.pdf(&x.geometry, w, x.wo);
+    let light_rev = bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in);
+    let w_light = camera_pdf * (vpl.mis.dvcm + vpl.mis.dvc * light_rev);
+    let w_camera = light_pdf * (x.state.dvcm + x.state.dvc * camera_rev);
+    weight(w_light + w_camera)
+}
+
+/// Radiance arriving along the camera ray `ray` (unit direction): the full camera walk with
+/// next-event estimation, emitter hits and the gather from `set` at every non-delta vertex,
+/// all weighed bidirectionally, the weighted connections bounded by `bound`.
+pub fn walk(
+    ctx: &RenderContext,
+    mut ray: Ray,
+    set: &LightSet,
+    paths: f32,
+    bound: f32,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+) -> Vec3 {
+    let mut radiance = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut eta_scale = 1.0f32;
+    let mut state = MisState::CAMERA;
+    let mut from = ray.origin;
+    let mut depth = 0u32;
+    loop {
+        counters.rays += 1;
+        let Some(hit) = ctx.accel.intersect(&ray) else { break };
+        depth += 1;
+        let sp = ctx.scene.surface_of_hit(&hit);
+        let wo = -ray.dir.normalize();
+        let material = ctx.scene.material(sp.material);
+        let cos_in = sp.ng.dot(wo).abs();
+        state.arrive((sp.p - from).length_squared(), cos_in);
+
+        // ---- Emission found by the camera ray or a BSDF sample.
+        let le = emitted(material.emission, sp.ng, wo);
+        if le != Vec3::ZERO {
+            radiance += beta * le * hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths);
+        }
+        if depth >= ctx.max_depth {
+            break;
+        }
+
+        let bsdf = &material.bsdf;
+        let geometry = sp.geometry();
+        if !bsdf.is_delta() {
+            // ---- Next-event estimation.
+            radiance += beta
+                * sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
+                    let pdf_rev = bsdf.pdf(&geometry, l.wi, wo);
+                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths)
+                });
+            // ---- The connections to the VPLs.
+            let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
+            let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state };
+            let weighing = Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound };
+            let v = Vertex { sp, wo, bsdf, depth };
+            let max_vpl_depth = ctx.max_depth - depth - 1;
+            radiance += beta * set.gather(ctx, &v, max_vpl_depth, &weighing, sampler, counters);
+        }
+
+        // ---- BSDF sampling: the next vertex.
+        let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
+        eta_scale *= s.eta * s.eta;
+        let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&geometry, s.wi, wo) };
+        state.scatter(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta);
+        if depth >= RR_DEPTH && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler) {
+            break;
+        }
+        from = sp.p;
+        ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    }
+    radiance
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Frame;
+    use crate::sampling::{Domain, Sampler};
+
+    /// A vertex of a test path: position, normal, BSDF (`None`: a delta vertex).
+    struct Node {
+        p: Vec3,
+        g: LocalGeometry,
+        bsdf: Option<Bsdf>,
+    }
+
+    impl Node {
+        fn dir(&self, to: &Node) -> Vec3 {
+            (to.p - self.p).normalize()
+        }
+        fn cos(&self, to: &Node) -> f32 {
+            self.g.ng.dot(self.dir(to)).abs()
+        }
+        /// The BSDF's density of sampling towards `to` given `from` (1 for a delta vertex).
+        fn pdf(&self, from: &Node, to: &Node) -> f32 {
+            self.bsdf.map_or(1.0, |b| b.pdf(&self.g, self.dir(from), self.dir(to)))
+        }
+    }
+
+    fn dist2(a: &Node, b: &Node) -> f32 {
+        (a.p - b.p).length_squared()
+    }
+
+    /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
+    fn camera_state(z: &[Node], t: usize) -> MisState {
+        let mut s = MisState::CAMERA;
+        for j in 1..=t {
+            s.arrive(dist2(&z[j - 1], &z[j]), z[j].cos(&z[j - 1]));
+            if j < t {
+                let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
+                s.scatter(pdf, rev, z[j].cos(&z[j + 1]), z[j].bsdf.is_none());
+            }
+        }
+        s
+    }
+
+    /// The light subpath's sums on arriving at z[t] from the emitter z[k].
+    fn light_state(z: &[Node], t: usize, pdf_area: f32, paths: f32) -> MisState {
+        let k = z.len() - 1;
+        let mut s = MisState::light(pdf_area, z[k].cos(&z[k - 1]), paths);
+        for j in (t..k).rev() {
+            s.arrive(dist2(&z[j + 1], &z[j]), z[j].cos(&z[j + 1]));
+            if j > t {
+                let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
+                s.scatter(pdf, rev, z[j].cos(&z[j - 1]), z[j].bsdf.is_none());
+            }
+        }
+        s
+    }
+
+    /// Every technique's weight for the path z[1..=k] (z[k] on the emitter), in order of t;
+    /// `None` for a technique that cannot make the path.
+    fn weights(z: &[Node], pdf_area: f32, paths: f32) -> Vec<Option<f32>> {
+        let k = z.len() - 1;
+        let mut w = Vec::new();
+        for t in 1..=k {
+            let cam = camera_state(z, t);
+            let x = &z[t];
+            w.push(if t == k {
+                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths))
+            } else if x.bsdf.is_none() || (t + 1 < k && z[t + 1].bsdf.is_none()) {
+                None
+            } else if t == k - 1 {
+                let e = &z[k];
+                let d2 = dist2(x, e);
+                let light = LightSample {
+                    pdf_light: pdf_area * d2 / e.cos(x),
+                    pdf_bsdf: x.pdf(&z[t - 1], e),
+                    cos_light: e.cos(x),
+                    dist2: d2,
+                    wi: x.dir(e),
+                };
+                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths))
+            } else {
+                let y = &z[t + 1];
+                let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
+                let w_in = y.dir(&z[t + 2]);
+                let vpl = Vpl {
+                    p: y.p,
+                    ng: y.g.ng,
+                    frame: y.g.frame,
+                    w_in,
+                    material: 0,
+                    flux: Vec3::ONE,
+                    depth: (k - t - 1) as u32,
+                    arrival: 0.0,
+                    survival: 1.0,
+                    nee_pdf: 0.0,
+                    mis: light_state(z, t + 1, pdf_area, paths),
+                };
+                let wo = x.dir(&z[t - 1]);
+                let fx = PreparedBsdf::new(bx, x.g, wo, TransportMode::Radiance);
+                let emitting = PreparedBsdf::new(by, y.g, w_in, TransportMode::Importance);
+                let end = CameraEnd { fx: &fx, bsdf: &bx, geometry: x.g, wo, state: cam };
+                Some(connection_weight(&end, x.p, &vpl, &by, &emitting))
+            });
+        }
+        w
+    }
+
+    fn random_path(s: &mut Sampler, k: usize, delta_at: Option<usize>) -> Vec<Node> {
+        let mut pts: Vec<Vec3> =
+            (0..=k).map(|_| Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 4.0).collect();
+        pts[0] = Vec3::new(2.0, 2.0, -6.0);
+        (0..=k)
+            .map(|j| {
+                // A normal facing both neighbours, tilted at random.
+                let mut n = Vec3::ZERO;
+                if j > 0 {
+                    n += (pts[j - 1] - pts[j]).normalize();
+                }
+                if j < k {
+                    n += (pts[j + 1] - pts[j]).normalize();
+                }
+                let tilt = Vec3::new(s.next_f32() - 0.5, s.next_f32() - 0.5, s.next_f32() - 0.5) * 0.3;
+                let n = (n.normalize_or(Vec3::Z) + tilt).normalize();
+                let bsdf = if delta_at == Some(j) {
+                    None
+                } else if s.next_f32() < 0.5 {
+                    Some(Bsdf::Diffuse { albedo: Vec3::splat(0.7) })
+                } else {
+                    Some(Bsdf::Glossy {
+                        albedo: Vec3::splat(0.2),
+                        specular: Vec3::splat(0.6),
+                        roughness: 0.1 + 0.4 * s.next_f32(),
+                    })
+                };
+                Node { p: pts[j], g: LocalGeometry { ng: n, frame: Frame::from_normal(n) }, bsdf }
+            })
+            .collect()
+    }
+
+    /// The techniques' weights of a path sum to one, for paths of 2 to 7 vertices with diffuse
+    /// and glossy vertices, and with a delta vertex (which rules out the connections that
+    /// touch it).
+    #[test]
+    fn weights_of_every_path_sum_to_one() {
+        let mut s = Sampler::new(3, 0, Domain::LightPath, 0);
+        let mut checked = 0;
+        for trial in 0..400 {
+            let k = 2 + trial % 6;
+            let delta_at = (trial % 3 == 0 && k > 2).then(|| 1 + trial / 3 % (k - 1));
+            let z = random_path(&mut s, k, delta_at);
+            // Only paths that carry light: every neighbour in front of every vertex.
+            let front = |j: usize, i: usize| z[j].g.ng.dot(z[j].dir(&z[i])) > 0.05;
+            if !(1..=k).all(|j| front(j, j - 1) && (j == k || front(j, j + 1))) {
+                continue;
+            }
+            let w = weights(&z, 0.37, 32.0);
+            let sum: f32 = w.iter().flatten().sum();
+            if w.iter().flatten().all(|w| w.is_finite()) {
+                assert!((sum - 1.0).abs() < 2e-3, "k {k}, delta at {delta_at:?}: weights {w:?} sum to {sum}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 300, "only {checked} paths checked");
+    }
+}
