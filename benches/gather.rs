@@ -123,7 +123,7 @@ fn bench(c: &mut Criterion) {
 
     // The descent alone, receivers as the gather builds them.
     let bound = match lights {
-        VirtualLights::Points(c) | VirtualLights::WeighedPoints(c) | VirtualLights::Bidirectional(c) => {
+        VirtualLights::Points(c) | VirtualLights::WeighedPoints(c) | VirtualLights::Bidirectional(c, _) => {
             c.bound(1)
         }
         VirtualLights::Spheres { .. } => unreachable!(),

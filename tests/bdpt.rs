@@ -8,14 +8,22 @@ mod common;
 
 use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
+use pir::integrator::many_light::bidirectional::Connect;
 use pir::integrator::{Clamping, Gather, InstantRadiosity, PathTracer, VirtualLights};
 use pir::material::{Bsdf, Material};
 use pir::scene::Scene;
 
 const Z: f64 = 4.5;
 
+/// Which camera vertices connect: each changes which techniques the weights count.
+const CONNECT: [Connect; 3] = [Connect::First, Connect::FirstTwo, Connect::All];
+
 fn bdpt(clamping: Clamping, paths: usize) -> InstantRadiosity {
-    InstantRadiosity::new(VirtualLights::Bidirectional(clamping), paths)
+    bdpt_connecting(clamping, Connect::default(), paths)
+}
+
+fn bdpt_connecting(clamping: Clamping, connect: Connect, paths: usize) -> InstantRadiosity {
+    InstantRadiosity::new(VirtualLights::Bidirectional(clamping, connect), paths)
 }
 
 fn glossy(emission: f32) -> Material {
@@ -39,14 +47,22 @@ fn z_between(a: &Rendered, b: &Rendered) -> (f64, f64, f64) {
 fn bidirectional_weights_are_unbiased_in_the_furnace_for_every_max_depth() {
     let (a, le) = (0.5f64, 1.0f64);
     let scene = closed_cube(diffuse(a as f32, le as f32));
-    for depth in [2u32, 3, 4, 8] {
-        let expected: f64 = (0..depth).map(|k| le * a.powi(k as i32)).sum();
-        let r = Job { iterations: 48, max_depth: depth, ..Job::default() }
-            .run(&scene, &mut bdpt(Clamping::None, 64));
-        let (mean, se) = r.mean_and_stderr();
-        let z = (mean[0] - expected) / se[0].max(1e-12);
-        eprintln!("ir-bdpt, max_depth {depth}: mean {:.5} expected {expected:.5} (z {z:+.2})", mean[0]);
-        assert!(z.abs() < Z || (mean[0] - expected).abs() < 1e-6, "max_depth {depth}: z = {z:.2}");
+    for connect in CONNECT {
+        for depth in [2u32, 3, 4, 8] {
+            let expected: f64 = (0..depth).map(|k| le * a.powi(k as i32)).sum();
+            let r = Job { iterations: 48, max_depth: depth, ..Job::default() }
+                .run(&scene, &mut bdpt_connecting(Clamping::None, connect, 64));
+            let (mean, se) = r.mean_and_stderr();
+            let z = (mean[0] - expected) / se[0].max(1e-12);
+            eprintln!(
+                "ir-bdpt {connect:?}, max_depth {depth}: mean {:.5} expected {expected:.5} (z {z:+.2})",
+                mean[0]
+            );
+            assert!(
+                z.abs() < Z || (mean[0] - expected).abs() < 1e-6,
+                "{connect:?}, max_depth {depth}: z = {z:.2}"
+            );
+        }
     }
 }
 
@@ -62,10 +78,15 @@ fn bidirectional_weights_match_the_path_tracer_on_glossy_walls() {
         for (name, gather) in
             [("all", Gather::All), ("resample", Gather::Resampled { candidates: 32, samples: 4 })]
         {
-            let r = job.run(&scene, &mut bdpt(Clamping::None, 64).with_gather(gather));
-            let (m, p, z) = z_between(&r, &pt);
-            eprintln!("glossy cube, max_depth {depth}, gather {name}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
-            assert!(z.abs() < Z, "max_depth {depth}, gather {name}: z = {z:.2}");
+            for connect in CONNECT {
+                let r =
+                    job.run(&scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather));
+                let (m, p, z) = z_between(&r, &pt);
+                eprintln!(
+                    "glossy cube, max_depth {depth}, gather {name}, {connect:?}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})"
+                );
+                assert!(z.abs() < Z, "max_depth {depth}, gather {name}, {connect:?}: z = {z:.2}");
+            }
         }
     }
 }
@@ -93,13 +114,13 @@ fn bidirectional_weights_match_the_path_tracer_with_mirror_and_glass() {
     let scene = mixed_cube();
     let job = Job { iterations: 64, max_depth: 6, ..Job::default() };
     let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
-    let r = job.run(
-        &scene,
-        &mut bdpt(Clamping::None, 64).with_gather(Gather::Resampled { candidates: 32, samples: 4 }),
-    );
-    let (m, p, z) = z_between(&r, &pt);
-    eprintln!("mirror and glass cube: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
-    assert!(z.abs() < Z, "z = {z:.2}");
+    for connect in CONNECT {
+        let gather = Gather::Resampled { candidates: 32, samples: 4 };
+        let r = job.run(&scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather));
+        let (m, p, z) = z_between(&r, &pt);
+        eprintln!("mirror and glass cube, {connect:?}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
+        assert!(z.abs() < Z, "{connect:?}: z = {z:.2}");
+    }
 }
 
 /// A harsh constant bound on the weighted connection darkens the glossy cube for ever; the

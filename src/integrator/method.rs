@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
+use super::many_light::bidirectional::Connect;
 use super::many_light::resample::MAX_CANDIDATES;
 use super::schedule::DEFAULT_ALPHA;
 use super::{
@@ -155,6 +156,12 @@ pub struct MethodParams {
     #[arg(long, value_name = "M")]
     #[serde(default)]
     pub gather_candidates: Option<usize>,
+    /// pir-bdpt: which vertices of the camera path connect to the VPLs: first, first-two or
+    /// all (every non-delta vertex); the path tracer's techniques run at every vertex either
+    /// way [default: first-two].
+    #[arg(long, value_enum, value_name = "WHICH")]
+    #[serde(default)]
+    pub connect: Option<Connect>,
 }
 
 /// How a camera vertex gathers (`--gather`).
@@ -198,6 +205,7 @@ impl Default for MethodParams {
             gather: None,
             gather_samples: None,
             gather_candidates: None,
+            connect: None,
         }
     }
 }
@@ -374,6 +382,7 @@ impl MethodConfig {
                 gather: m.uses_vpls().then_some(kind),
                 gather_samples: (m.uses_vpls() && kind != GatherKind::All).then_some(k),
                 gather_candidates: (m.uses_vpls() && kind == GatherKind::Resample).then_some(cands),
+                connect: (m == Method::PirBdpt).then(|| p.connect.unwrap_or_default()),
             },
         }
     }
@@ -392,7 +401,8 @@ impl MethodConfig {
                 VirtualLights::WeighedPoints(Clamping::Progressive { b1: bound, alpha: p.alpha })
             }
             Method::PirBdpt => {
-                VirtualLights::Bidirectional(Clamping::Progressive { b1: bound, alpha: p.alpha })
+                let clamping = Clamping::Progressive { b1: bound, alpha: p.alpha };
+                VirtualLights::Bidirectional(clamping, p.connect.unwrap_or_default())
             }
             Method::Vsl | Method::PirVsl => {
                 let radius = p.radius.map_or(Radius::Density, Radius::Global);

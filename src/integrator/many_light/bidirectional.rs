@@ -68,18 +68,23 @@ pub struct MisState {
     pub dvcm: f32,
     /// The sum over the techniques that end it earlier still.
     pub dvc: f32,
+    /// The part of `dvc` that the two emitter techniques contribute (light subpaths only):
+    /// what is left of `dvc` when the camera may not connect further along the path
+    /// ([`Connect`]).
+    pub dvc_emitter: f32,
 }
 
 impl MisState {
     /// A camera subpath: no technique reaches the camera from the light side.
-    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0 };
+    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0 };
 
     /// A light subpath of `paths` per iteration, started at an emitter point of area density
     /// `pdf_area` (as next-event estimation picks it too) in a cosine-distributed direction of
     /// cosine `cos_e`: the emitter techniques (next-event estimation, `dvcm`, and an
     /// emitter hit, `dvc`) count once against the connections' N.
     pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
-        MisState { dvcm: PI / (cos_e * paths), dvc: PI / (pdf_area * paths) }
+        let dvc = PI / (pdf_area * paths);
+        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc }
     }
 
     /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
@@ -88,19 +93,81 @@ impl MisState {
     pub fn arrive(&mut self, dist2: f32, cos: f32) {
         self.dvcm = finite(self.dvcm * dist2 / cos);
         self.dvc = finite(self.dvc / cos);
+        self.dvc_emitter = finite(self.dvc_emitter / cos);
     }
 
     /// The subpath continues from a vertex by BSDF sampling: density `pdf` (per solid angle;
     /// a delta lobe's probability), `pdf_rev` the density of sampling the way back from the
-    /// new direction, `cos_out` the cosine of the new direction at the vertex.
+    /// new direction, `cos_out` the cosine of the new direction at the vertex. `fold` says
+    /// whether the technique `dvcm` stands for can make the path (a camera subpath: whether
+    /// the previous vertex may connect); `emitter` whether it is next-event estimation (a
+    /// light subpath's first vertex after the emitter).
     #[inline]
-    pub fn scatter(&mut self, pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool) {
-        if delta {
+    pub fn scatter(&mut self, s: Scatter) {
+        if s.delta {
             self.dvcm = 0.0;
-            self.dvc = finite(self.dvc * cos_out);
+            self.dvc = finite(self.dvc * s.cos_out);
+            self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
         } else {
-            self.dvc = finite(cos_out / pdf * (self.dvc * pdf_rev + self.dvcm));
-            self.dvcm = finite(1.0 / pdf);
+            let k = s.cos_out / s.pdf;
+            let dvcm = if s.fold { self.dvcm } else { 0.0 };
+            let emitter = if s.emitter { self.dvcm } else { 0.0 };
+            self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
+            self.dvc_emitter = finite(k * (self.dvc_emitter * s.pdf_rev + emitter));
+            self.dvcm = finite(1.0 / s.pdf);
+        }
+    }
+}
+
+/// One BSDF sample as [`MisState::scatter`] needs it.
+#[derive(Clone, Copy, Debug)]
+pub struct Scatter {
+    pub pdf: f32,
+    pub pdf_rev: f32,
+    pub cos_out: f32,
+    pub delta: bool,
+    pub fold: bool,
+    pub emitter: bool,
+}
+
+impl Scatter {
+    /// A camera subpath's sample at its vertex of `depth` segments, `connect` saying which
+    /// vertices connect: the previous vertex's connection counts if that vertex connects.
+    #[inline]
+    pub fn camera(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, connect: Connect, depth: u32) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: connect.at(depth - 1), emitter: false }
+    }
+
+    /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
+    /// first, the technique `dvcm` stands for is next-event estimation.
+    #[inline]
+    pub fn light(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, depth: u32) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1 }
+    }
+}
+
+/// Which camera vertices connect to the VPLs (`--connect`): the first, the first two, or
+/// every non-delta one. The weights know it: a technique that connects deeper cannot make
+/// the path. (Limits between 2 and all would need the light subpath's sums split by length.)
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Connect {
+    First,
+    #[default]
+    FirstTwo,
+    All,
+}
+
+impl Connect {
+    /// Whether the camera vertex of `depth` segments connects.
+    #[inline]
+    pub fn at(self, depth: u32) -> bool {
+        match self {
+            Connect::First => depth <= 1,
+            Connect::FirstTwo => depth <= 2,
+            Connect::All => true,
         }
     }
 }
@@ -131,7 +198,8 @@ pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32) -
 
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
 /// the density of the vertex's BSDF sampling back along the camera path from the light's
-/// direction, `cos_receiver` the cosine at the vertex towards the light.
+/// direction, `cos_receiver` the cosine at the vertex towards the light;
+/// `previous_connects` whether the camera vertex before it connects to VPLs.
 #[inline]
 pub fn light_weight(
     state: &MisState,
@@ -139,13 +207,15 @@ pub fn light_weight(
     pdf_rev: f32,
     cos_receiver: f32,
     paths: f32,
+    previous_connects: bool,
 ) -> f32 {
     if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
         return 0.0;
     }
     let hit = light.pdf_bsdf / light.pdf_light;
     let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
-    weight(hit + extend * (state.dvcm + state.dvc * pdf_rev))
+    let dvcm = if previous_connects { state.dvcm } else { 0.0 };
+    weight(hit + extend * (dvcm + state.dvc * pdf_rev))
 }
 
 /// What a connection's weight needs of the camera vertex: its BSDF prepared for its `wo`,
@@ -157,6 +227,10 @@ pub struct CameraEnd<'a> {
     pub geometry: LocalGeometry,
     pub wo: Vec3,
     pub state: MisState,
+    /// Whether the camera vertex after this one connects (else only the emitter techniques
+    /// extend the camera subpath into the light subpath), and every one after it.
+    pub next_connects: bool,
+    pub all_connect: bool,
 }
 
 /// The weight of the connection from the camera vertex `x` (at `p`) to `vpl`, whose BSDF is
@@ -176,7 +250,11 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let light_pdf = emitting.pdf(-w) * cos_x / dist2;
     let camera_rev = x.bsdf.pdf(&x.geometry, w, x.wo);
     let light_rev = bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in);
-    let w_light = camera_pdf * (vpl.mis.dvcm + vpl.mis.dvc * light_rev);
+    // One vertex further: next-event estimation at the VPL (lit directly) or a connection
+    // from it; two or more: the emitter techniques, and connections if every vertex connects.
+    let one = if vpl.depth == 1 || x.next_connects { vpl.mis.dvcm } else { 0.0 };
+    let more = if x.all_connect { vpl.mis.dvc } else { vpl.mis.dvc_emitter };
+    let w_light = camera_pdf * (one + more * light_rev);
     let w_camera = light_pdf * (x.state.dvcm + x.state.dvc * camera_rev);
     weight(w_light + w_camera)
 }
@@ -184,10 +262,12 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
 /// Radiance arriving along the camera ray `ray` (unit direction): the full camera walk with
 /// next-event estimation, emitter hits and the gather from `set` at every non-delta vertex,
 /// all weighed bidirectionally, the weighted connections bounded by `bound`.
+#[allow(clippy::too_many_arguments)]
 pub fn walk(
     ctx: &RenderContext,
     mut ray: Ray,
     set: &LightSet,
+    connect: Connect,
     paths: f32,
     bound: f32,
     sampler: &mut Sampler,
@@ -225,22 +305,35 @@ pub fn walk(
             radiance += beta
                 * sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
                     let pdf_rev = bsdf.pdf(&geometry, l.wi, wo);
-                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths)
+                    let previous = connect.at(depth - 1);
+                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous)
                 });
             // ---- The connections to the VPLs.
-            let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
-            let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state };
-            let weighing = Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound };
-            let v = Vertex { sp, wo, bsdf, depth };
-            let max_vpl_depth = ctx.max_depth - depth - 1;
-            radiance += beta * set.gather(ctx, &v, max_vpl_depth, &weighing, sampler, counters);
+            if connect.at(depth) {
+                let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
+                let end = CameraEnd {
+                    fx: &fx,
+                    bsdf,
+                    geometry,
+                    wo,
+                    state,
+                    next_connects: connect.at(depth + 1),
+                    all_connect: connect == Connect::All,
+                };
+                let weighing =
+                    Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound };
+                let v = Vertex { sp, wo, bsdf, depth };
+                let max_vpl_depth = ctx.max_depth - depth - 1;
+                radiance += beta * set.gather(ctx, &v, max_vpl_depth, &weighing, sampler, counters);
+            }
         }
 
         // ---- BSDF sampling: the next vertex.
         let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
         eta_scale *= s.eta * s.eta;
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&geometry, s.wi, wo) };
-        state.scatter(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta);
+        let cos_out = sp.ng.dot(s.wi).abs();
+        state.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, connect, depth));
         if depth >= RR_DEPTH && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler) {
             break;
         }
@@ -281,13 +374,14 @@ mod tests {
     }
 
     /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
-    fn camera_state(z: &[Node], t: usize) -> MisState {
+    fn camera_state(z: &[Node], t: usize, connect: Connect) -> MisState {
         let mut s = MisState::CAMERA;
         for j in 1..=t {
             s.arrive(dist2(&z[j - 1], &z[j]), z[j].cos(&z[j - 1]));
             if j < t {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
-                s.scatter(pdf, rev, z[j].cos(&z[j + 1]), z[j].bsdf.is_none());
+                let delta = z[j].bsdf.is_none();
+                s.scatter(Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, j as u32));
             }
         }
         s
@@ -301,7 +395,8 @@ mod tests {
             s.arrive(dist2(&z[j + 1], &z[j]), z[j].cos(&z[j + 1]));
             if j > t {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
-                s.scatter(pdf, rev, z[j].cos(&z[j - 1]), z[j].bsdf.is_none());
+                let delta = z[j].bsdf.is_none();
+                s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, (k - j) as u32));
             }
         }
         s
@@ -309,15 +404,15 @@ mod tests {
 
     /// Every technique's weight for the path z[1..=k] (z[k] on the emitter), in order of t;
     /// `None` for a technique that cannot make the path.
-    fn weights(z: &[Node], pdf_area: f32, paths: f32) -> Vec<Option<f32>> {
+    fn weights(z: &[Node], pdf_area: f32, paths: f32, connect: Connect) -> Vec<Option<f32>> {
         let k = z.len() - 1;
         let mut w = Vec::new();
         for t in 1..=k {
-            let cam = camera_state(z, t);
+            let cam = camera_state(z, t, connect);
             let x = &z[t];
             w.push(if t == k {
                 Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths))
-            } else if x.bsdf.is_none() || (t + 1 < k && z[t + 1].bsdf.is_none()) {
+            } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
                 None
             } else if t == k - 1 {
                 let e = &z[k];
@@ -329,7 +424,8 @@ mod tests {
                     dist2: d2,
                     wi: x.dir(e),
                 };
-                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths))
+                let previous = connect.at(t as u32 - 1);
+                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous))
             } else {
                 let y = &z[t + 1];
                 let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
@@ -350,7 +446,15 @@ mod tests {
                 let wo = x.dir(&z[t - 1]);
                 let fx = PreparedBsdf::new(bx, x.g, wo, TransportMode::Radiance);
                 let emitting = PreparedBsdf::new(by, y.g, w_in, TransportMode::Importance);
-                let end = CameraEnd { fx: &fx, bsdf: &bx, geometry: x.g, wo, state: cam };
+                let end = CameraEnd {
+                    fx: &fx,
+                    bsdf: &bx,
+                    geometry: x.g,
+                    wo,
+                    state: cam,
+                    next_connects: connect.at(t as u32 + 1),
+                    all_connect: connect == Connect::All,
+                };
                 Some(connection_weight(&end, x.p, &vpl, &by, &emitting))
             });
         }
@@ -391,7 +495,7 @@ mod tests {
 
     /// The techniques' weights of a path sum to one, for paths of 2 to 7 vertices with diffuse
     /// and glossy vertices, and with a delta vertex (which rules out the connections that
-    /// touch it).
+    /// touch it), whichever camera vertices connect.
     #[test]
     fn weights_of_every_path_sum_to_one() {
         let mut s = Sampler::new(3, 0, Domain::LightPath, 0);
@@ -405,13 +509,18 @@ mod tests {
             if !(1..=k).all(|j| front(j, j - 1) && (j == k || front(j, j + 1))) {
                 continue;
             }
-            let w = weights(&z, 0.37, 32.0);
-            let sum: f32 = w.iter().flatten().sum();
-            if w.iter().flatten().all(|w| w.is_finite()) {
-                assert!((sum - 1.0).abs() < 2e-3, "k {k}, delta at {delta_at:?}: weights {w:?} sum to {sum}");
-                checked += 1;
+            for connect in [Connect::First, Connect::FirstTwo, Connect::All] {
+                let w = weights(&z, 0.37, 32.0, connect);
+                let sum: f32 = w.iter().flatten().sum();
+                if w.iter().flatten().all(|w| w.is_finite()) {
+                    assert!(
+                        (sum - 1.0).abs() < 2e-3,
+                        "k {k}, delta at {delta_at:?}, {connect:?}: weights {w:?} sum to {sum}"
+                    );
+                    checked += 1;
+                }
             }
         }
-        assert!(checked > 300, "only {checked} paths checked");
+        assert!(checked > 900, "only {checked} paths checked");
     }
 }

@@ -17,7 +17,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::bidirectional::MisState;
+use super::bidirectional::{MisState, Scatter};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
@@ -164,7 +164,7 @@ fn trace_path(
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
-        mis.scatter(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta);
+        mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth));
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;
         }

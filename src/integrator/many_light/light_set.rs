@@ -106,7 +106,7 @@ impl LightSet {
         gather: Gather,
     ) -> Self {
         let mis = match *lights {
-            VirtualLights::WeighedPoints(clamping) | VirtualLights::Bidirectional(clamping) => {
+            VirtualLights::WeighedPoints(clamping) | VirtualLights::Bidirectional(clamping, _) => {
                 Some(Mis { paths: paths as f32, bound: clamping.bound(iteration) })
             }
             _ => None,
@@ -116,7 +116,7 @@ impl LightSet {
                 Lights::Points(PointLights::new(vpls, clamping, iteration, ctx))
             }
             // The bound applies to the weighted connection ([`super::mis`]), not to G.
-            VirtualLights::WeighedPoints(_) | VirtualLights::Bidirectional(_) => {
+            VirtualLights::WeighedPoints(_) | VirtualLights::Bidirectional(..) => {
                 Lights::Points(PointLights::new(vpls, Clamping::None, iteration, ctx))
             }
             VirtualLights::Spheres { radius, alpha } => Lights::Spheres(SphereLights::new(

@@ -127,7 +127,7 @@ pub enum VirtualLights {
     WeighedPoints(Clamping),
     /// Points connected from every vertex of a full camera path, every technique weighed
     /// against the others ([`bidirectional`]), the clamping applied to the weighted connection.
-    Bidirectional(Clamping),
+    Bidirectional(Clamping, bidirectional::Connect),
     /// Spheres; with `alpha` the radius shrinks as r_1 · i^((α−1)/2).
     Spheres {
         radius: Radius,
@@ -250,9 +250,9 @@ impl Integrator for InstantRadiosity {
             VirtualLights::WeighedPoints(Clamping::None) => "ir-mis",
             VirtualLights::WeighedPoints(Clamping::Constant { .. }) => "ir-mis-clamp",
             VirtualLights::WeighedPoints(Clamping::Progressive { .. }) => "pir-mis",
-            VirtualLights::Bidirectional(Clamping::None) => "ir-bdpt",
-            VirtualLights::Bidirectional(Clamping::Constant { .. }) => "ir-bdpt-clamp",
-            VirtualLights::Bidirectional(Clamping::Progressive { .. }) => "pir-bdpt",
+            VirtualLights::Bidirectional(Clamping::None, _) => "ir-bdpt",
+            VirtualLights::Bidirectional(Clamping::Constant { .. }, _) => "ir-bdpt-clamp",
+            VirtualLights::Bidirectional(Clamping::Progressive { .. }, _) => "pir-bdpt",
             VirtualLights::Spheres { alpha: None, .. } => "vsl",
             VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
         }
@@ -275,15 +275,15 @@ impl Integrator for InstantRadiosity {
         match self.lights {
             VirtualLights::Points(Clamping::None)
             | VirtualLights::WeighedPoints(Clamping::None)
-            | VirtualLights::Bidirectional(Clamping::None) => {}
+            | VirtualLights::Bidirectional(Clamping::None, _) => {}
             VirtualLights::Points(Clamping::Constant { b })
             | VirtualLights::WeighedPoints(Clamping::Constant { b })
-            | VirtualLights::Bidirectional(Clamping::Constant { b }) => {
+            | VirtualLights::Bidirectional(Clamping::Constant { b }, _) => {
                 p.push(("clamp".into(), b.to_string()))
             }
             VirtualLights::Points(Clamping::Progressive { b1, alpha })
             | VirtualLights::WeighedPoints(Clamping::Progressive { b1, alpha })
-            | VirtualLights::Bidirectional(Clamping::Progressive { b1, alpha }) => {
+            | VirtualLights::Bidirectional(Clamping::Progressive { b1, alpha }, _) => {
                 p.push(("clamp".into(), b1.to_string()));
                 p.push(("alpha".into(), alpha.to_string()));
             }
@@ -318,8 +318,8 @@ impl Integrator for InstantRadiosity {
         counters: &mut Counters,
     ) -> Vec3 {
         match (&self.lights, &self.set.mis) {
-            (VirtualLights::Bidirectional(_), Some(mis)) => {
-                bidirectional::walk(ctx, ray, &self.set, mis.paths, mis.bound, sampler, counters)
+            (&VirtualLights::Bidirectional(_, connect), Some(mis)) => {
+                bidirectional::walk(ctx, ray, &self.set, connect, mis.paths, mis.bound, sampler, counters)
             }
             _ => walk(ctx, ray, &self.set, sampler, counters),
         }
