@@ -482,6 +482,7 @@ mod tests {
                     gather: Some(GatherKind::Resample),
                     gather_samples: Some(5),
                     gather_candidates: Some(77),
+                    connect: Some(Connect::All),
                 },
             };
             let back: MethodConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
