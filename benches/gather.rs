@@ -50,7 +50,7 @@ fn bench(c: &mut Criterion) {
     let vpls_of = |n: usize| -> Vec<Vpl> {
         let mut paths = n / 2 + 1;
         loop {
-            let (mut v, _) = trace_vpls(&ctx, 1, paths, max_vpl_depth);
+            let (mut v, _) = trace_vpls(&ctx, 1, paths, paths as f32, max_vpl_depth);
             if v.len() >= n {
                 v.truncate(n);
                 return v;

@@ -158,7 +158,7 @@ pub struct MethodParams {
     pub gather_candidates: Option<usize>,
     /// pir-bdpt: which vertices of the camera path connect to the VPLs: first, first-two or
     /// all (every non-delta vertex); the path tracer's techniques run at every vertex either
-    /// way [default: first-two].
+    /// way [default: first].
     #[arg(long, value_enum, value_name = "WHICH")]
     #[serde(default)]
     pub connect: Option<Connect>,

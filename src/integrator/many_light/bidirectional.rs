@@ -45,6 +45,7 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
+use super::Gather;
 use super::light_paths::Vpl;
 use super::light_set::LightSet;
 use super::mis::{Technique, Weighing};
@@ -60,6 +61,24 @@ use crate::sampling::Sampler;
 /// The camera vertex (from 1) from whose continuation on Russian roulette plays, as in the
 /// path tracer ([`crate::integrator::walker`]).
 const RR_DEPTH: u32 = 5;
+
+/// How many light paths the weights count for an iteration of `paths` light paths gathered
+/// as `gather` says: all of them for the exhaustive gather, whose N connections per vertex
+/// are N samples of the technique; at most 2k for a sampled gather, whose k shadow rays go
+/// to VPLs picked by their light, so that the technique's samples are fewer than N but
+/// better placed. Any positive count keeps the weights of every path summing to one (both
+/// subpaths use the same); this one balances the path tracer's techniques better against
+/// the connections: measured with k = 4 and 32 paths (`docs/results.md`, "Bidirectional
+/// weights"), 8 rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its
+/// worst pixel by 20 %, the near-mirror floor's by 8 % and 54 %, level on the Cornell box;
+/// 4 was worse on the Cornell box (+10 %).
+pub fn counted_paths(paths: usize, gather: Gather) -> f32 {
+    let n = paths as f32;
+    match gather {
+        Gather::All => n,
+        Gather::Tree { samples } | Gather::Resampled { samples, .. } => n.min(2.0 * samples as f32),
+    }
+}
 
 /// The running sums of one subpath's MIS weights (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -154,13 +173,22 @@ impl Scatter {
 )]
 #[serde(rename_all = "kebab-case")]
 pub enum Connect {
-    First,
     #[default]
+    First,
     FirstTwo,
     All,
 }
 
 impl Connect {
+    /// The name `--connect` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Connect::First => "first",
+            Connect::FirstTwo => "first-two",
+            Connect::All => "all",
+        }
+    }
+
     /// Whether the camera vertex of `depth` segments connects.
     #[inline]
     pub fn at(self, depth: u32) -> bool {

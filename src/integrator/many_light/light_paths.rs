@@ -71,7 +71,15 @@ const MAX_SURVIVAL: f32 = 0.95;
 
 /// Traces `paths` light paths for `iteration` and returns their VPLs, in path order. Only
 /// vertices within `max_vpl_depth` segments of the emitter are traced.
-pub fn trace_vpls(ctx: &RenderContext, iteration: u64, paths: usize, max_vpl_depth: u32) -> (Vec<Vpl>, u64) {
+/// `counted` is the number of light paths the bidirectional weights count
+/// ([`super::bidirectional::counted_paths`]).
+pub fn trace_vpls(
+    ctx: &RenderContext,
+    iteration: u64,
+    paths: usize,
+    counted: f32,
+    max_vpl_depth: u32,
+) -> (Vec<Vpl>, u64) {
     const CHUNK: usize = 64;
     let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
     let chunks: Vec<(Vec<Vpl>, u64)> = (0..paths.div_ceil(CHUNK))
@@ -81,7 +89,7 @@ pub fn trace_vpls(ctx: &RenderContext, iteration: u64, paths: usize, max_vpl_dep
             let mut rays = 0u64;
             for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
                 let mut sampler = streams.sampler(k as u64);
-                rays += trace_path(ctx, &mut sampler, paths as f32, max_vpl_depth, &mut vpls);
+                rays += trace_path(ctx, &mut sampler, paths as f32, counted, max_vpl_depth, &mut vpls);
             }
             (vpls, rays)
         })
@@ -95,6 +103,7 @@ fn trace_path(
     ctx: &RenderContext,
     sampler: &mut Sampler,
     n_paths: f32,
+    counted: f32,
     max_depth: u32,
     out: &mut Vec<Vpl>,
 ) -> u64 {
@@ -120,7 +129,7 @@ fn trace_path(
     let mut from = es.point.p;
     let mut density = n_paths * local.z * std::f32::consts::FRAC_1_PI;
     let emitter_point = (es.point.p, es.pdf_area, local.z);
-    let mut mis = MisState::light(es.pdf_area, local.z, n_paths);
+    let mut mis = MisState::light(es.pdf_area, local.z, counted);
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;

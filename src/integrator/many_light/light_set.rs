@@ -25,7 +25,8 @@ pub struct LightSet {
 /// What the weighed connections of [`super::mis`] need from the iteration.
 #[derive(Clone, Copy, Debug)]
 pub struct Mis {
-    /// Light paths traced this iteration.
+    /// Light paths traced this iteration (`pir-mis`), or as many as the bidirectional weights
+    /// count ([`super::bidirectional::counted_paths`]).
     pub paths: f32,
     /// The bound on the weighted connection ([`super::mis::Weighing::apply`]).
     pub bound: f32,
@@ -106,9 +107,13 @@ impl LightSet {
         gather: Gather,
     ) -> Self {
         let mis = match *lights {
-            VirtualLights::WeighedPoints(clamping) | VirtualLights::Bidirectional(clamping, _) => {
+            VirtualLights::WeighedPoints(clamping) => {
                 Some(Mis { paths: paths as f32, bound: clamping.bound(iteration) })
             }
+            VirtualLights::Bidirectional(clamping, _) => Some(Mis {
+                paths: super::bidirectional::counted_paths(paths, gather),
+                bound: clamping.bound(iteration),
+            }),
             _ => None,
         };
         let lights = match *lights {

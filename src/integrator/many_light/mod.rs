@@ -272,6 +272,9 @@ impl Integrator for InstantRadiosity {
                 p.push(("gather-samples".into(), samples.to_string()));
             }
         }
+        if let VirtualLights::Bidirectional(_, connect) = self.lights {
+            p.push(("connect".into(), connect.name().into()));
+        }
         match self.lights {
             VirtualLights::Points(Clamping::None)
             | VirtualLights::WeighedPoints(Clamping::None)
@@ -304,7 +307,8 @@ impl Integrator for InstantRadiosity {
     fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
         // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, max_vpl_depth);
+        let counted = bidirectional::counted_paths(self.paths, self.gather);
+        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counted, max_vpl_depth);
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
         self.set = LightSet::new(ctx, &self.lights, vpls, self.paths, iteration, self.gather);
