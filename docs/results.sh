@@ -41,10 +41,11 @@ if [ -f "$shared/references/cornell-box-original.exr" ]; then
     target=$("$pir" compare "$tmp/pt-1024.exr" "$shared/references/cornell-box-original.exr" |
         awk '/^relative MSE/ { print $3 }')
     echo "pt at 1,024 spp: relative MSE $target" >&2
-    # pir-mis at its defaults (docs/results.md, "Weighed connections") against pt and pir-clamp.
+    # pir-mis and pir-bdpt at their defaults (docs/results.md, "Weighed connections" and
+    # "Bidirectional weights") against pt and pir-clamp.
     study cornell-box-mis "$shared/scenes/cornell-box/original.toml" \
         "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" \
-        --methods pt,pir-clamp,pir-mis
+        --methods pt,pir-clamp,pir-mis,pir-bdpt
     study cornell-box "$shared/scenes/cornell-box/original.toml" \
         "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target"
     # The resampled gather (docs/results.md, "The resampled gather") against pt, same target.
@@ -71,13 +72,14 @@ study slit scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20
 study slit-resample scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
     --methods pt,pir-clamp --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4
 study caustic scenes/stress/caustic/scene.toml scenes/stress/caustic/reference-128.exr 20
-# pir-mis at its defaults on the glossy scenes and the slit, against pt and the thesis' best.
+# pir-mis and pir-bdpt at their defaults on the glossy scenes and the slit, against pt and the
+# thesis' best.
 study cornell-glossy-mis scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30 \
-    --methods pt,pir-clamp,pir-vsl,pir-mis
+    --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
 study glossy-mis scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20 \
-    --methods pt,pir-clamp,pir-vsl,pir-mis
+    --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
 study corner-glossy-mis scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10 \
-    --methods pt,pir-clamp,pir-vsl,pir-mis
+    --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
 study slit-mis scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
-    --methods pt,pir-clamp,pir-mis
+    --methods pt,pir-clamp,pir-mis,pir-bdpt
 echo "done: $out" >&2

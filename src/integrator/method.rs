@@ -121,7 +121,7 @@ pub struct MethodParams {
     /// vertex).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
     pub vpls: usize,
-    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis: b_1 of
+    /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis, pir-bdpt: b_1 of
     /// the bound on the weighted connection, in the same units [default: 100 / scene
     /// diagonal², the G of facing surfaces a tenth of the scene apart].
     #[arg(long, value_name = "B", allow_negative_numbers = true)]
@@ -131,7 +131,7 @@ pub struct MethodParams {
     /// diagonal].
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<f32>,
-    /// pir-clamp, pir-mis, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
+    /// pir-clamp, pir-mis, pir-bdpt, pir-vsl: exponent α of the schedules b_i = b_1 · i^α and
     /// r_i = r_1 · i^((α−1)/2), in (0, 1).
     #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f32,
@@ -141,18 +141,18 @@ pub struct MethodParams {
     /// unoccluded light of --gather-candidates VPLs, a random window of the light paths, is
     /// estimated without rays, and --gather-samples of them, picked in proportion to it, get
     /// shadow rays). The sampled gathers are unbiased for the same sum, so they afford many
-    /// more VPLs per iteration [default: resample for pir-mis, all for the thesis' methods].
+    /// more VPLs per iteration [default: resample for pir-mis and pir-bdpt, all for the thesis' methods].
     #[arg(long, value_enum, value_name = "HOW")]
     #[serde(default)]
     pub gather: Option<GatherKind>,
     /// --gather tree or resample: VPLs drawn per camera vertex (k), 1 to 64 [default: 4 for
-    /// pir-mis, 8 otherwise].
+    /// pir-mis and pir-bdpt, 8 otherwise].
     #[arg(long, value_name = "K")]
     #[serde(default)]
     pub gather_samples: Option<usize>,
     /// --gather resample: candidate VPLs per camera vertex (m), a random window of the
     /// iteration's light paths whose unoccluded contributions choose the k that get shadow
-    /// rays; 1 to 1024 [default: 64 for pir-mis, 128 otherwise].
+    /// rays; 1 to 1024 [default: 64 for pir-mis and pir-bdpt, 128 otherwise].
     #[arg(long, value_name = "M")]
     #[serde(default)]
     pub gather_candidates: Option<usize>,
@@ -186,7 +186,10 @@ pub const MAX_GATHER_SAMPLES: usize = 64;
 /// not given: resampled, 4 of 64 candidates. Measured on the Cornell box, the glossy Cornell
 /// box, the glossy floor and the glossy corner (`docs/results.md`, "Weighed connections"):
 /// the resampled gather is 1.6–3× as efficient as the exhaustive one for `pir-mis` on every
-/// one of them, and k = 4 of m = 64 is within the noise of the best (k, m) on each.
+/// one of them, and k = 4 of m = 64 is within the noise of the best (k, m) on each. `pir-bdpt`
+/// takes it too: on the Cornell box, relative MSE × CPU time with k = 2, 4, 8 was 1.16, 1,
+/// 1.17 (m = 64), with m = 32, 64, 128 1.44, 1, 0.98 (k = 4), with 16, 32, 64 light paths
+/// 1.02, 1, 0.93: none clearly better (`docs/results.md`, "Bidirectional weights").
 pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64);
 
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
@@ -337,7 +340,7 @@ impl MethodConfig {
     }
 
     /// How the method gathers, k and m: the flags, else the method's defaults ([`MIS_GATHER`]
-    /// for `pir-mis`; every VPL, k = 8, m = 128 for the thesis' methods).
+    /// for `pir-mis` and `pir-bdpt`; every VPL, k = 8, m = 128 for the thesis' methods).
     pub fn gather_parameters(&self) -> (GatherKind, usize, usize) {
         let p = &self.params;
         let (kind, k, m) = match self.method {

@@ -10,6 +10,7 @@
 //! | `vsl` | sphere of radius r | blur, for ever | Hašan et al. 2009 |
 //! | `pir-vsl` | sphere, r_i = r_1 · i^((α−1)/2) | vanishes: consistent | thesis 4.2.2 |
 //! | `pir-mis` | point, connection weighed against a BSDF-sampled bounce, weighted connection bounded by b_i | vanishes: consistent (none without the bound) | pir's own ([`mis`]) |
+//! | `pir-bdpt` | point, connected from a full path tracer's camera path, every technique weighed against the others, weighted connection bounded by b_i | vanishes: consistent (none without the bound) | pir's own ([`bidirectional`]) |
 //!
 //! Parameters (flags of `pir render`):
 //! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]). Each leaves a virtual
@@ -34,7 +35,8 @@
 //! set, points or spheres), [`gather`] (one receiver against the set, shadow rays in
 //! batches: [`shadow_batch`]), [`lanes`] (the four-wide kernel of diffuse point lights),
 //! [`spheres`] (virtual spherical lights: radii and the cone integral, with [`knn`]),
-//! [`schedule`] (the progressive schedules), [`mis`] (the weighed connections of `pir-mis`), and for the sampled gather ([`Gather::Tree`]):
+//! [`schedule`] (the progressive schedules), [`mis`] (the weighed connections of `pir-mis`),
+//! [`bidirectional`] (the camera walk and weights of `pir-bdpt`), and for the sampled gather ([`Gather::Tree`]):
 //! [`light_tree`] (the per-iteration tree over the lights) and [`tree_gather`] (drawing k
 //! lights per receiver from it, unbiased); for the resampled gather ([`Gather::Resampled`]):
 //! [`resample`] (k lights picked among a window of m candidates by their estimated light,
