@@ -117,21 +117,33 @@ fn corner_creases_and_gaps_spike_plain_vpls_only() {
 }
 
 /// The corner with its glossy floor: a bound on G does not bound a glossy lobe; weighing
-/// the connection against BSDF sampling does (`pir-mis`), with far less error than clamping.
+/// the connection against BSDF sampling does (`pir-mis`, `pir-bdpt`), with far less error
+/// than clamping.
 #[test]
 fn corner_glossy_floor_spikes_point_lights_but_not_spherical_lights() {
     let d = stress("corner");
-    let rows = study(&d.join("scene.toml"), &d.join("reference-64.exr"), "ir,pir-clamp,pir-vsl,pir-mis", 32);
+    let rows = study(
+        &d.join("scene.toml"),
+        &d.join("reference-64.exr"),
+        "ir,pir-clamp,pir-vsl,pir-mis,pir-bdpt",
+        32,
+    );
     assert_spikes(&rows, "ir", "pir-vsl");
     assert_spikes(&rows, "pir-clamp", "pir-vsl");
-    assert_spikes(&rows, "pir-clamp", "pir-mis");
-    let (mis, clamp) = (last(&rows, "pir-mis").rel_mse, last(&rows, "pir-clamp").rel_mse);
-    assert!(mis < 0.5 * clamp, "pir-mis's relative MSE {mis:.3e} must be below half pir-clamp's {clamp:.3e}");
+    let clamp = last(&rows, "pir-clamp").rel_mse;
+    for weighed in ["pir-mis", "pir-bdpt"] {
+        assert_spikes(&rows, "pir-clamp", weighed);
+        let e = last(&rows, weighed).rel_mse;
+        assert!(
+            e < 0.5 * clamp,
+            "{weighed}'s relative MSE {e:.3e} must be below half pir-clamp's {clamp:.3e}"
+        );
+    }
 }
 
 /// The glossy scene: a near-mirror floor reflecting a lit wall. Every point-light method of
 /// the thesis spikes, constant clamp or not; spherical lights and weighed connections
-/// (`pir-mis`) do not, and the progressive radius
+/// (`pir-mis`, `pir-bdpt`) do not, and the progressive radius
 /// darkens the image less than the constant one.
 #[test]
 fn glossy_floor_spikes_every_point_light_method_and_no_spherical_one() {
@@ -139,13 +151,14 @@ fn glossy_floor_spikes_every_point_light_method_and_no_spherical_one() {
     let rows = study(
         &d.join("scene.toml"),
         &d.join("reference-128.exr"),
-        "ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis",
+        "ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis,pir-bdpt",
         32,
     );
     for spiky in ["ir", "ir-clamp", "pir-clamp"] {
         assert_spikes(&rows, spiky, "vsl");
         assert_spikes(&rows, spiky, "pir-vsl");
         assert_spikes(&rows, spiky, "pir-mis");
+        assert_spikes(&rows, spiky, "pir-bdpt");
     }
     let (vsl, pvsl) = (last(&rows, "vsl").mean_rel_diff, last(&rows, "pir-vsl").mean_rel_diff);
     assert!(vsl < pvsl, "the constant radius must darken more: vsl {vsl:+.4}, pir-vsl {pvsl:+.4}");
