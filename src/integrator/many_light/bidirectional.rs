@@ -275,15 +275,20 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let cos_y = vpl.ng.dot(w).abs();
     // The camera subpath extended to the VPL, and the light subpath extended to x.
     let camera_pdf = x.fx.pdf(w) * cos_y / dist2;
-    let light_pdf = emitting.pdf(-w) * cos_x / dist2;
-    let camera_rev = x.bsdf.pdf(&x.geometry, w, x.wo);
-    let light_rev = bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in);
+    // The reverse densities only where their factors are not zero (at the camera's first
+    // vertex its sums are, so the light subpath extended to x has no competitor to weigh).
+    let more = if x.all_connect { vpl.mis.dvc } else { vpl.mis.dvc_emitter };
+    let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 };
+    let w_camera = if x.state.dvcm > 0.0 || x.state.dvc > 0.0 {
+        let camera_rev = if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 };
+        emitting.pdf(-w) * cos_x / dist2 * (x.state.dvcm + x.state.dvc * camera_rev)
+    } else {
+        0.0
+    };
     // One vertex further: next-event estimation at the VPL (lit directly) or a connection
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
     let one = if vpl.depth == 1 || x.next_connects { vpl.mis.dvcm } else { 0.0 };
-    let more = if x.all_connect { vpl.mis.dvc } else { vpl.mis.dvc_emitter };
     let w_light = camera_pdf * (one + more * light_rev);
-    let w_camera = light_pdf * (x.state.dvcm + x.state.dvc * camera_rev);
     weight(w_light + w_camera)
 }
 
@@ -332,7 +337,7 @@ pub fn walk(
             // ---- Next-event estimation.
             radiance += beta
                 * sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
-                    let pdf_rev = bsdf.pdf(&geometry, l.wi, wo);
+                    let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                     let previous = connect.at(depth - 1);
                     light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous)
                 });
@@ -359,7 +364,12 @@ pub fn walk(
         // ---- BSDF sampling: the next vertex.
         let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
         eta_scale *= s.eta * s.eta;
-        let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&geometry, s.wi, wo) };
+        // (Only the camera's sums that are not zero need it: none at the first vertex.)
+        let pdf_rev = match (s.delta, state.dvc > 0.0) {
+            (true, _) => s.pdf,
+            (false, true) => bsdf.pdf(&geometry, s.wi, wo),
+            (false, false) => 0.0,
+        };
         let cos_out = sp.ng.dot(s.wi).abs();
         state.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, connect, depth));
         if depth >= RR_DEPTH && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler) {
