@@ -112,7 +112,17 @@ impl Bsdf {
 
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi`; zero for delta materials.
     /// It does not depend on the transport mode.
+    #[inline]
     pub fn pdf(&self, g: &LocalGeometry, wo: Vec3, wi: Vec3) -> f32 {
+        if let Bsdf::Diffuse { albedo } = *self {
+            // The Lambertian lobe needs only the two cosines of the shading normal (the same
+            // numbers as through the shading frame: z of a local direction is its dot with n).
+            if !(albedo.max_element() > 0.0 && wo.dot(g.ng) > 0.0 && wi.dot(g.ng) > 0.0) {
+                return 0.0;
+            }
+            let (co, ci) = (wo.dot(g.frame.n), wi.dot(g.frame.n));
+            return if co > 0.0 && ci > 0.0 { diffuse::pdf(Vec3::new(0.0, 0.0, ci)) } else { 0.0 };
+        }
         let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return 0.0 };
         self.local_pdf(wo_l, wi_l)
     }
