@@ -241,6 +241,21 @@ fn compare_reports_metrics_and_writes_an_error_map() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("relative MSE"));
     assert!(dir.path().join("err.png").exists());
+
+    // Piped into a reader that has gone (`pir compare … | head -1`): no panic message, and
+    // the status of a process ended by SIGPIPE (or success, had it written first).
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pir"))
+        .args(["compare", "a.exr", "b.exr"])
+        .current_dir(dir.path())
+        .env("RUST_BACKTRACE", "1")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success() || o.status.code() == Some(141), "{:?}: {}", o.status, stderr(&o));
+    assert!(stderr(&o).is_empty(), "{}", stderr(&o));
 }
 
 #[test]
