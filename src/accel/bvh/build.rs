@@ -7,15 +7,19 @@
 //! triangles). Nodes whose centroids all coincide are
 //! split in the middle of their range so that leaves stay small, and the depth is capped at
 //! [`MAX_DEPTH`]. Primitive records (box and id, SIMD-aligned `Vec3A`) are partitioned in
-//! place, so every pass reads memory sequentially. Subtrees with many primitives are built in
-//! parallel with rayon and stitched together afterwards.
+//! place, so every pass reads memory sequentially; the partition also bounds both sides'
+//! centroids, which the children's binning needs, so a node costs two passes over its
+//! primitives (binning, partition). The sequential recursion bins into one workspace and resets
+//! only the bins a node uses. Subtrees with many primitives are built in parallel with rayon
+//! and stitched together afterwards.
 //!
 //! Large nodes (the top levels, where the two subtrees are not yet running on their own
 //! threads) are also binned and partitioned in parallel: their primitives are cut into chunks
 //! of [`CHUNK`] records, each chunk is binned on a rayon task and the bins are merged (exact:
 //! minima, maxima and integer counts), and the partition is a stable scatter of each chunk's
-//! left and right parts to offsets from a prefix sum. Chunk size and thresholds are constants,
-//! so the tree is the same whatever the number of threads.
+//! left and right parts, to offsets from a prefix sum, into one scratch buffer allocated for
+//! the whole build, copied back in parallel. Chunk size and thresholds are constants, so the
+//! tree is the same whatever the number of threads.
 
 use glam::{BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
