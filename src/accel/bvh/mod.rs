@@ -183,28 +183,26 @@ impl Bvh {
 /// their triangles (depth-first), and points the leaves at their packs (`index`: first pack,
 /// `count`: packs). `verts` gives an original triangle's vertices.
 fn pack_leaves(built: &mut build::Built, verts: impl Fn(u32) -> [Vec3; 3] + Sync) -> Vec<Tri4> {
-    // The leaves' ranges tile the triangle order: find each leaf (`2 · pair + slot`) by its
-    // first triangle and walk them in that order, without sorting.
     let n = built.order.len();
-    let mut leaf_at = vec![u32::MAX; n];
-    for (pair, p) in built.pairs.iter().enumerate() {
-        for (slot, l) in p.nodes.iter().enumerate() {
-            if l.is_leaf() {
-                leaf_at[l.index as usize] = (2 * pair + slot) as u32;
-            }
-        }
+    if n == 0 {
+        return Vec::new();
     }
-    // (first triangle in the order, triangles) of every pack.
+    // (first triangle in the order, triangles) of every pack. The leaves' ranges tile the
+    // triangle order, and a depth-first walk, left child first, meets them in that order
+    // without sorting; it reads the pairs almost sequentially (they are laid out depth-first).
     let mut packs = Vec::with_capacity(n.div_ceil(3));
-    let mut first = 0;
-    while first < n {
-        let at = leaf_at[first] as usize;
-        let l = &mut built.pairs[at / 2].nodes[at % 2];
-        let count = l.count as usize;
+    let mut stack = vec![(0usize, 0usize)];
+    while let Some((pair, slot)) = stack.pop() {
+        let l = &mut built.pairs[pair].nodes[slot];
+        if !l.is_leaf() {
+            let children = l.index as usize;
+            stack.extend([(children, 1), (children, 0)]);
+            continue;
+        }
+        let (first, count) = (l.index as usize, l.count as usize);
         (l.index, l.count) = (packs.len() as u32, count.div_ceil(4) as u32);
         packs
             .extend((first..first + count).step_by(4).map(|p| (p as u32, (first + count - p).min(4) as u32)));
-        first += count;
     }
     // An indexed iterator: `collect` writes the packs in place.
     let order = &built.order;
