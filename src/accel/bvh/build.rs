@@ -7,15 +7,19 @@
 //! triangles). Nodes whose centroids all coincide are
 //! split in the middle of their range so that leaves stay small, and the depth is capped at
 //! [`MAX_DEPTH`]. Primitive records (box and id, SIMD-aligned `Vec3A`) are partitioned in
-//! place, so every pass reads memory sequentially. Subtrees with many primitives are built in
-//! parallel with rayon and stitched together afterwards.
+//! place, so every pass reads memory sequentially; the partition also bounds both sides'
+//! centroids, which the children's binning needs, so a node costs two passes over its
+//! primitives (binning, partition). The sequential recursion bins into one workspace and resets
+//! only the bins a node uses. Subtrees with many primitives are built in parallel with rayon
+//! and stitched together afterwards.
 //!
 //! Large nodes (the top levels, where the two subtrees are not yet running on their own
 //! threads) are also binned and partitioned in parallel: their primitives are cut into chunks
 //! of [`CHUNK`] records, each chunk is binned on a rayon task and the bins are merged (exact:
 //! minima, maxima and integer counts), and the partition is a stable scatter of each chunk's
-//! left and right parts to offsets from a prefix sum. Chunk size and thresholds are constants,
-//! so the tree is the same whatever the number of threads.
+//! left and right parts, to offsets from a prefix sum, into one scratch buffer allocated for
+//! the whole build, copied back in parallel. Chunk size and thresholds are constants, so the
+//! tree is the same whatever the number of threads.
 
 use glam::{BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
@@ -92,6 +96,11 @@ impl Prim {
         Vec3A::from_vec4(Vec4::select(BVec4A::new(true, true, true, false), self.min_id, Vec4::ZERO))
     }
 
+    /// Whether the box is empty (the mark of a triangle left out).
+    pub fn is_empty(&self) -> bool {
+        self.min_id.x > self.max.x
+    }
+
     #[inline]
     fn bounds(&self) -> Box3 {
         Box3 { min: self.min(), max: self.max }
@@ -126,8 +135,12 @@ pub(super) fn build(mut prims: Vec<Prim>) -> Built {
         root_pair.nodes[0] = Node::leaf(Aabb::EMPTY, 0, 0);
         return Built { pairs: vec![root_pair], order: Vec::new(), leaves: 1, depth: 0 };
     }
-    let root_bounds = range_bounds(&prims);
-    let sub = subtree(&mut prims, 0, root_bounds, 0);
+    let root = Bounds { prims: range_bounds(&prims), centroids: centroid_bounds(&prims) };
+    // The parallel partition's destination, allocated (and its pages touched) once for the
+    // whole build, in parallel.
+    let mut scratch: Vec<Prim> =
+        if prims.len() >= PARALLEL_PASS_MIN { prims.par_iter().copied().collect() } else { Vec::new() };
+    let sub = subtree(&mut prims, &mut scratch, 0, root, 0);
     root_pair.nodes[0] = sub.root.shifted(1);
     let mut pairs = Vec::with_capacity(sub.pairs.len() + 1);
     pairs.push(root_pair);
@@ -152,6 +165,21 @@ fn append_shifted(pairs: &mut Vec<NodePair>, sub: Vec<NodePair>) {
         p.nodes = p.nodes.map(|n| n.shifted(base));
         p
     }));
+}
+
+/// A node's bounds: of its primitives' boxes and of their doubled centroids (which binning
+/// needs; the partition computes the children's, saving a pass over their primitives).
+#[derive(Clone, Copy)]
+struct Bounds {
+    prims: Box3,
+    centroids: Box3,
+}
+
+/// A split node: the size of the left part and both children's bounds.
+struct Parts {
+    mid: usize,
+    left: Bounds,
+    right: Bounds,
 }
 
 #[derive(Clone, Copy)]
@@ -191,23 +219,36 @@ fn centroid_bounds(prims: &[Prim]) -> Box3 {
 type Bins = [[Bin; BINS]; 3];
 const EMPTY_BINS: Bins = [[Bin { bounds: Box3::EMPTY, count: 0 }; BINS]; 3];
 
-/// Bins `prims` on all three axes (`nb` bins from `min`, `scale` bins per unit).
-fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize) -> Bins {
+/// Bins `prims` on all three axes into the first `nb` bins of each axis of `bins` (`nb` bins
+/// from `min`, `scale` bins per unit); the other bins are left as they are. Filling the
+/// caller's bins, and resetting only those used, spares small nodes copying all [`BINS`].
+fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize, bins: &mut Bins) {
     if prims.len() >= PARALLEL_PASS_MIN {
-        return prims.par_chunks(CHUNK).map(|c| bin_prims(c, min, scale, nb)).reduce(
-            || EMPTY_BINS,
-            |mut a, b| {
-                for (aa, ba) in a.iter_mut().zip(&b) {
-                    for (x, y) in aa.iter_mut().zip(ba) {
-                        x.bounds = x.bounds.union(y.bounds);
-                        x.count += y.count;
+        let merged = prims
+            .par_chunks(CHUNK)
+            .map(|c| {
+                let mut b = EMPTY_BINS;
+                bin_prims(c, min, scale, nb, &mut b);
+                b
+            })
+            .reduce(
+                || EMPTY_BINS,
+                |mut a, b| {
+                    for (aa, ba) in a.iter_mut().zip(&b) {
+                        for (x, y) in aa.iter_mut().zip(ba) {
+                            x.bounds = x.bounds.union(y.bounds);
+                            x.count += y.count;
+                        }
                     }
-                }
-                a
-            },
-        );
+                    a
+                },
+            );
+        *bins = merged;
+        return;
     }
-    let mut bins = EMPTY_BINS;
+    for axis_bins in bins.iter_mut() {
+        axis_bins[..nb].fill(EMPTY_BINS[0][0]);
+    }
     for p in prims {
         let idx = bin_index(p.centroid2(), min, scale, nb);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
@@ -216,27 +257,41 @@ fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize) -> Bins {
             b.count += 1;
         }
     }
-    bins
 }
 
-/// Where to split the node over `prims`: the size of the left part and both children's
-/// bounds, or `None` for a leaf.
-fn choose_split(prims: &mut [Prim], bounds: Box3, depth: usize) -> Option<(usize, Box3, Box3)> {
+/// Where to split the node over `prims` (partitioning them), or `None` for a leaf. `scratch`
+/// is as long as `prims` for nodes partitioned in parallel, else unused.
+/// `bins` is a workspace (its contents do not matter).
+fn choose_split(
+    prims: &mut [Prim],
+    scratch: &mut [Prim],
+    bins: &mut Bins,
+    b: Bounds,
+    depth: usize,
+) -> Option<Parts> {
     let n = prims.len();
     // A split costs more than C_TRAV = one pack test, which is what a leaf of up to four costs:
     // such nodes are always leaves, without binning them.
     if n <= 4 || depth >= MAX_DEPTH {
         return None;
     }
-    match best_split(prims, bounds) {
-        Some(s) if s.cost < leaf_cost(n) || n > MAX_LEAF => Some((partition(prims, &s), s.left, s.right)),
+    match best_split(prims, b, bins) {
+        Some(s) if s.cost < leaf_cost(n) || n > MAX_LEAF => {
+            let (mid, lc, rc) = partition(prims, scratch, &s);
+            Some(Parts {
+                mid,
+                left: Bounds { prims: s.left, centroids: lc },
+                right: Bounds { prims: s.right, centroids: rc },
+            })
+        }
         // The SAH prefers a leaf and the leaf is small enough.
         Some(_) => None,
         None if n <= MAX_LEAF => None,
         // Coincident centroids: split the range in the middle.
         None => {
             let mid = n / 2;
-            Some((mid, range_bounds(&prims[..mid]), range_bounds(&prims[mid..])))
+            let half = |p: &[Prim]| Bounds { prims: range_bounds(p), centroids: centroid_bounds(p) };
+            Some(Parts { mid, left: half(&prims[..mid]), right: half(&prims[mid..]) })
         }
     }
 }
@@ -244,20 +299,25 @@ fn choose_split(prims: &mut [Prim], bounds: Box3, depth: usize) -> Option<(usize
 /// Builds the subtree over `prims`, whose first element sits at `offset` in the final order:
 /// large ranges as two rayon tasks whose pair lists are stitched together, small ones
 /// sequentially into one list.
-fn subtree(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize) -> Subtree {
+/// `scratch` is as long as `prims` when they are many enough to be partitioned in parallel.
+fn subtree(prims: &mut [Prim], scratch: &mut [Prim], offset: usize, b: Bounds, depth: usize) -> Subtree {
     let n = prims.len();
     if n < PARALLEL_MIN {
         let mut sub = Subtree { root: Node::default(), pairs: Vec::new(), leaves: 0, depth };
-        sub.root = build_into(prims, offset, bounds, depth, &mut sub);
+        let mut bins = EMPTY_BINS;
+        sub.root = build_into(prims, offset, b, depth, &mut sub, &mut bins);
         return sub;
     }
-    let Some((mid, lb, rb)) = choose_split(prims, bounds, depth) else {
-        let root = Node::leaf(bounds.aabb(), offset as u32, n as u32);
+    let Some(Parts { mid, left, right }) = choose_split(prims, scratch, &mut { EMPTY_BINS }, b, depth) else {
+        let root = Node::leaf(b.prims.aabb(), offset as u32, n as u32);
         return Subtree { root, pairs: Vec::new(), leaves: 1, depth };
     };
     let (lp, rp) = prims.split_at_mut(mid);
-    let (l, r) =
-        rayon::join(|| subtree(lp, offset, lb, depth + 1), || subtree(rp, offset + mid, rb, depth + 1));
+    let (ls, rs) = if scratch.is_empty() { (&mut [][..], &mut [][..]) } else { scratch.split_at_mut(mid) };
+    let (l, r) = rayon::join(
+        || subtree(lp, ls, offset, left, depth + 1),
+        || subtree(rp, rs, offset + mid, right, depth + 1),
+    );
     // Layout (depth-first over pairs): [children pair][left subtree][right subtree].
     // Child links are relative to the start of each subtree's own pairs.
     let mut pairs = Vec::with_capacity(1 + l.pairs.len() + r.pairs.len());
@@ -265,7 +325,7 @@ fn subtree(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize) -> Sub
     append_shifted(&mut pairs, l.pairs);
     append_shifted(&mut pairs, r.pairs);
     Subtree {
-        root: Node::interior(bounds.aabb(), 0),
+        root: Node::interior(b.prims.aabb(), 0),
         pairs,
         leaves: l.leaves + r.leaves,
         depth: l.depth.max(r.depth),
@@ -273,30 +333,38 @@ fn subtree(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize) -> Sub
 }
 
 /// Builds sequentially, appending pairs depth-first to `out.pairs`; returns the node.
-fn build_into(prims: &mut [Prim], offset: usize, bounds: Box3, depth: usize, out: &mut Subtree) -> Node {
-    let Some((mid, lb, rb)) = choose_split(prims, bounds, depth) else {
+/// `bins` is a workspace shared by the whole recursion.
+fn build_into(
+    prims: &mut [Prim],
+    offset: usize,
+    b: Bounds,
+    depth: usize,
+    out: &mut Subtree,
+    bins: &mut Bins,
+) -> Node {
+    let Some(Parts { mid, left, right }) = choose_split(prims, &mut [], bins, b, depth) else {
         out.leaves += 1;
         out.depth = out.depth.max(depth);
-        return Node::leaf(bounds.aabb(), offset as u32, prims.len() as u32);
+        return Node::leaf(b.prims.aabb(), offset as u32, prims.len() as u32);
     };
     let at = out.pairs.len();
     out.pairs.push(NodePair::default());
     let (lp, rp) = prims.split_at_mut(mid);
-    let l = build_into(lp, offset, lb, depth + 1, out);
-    let r = build_into(rp, offset + mid, rb, depth + 1, out);
+    let l = build_into(lp, offset, left, depth + 1, out, bins);
+    let r = build_into(rp, offset + mid, right, depth + 1, out, bins);
     out.pairs[at].nodes = [l, r];
-    Node::interior(bounds.aabb(), at as u32)
+    Node::interior(b.prims.aabb(), at as u32)
 }
 
 /// The best binned-SAH split, in units of triangle tests, or `None` when all centroids
 /// coincide.
-fn best_split(prims: &[Prim], bounds: Box3) -> Option<Split> {
-    let cb = centroid_bounds(prims);
+fn best_split(prims: &[Prim], b: Bounds, bins: &mut Bins) -> Option<Split> {
+    let (bounds, cb) = (b.prims, b.centroids);
     let ext = cb.max - cb.min;
     // Axes without extent get scale 0: everything lands in bin 0 and no split is proposed.
     let nb = bins_for(prims.len());
     let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(nb as f32) / ext, Vec3A::ZERO);
-    let bins = bin_prims(prims, cb.min, scale, nb);
+    bin_prims(prims, cb.min, scale, nb, bins);
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     let mut best: Option<Split> = None;
     for (axis, bins) in bins.iter().enumerate() {
@@ -342,36 +410,55 @@ fn leaf_cost(n: usize) -> f32 {
     n.div_ceil(4) as f32
 }
 
-/// Moves the primitives left of the split to the front; returns how many there are.
-fn partition(prims: &mut [Prim], s: &Split) -> usize {
-    let goes_left = |p: &Prim| bin_of(p.centroid2()[s.axis], s.min, s.scale, s.bins) < s.bin;
+/// Moves the primitives left of the split to the front; returns how many there are and the
+/// bounds of the doubled centroids of both sides. Nodes of [`PARALLEL_PASS_MIN`] primitives or
+/// more are partitioned in parallel through `scratch` (as long as `prims`).
+fn partition(prims: &mut [Prim], scratch: &mut [Prim], s: &Split) -> (usize, Box3, Box3) {
+    let goes_left = |c: Vec3A| bin_of(c[s.axis], s.min, s.scale, s.bins) < s.bin;
     if prims.len() >= PARALLEL_PASS_MIN {
-        return partition_parallel(prims, &goes_left);
+        return partition_parallel(prims, scratch, &goes_left);
     }
-    let mut i = 0;
-    let mut j = prims.len();
+    let (mut i, mut j) = (0, prims.len());
+    let (mut cl, mut cr) = (Box3::EMPTY, Box3::EMPTY);
     while i < j {
-        if goes_left(&prims[i]) {
+        let c = prims[i].centroid2();
+        if goes_left(c) {
+            cl = cl.grow(c);
             i += 1;
         } else {
+            cr = cr.grow(c);
             j -= 1;
             prims.swap(i, j);
         }
     }
-    i
+    (i, cl, cr)
 }
 
-/// A stable partition in chunks on rayon tasks: each chunk counts its left primitives, then
-/// copies its left and right parts to their places (after the left parts of the chunks before
-/// it, and after all left parts plus the right parts before it).
-fn partition_parallel(prims: &mut [Prim], goes_left: &(dyn Fn(&Prim) -> bool + Sync)) -> usize {
-    let src = prims.to_vec();
-    let lefts: Vec<usize> =
-        src.par_chunks(CHUNK).map(|c| c.iter().filter(|p| goes_left(p)).count()).collect();
-    let n_left: usize = lefts.iter().sum();
-    let (mut left, mut right) = prims.split_at_mut(n_left);
-    let mut jobs = Vec::with_capacity(lefts.len());
-    for (chunk, &l) in src.chunks(CHUNK).zip(&lefts) {
+/// A stable partition in chunks on rayon tasks: each chunk counts its left primitives (and
+/// bounds both sides' centroids), then copies its left and right parts to their places in
+/// `scratch` (after the left parts of the chunks before it, and after all left parts plus the
+/// right parts before it), which is then copied back.
+fn partition_parallel(
+    prims: &mut [Prim],
+    scratch: &mut [Prim],
+    goes_left: &(dyn Fn(Vec3A) -> bool + Sync),
+) -> (usize, Box3, Box3) {
+    assert_eq!(prims.len(), scratch.len());
+    let per_chunk: Vec<(usize, Box3, Box3)> = prims
+        .par_chunks(CHUNK)
+        .map(|c| {
+            c.iter().fold((0, Box3::EMPTY, Box3::EMPTY), |(n, l, r), p| {
+                let c = p.centroid2();
+                if goes_left(c) { (n + 1, l.grow(c), r) } else { (n, l, r.grow(c)) }
+            })
+        })
+        .collect();
+    let (n_left, cl, cr) = per_chunk
+        .iter()
+        .fold((0, Box3::EMPTY, Box3::EMPTY), |(n, l, r), c| (n + c.0, l.union(c.1), r.union(c.2)));
+    let (mut left, mut right) = scratch.split_at_mut(n_left);
+    let mut jobs = Vec::with_capacity(per_chunk.len());
+    for (chunk, &(l, _, _)) in prims.chunks(CHUNK).zip(&per_chunk) {
         let (l_out, l_rest) = std::mem::take(&mut left).split_at_mut(l);
         let (r_out, r_rest) = std::mem::take(&mut right).split_at_mut(chunk.len() - l);
         left = l_rest;
@@ -381,7 +468,7 @@ fn partition_parallel(prims: &mut [Prim], goes_left: &(dyn Fn(&Prim) -> bool + S
     jobs.into_par_iter().for_each(|(chunk, l_out, r_out)| {
         let (mut i, mut j) = (0, 0);
         for p in chunk {
-            if goes_left(p) {
+            if goes_left(p.centroid2()) {
                 l_out[i] = *p;
                 i += 1;
             } else {
@@ -390,13 +477,17 @@ fn partition_parallel(prims: &mut [Prim], goes_left: &(dyn Fn(&Prim) -> bool + S
             }
         }
     });
-    n_left
+    prims.par_chunks_mut(CHUNK).zip(scratch.par_chunks(CHUNK)).for_each(|(d, s)| d.copy_from_slice(s));
+    (n_left, cl, cr)
 }
 
-/// The bins of doubled centroid `c` on all three axes.
+/// The bins of doubled centroid `c` on all three axes: [`bin_of`] on three lanes at once.
 #[inline]
 fn bin_index(c: Vec3A, min: Vec3A, scale: Vec3A, bins: usize) -> [usize; 3] {
-    [bin_of(c.x, min.x, scale.x, bins), bin_of(c.y, min.y, scale.y, bins), bin_of(c.z, min.z, scale.z, bins)]
+    let f = ((c - min) * scale).max(Vec3A::ZERO).min(Vec3A::splat((bins - 1) as f32));
+    // Four lanes converted together (LLVM vectorises the saturating conversions).
+    let i = f.extend(0.0).to_array().map(|x| x as i32);
+    [i[0] as usize, i[1] as usize, i[2] as usize]
 }
 
 /// Bins per axis for a node of `n` primitives: the sweep over bins costs as much as binning
@@ -410,8 +501,12 @@ fn bins_for(n: usize) -> usize {
     }
 }
 
-/// The bin of coordinate `c`; the same function decides binning and partitioning.
+/// The bin of coordinate `c`, as [`bin_index`] gives it for each axis (which decides the
+/// binning; this decides the partition). The position is clamped to `[0, bins − 1]` as a
+/// float (a NaN becomes 0) and then truncated through `i32`: a saturating float-to-`usize`
+/// conversion costs a dozen instructions on x86-64, and was a third of the build's
+/// instructions.
 #[inline]
 fn bin_of(c: f32, min: f32, scale: f32, bins: usize) -> usize {
-    (((c - min) * scale) as usize).min(bins - 1)
+    ((c - min) * scale).max(0.0).min((bins - 1) as f32) as i32 as usize
 }

@@ -124,20 +124,28 @@ impl Bvh {
         let start = Instant::now();
         let verts = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
         // Parallel iterators that keep their order: the result does not depend on the threads.
-        let prims = indices
+        // Indexed, so that `collect` writes every record in place; triangles with non-finite
+        // vertices get an empty box and are dropped afterwards.
+        let mut prims: Vec<build::Prim> = indices
             .par_iter()
             .enumerate()
             .with_min_len(4096)
-            .filter_map(|(i, t)| {
+            .map(|(i, t)| {
                 let v = verts(t);
-                v.iter().all(|p| p.is_finite()).then(|| {
+                let b = if v.iter().all(|p| p.is_finite()) {
                     let b = Aabb::from_points(&v);
                     let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
                         + Vec3::splat(f32::MIN_POSITIVE);
-                    build::Prim::new(Aabb { min: b.min - pad, max: b.max + pad }, i as u32)
-                })
+                    Aabb { min: b.min - pad, max: b.max + pad }
+                } else {
+                    Aabb::EMPTY
+                };
+                build::Prim::new(b, i as u32)
             })
             .collect();
+        if prims.par_iter().any(|p| p.is_empty()) {
+            prims.retain(|p| !p.is_empty());
+        }
         let mut built = build::build(prims);
         let packs = pack_leaves(&mut built, |p| verts(&indices[p as usize]));
         let nodes = wide::collapse(&built.pairs);
@@ -175,31 +183,35 @@ impl Bvh {
 /// their triangles (depth-first), and points the leaves at their packs (`index`: first pack,
 /// `count`: packs). `verts` gives an original triangle's vertices.
 fn pack_leaves(built: &mut build::Built, verts: impl Fn(u32) -> [Vec3; 3] + Sync) -> Vec<Tri4> {
-    // (first triangle, triangles, pair, slot) of every leaf.
-    let mut leaves = Vec::new();
-    for (pair, p) in built.pairs.iter().enumerate() {
-        for (slot, n) in p.nodes.iter().enumerate() {
-            if n.is_leaf() {
-                leaves.push((n.index, n.count, pair, slot));
-            }
+    let n = built.order.len();
+    if n == 0 {
+        return Vec::new();
+    }
+    // (first triangle in the order, triangles) of every pack. The leaves' ranges tile the
+    // triangle order, and a depth-first walk, left child first, meets them in that order
+    // without sorting; it reads the pairs almost sequentially (they are laid out depth-first).
+    let mut packs = Vec::with_capacity(n.div_ceil(3));
+    let mut stack = vec![(0usize, 0usize)];
+    while let Some((pair, slot)) = stack.pop() {
+        let l = &mut built.pairs[pair].nodes[slot];
+        if !l.is_leaf() {
+            let children = l.index as usize;
+            stack.extend([(children, 1), (children, 0)]);
+            continue;
         }
+        let (first, count) = (l.index as usize, l.count as usize);
+        (l.index, l.count) = (packs.len() as u32, count.div_ceil(4) as u32);
+        packs
+            .extend((first..first + count).step_by(4).map(|p| (p as u32, (first + count - p).min(4) as u32)));
     }
-    leaves.sort_unstable_by_key(|l| l.0);
-    let mut next = 0u32;
-    for &(_, count, pair, slot) in &leaves {
-        let packs = count.div_ceil(4);
-        let n = &mut built.pairs[pair].nodes[slot];
-        (n.index, n.count) = (next, packs);
-        next += packs;
-    }
+    // An indexed iterator: `collect` writes the packs in place.
     let order = &built.order;
-    leaves
+    packs
         .par_iter()
         .with_min_len(1024)
-        .flat_map_iter(|&(first, count, _, _)| {
-            order[first as usize..(first + count) as usize]
-                .chunks(4)
-                .map(|c| Tri4::new(c.iter().map(|&p| (verts(p), p))))
+        .map(|&(first, count)| {
+            let tris = &order[first as usize..(first + count) as usize];
+            Tri4::new(tris.iter().map(|&p| (verts(p), p)))
         })
         .collect()
 }
