@@ -189,7 +189,7 @@ pub const MAX_GATHER_SAMPLES: usize = 64;
 /// one of them, and k = 4 of m = 64 is within the noise of the best (k, m) on each. `pir-bdpt`
 /// takes it too: on the Cornell box (single runs, loaded machine), relative MSE × CPU time with k = 2, 4, 8 was 1.16, 1,
 /// 1.17 (m = 64), with m = 32, 64, 128 1.41, 1, 0.98 (k = 4), with 16, 32, 64 light paths
-/// 1.02, 1, 0.89: none clearly better (`docs/results.md`, "Bidirectional weights").
+/// 1.02, 1, 0.89: none clearly better (`docs/measurements.md`, "Bidirectional weights").
 pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64);
 
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not

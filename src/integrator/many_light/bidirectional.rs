@@ -68,7 +68,7 @@ const RR_DEPTH: u32 = 5;
 /// to VPLs picked by their light, so that the technique's samples are fewer than N but
 /// better placed. Any positive count keeps the weights of every path summing to one (both
 /// subpaths use the same); this one balances the path tracer's techniques better against
-/// the connections: measured with k = 4 and 32 paths (`docs/results.md`, "Bidirectional
+/// the connections: measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional
 /// weights"), 8 rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its
 /// worst pixel by 20 %, the near-mirror floor's by 8 % and 54 %, level on the Cornell box;
 /// 4 was worse on the Cornell box (+10 %).
