@@ -39,7 +39,7 @@ use crate::scene::SurfacePoint;
 /// roulette plays: Mitsuba 3's default `rr_depth`. Starting earlier (it was 3) saves rays but
 /// costs more variance than it saves time: at equal sample count the Cornell box's relative
 /// MSE fell from 8.3e-4 to 6.55e-4 (Mitsuba 6.46e-4) at 256 spp, for 27 % more rays.
-const RR_DEPTH: u32 = 5;
+pub(crate) const RR_DEPTH: u32 = 5;
 
 /// A non-delta vertex of a camera path, as a hook sees it.
 pub struct Vertex<'a> {

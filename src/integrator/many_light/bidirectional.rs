@@ -52,15 +52,11 @@ use super::mis::{Technique, Weighing};
 use crate::geometry::{Ray, offset_origin};
 use crate::integrator::direct::{LightSample, sample_emitters_weighted};
 use crate::integrator::scatter::{scatter, survives_roulette};
-use crate::integrator::walker::Vertex;
+use crate::integrator::walker::{RR_DEPTH, Vertex};
 use crate::integrator::{Counters, RenderContext};
 use crate::light::emitted;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
-
-/// The camera vertex (from 1) from whose continuation on Russian roulette plays, as in the
-/// path tracer ([`crate::integrator::walker`]).
-const RR_DEPTH: u32 = 5;
 
 /// How many light paths the weights count for an iteration of `paths` light paths gathered
 /// as `gather` says: all of them for the exhaustive gather, whose N connections per vertex
@@ -180,15 +176,6 @@ pub enum Connect {
 }
 
 impl Connect {
-    /// The name `--connect` takes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Connect::First => "first",
-            Connect::FirstTwo => "first-two",
-            Connect::All => "all",
-        }
-    }
-
     /// Whether the camera vertex of `depth` segments connects.
     #[inline]
     pub fn at(self, depth: u32) -> bool {
@@ -255,10 +242,11 @@ pub struct CameraEnd<'a> {
     pub geometry: LocalGeometry,
     pub wo: Vec3,
     pub state: MisState,
-    /// Whether the camera vertex after this one connects (else only the emitter techniques
-    /// extend the camera subpath into the light subpath), and every one after it.
-    pub next_connects: bool,
-    pub all_connect: bool,
+    /// Which camera vertices connect, and this one's segments from the camera: whether the
+    /// vertices after it connect (else only the emitter techniques extend the camera subpath
+    /// into the light subpath).
+    pub connect: Connect,
+    pub depth: u32,
 }
 
 /// The weight of the connection from the camera vertex `x` (at `p`) to `vpl`, whose BSDF is
@@ -277,7 +265,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let camera_pdf = x.fx.pdf(w) * cos_y / dist2;
     // The reverse densities only where their factors are not zero (at the camera's first
     // vertex its sums are, so the light subpath extended to x has no competitor to weigh).
-    let more = if x.all_connect { vpl.mis.dvc } else { vpl.mis.dvc_emitter };
+    let more = if x.connect == Connect::All { vpl.mis.dvc } else { vpl.mis.dvc_emitter };
     let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 };
     let w_camera = if x.state.dvcm > 0.0 || x.state.dvc > 0.0 {
         let camera_rev = if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 };
@@ -287,7 +275,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     };
     // One vertex further: next-event estimation at the VPL (lit directly) or a connection
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
-    let one = if vpl.depth == 1 || x.next_connects { vpl.mis.dvcm } else { 0.0 };
+    let one = if vpl.depth == 1 || x.connect.at(x.depth + 1) { vpl.mis.dvcm } else { 0.0 };
     let w_light = camera_pdf * (one + more * light_rev);
     weight(w_light + w_camera)
 }
@@ -344,15 +332,7 @@ pub fn walk(
             // ---- The connections to the VPLs.
             if connect.at(depth) {
                 let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
-                let end = CameraEnd {
-                    fx: &fx,
-                    bsdf,
-                    geometry,
-                    wo,
-                    state,
-                    next_connects: connect.at(depth + 1),
-                    all_connect: connect == Connect::All,
-                };
+                let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth };
                 let weighing =
                     Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound };
                 let v = Vertex { sp, wo, bsdf, depth };
@@ -484,15 +464,8 @@ mod tests {
                 let wo = x.dir(&z[t - 1]);
                 let fx = PreparedBsdf::new(bx, x.g, wo, TransportMode::Radiance);
                 let emitting = PreparedBsdf::new(by, y.g, w_in, TransportMode::Importance);
-                let end = CameraEnd {
-                    fx: &fx,
-                    bsdf: &bx,
-                    geometry: x.g,
-                    wo,
-                    state: cam,
-                    next_connects: connect.at(t as u32 + 1),
-                    all_connect: connect == Connect::All,
-                };
+                let end =
+                    CameraEnd { fx: &fx, bsdf: &bx, geometry: x.g, wo, state: cam, connect, depth: t as u32 };
                 Some(connection_weight(&end, x.p, &vpl, &by, &emitting))
             });
         }

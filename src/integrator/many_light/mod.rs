@@ -275,7 +275,9 @@ impl Integrator for InstantRadiosity {
             }
         }
         if let VirtualLights::Bidirectional(_, connect) = self.lights {
-            p.push(("connect".into(), connect.name().into()));
+            // The name `--connect` takes (clap's, from the enum).
+            let name = clap::ValueEnum::to_possible_value(&connect).map(|v| v.get_name().to_string());
+            p.push(("connect".into(), name.unwrap_or_default()));
         }
         match self.lights {
             VirtualLights::Points(Clamping::None)
