@@ -82,4 +82,11 @@ study corner-glossy-mis scenes/stress/corner/scene.toml scenes/stress/corner/ref
     --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
 study slit-mis scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
     --methods pt,pir-clamp,pir-mis,pir-bdpt
+# The Mori knob (issue 12's glossy scene; its mesh is in ../shared) at 256x256 for 30 s.
+if [ -f "$shared/scenes/mori-knob/testObj.obj" ]; then
+    study mori-knob-mis scenes/mori-knob/scene.toml scenes/mori-knob/reference-256.exr 30 \
+        --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+else
+    echo "skipping the Mori knob study: $shared/scenes/mori-knob is absent" >&2
+fi
 echo "done: $out" >&2
