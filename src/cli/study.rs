@@ -34,7 +34,8 @@ pub struct StudyArgs {
     /// The reference image (EXR), e.g. from `pir reference`; renders take its size.
     #[arg(long, value_name = "REF.exr")]
     pub reference: PathBuf,
-    /// Methods, comma-separated: pt, ir, ir-clamp, pir-clamp, vsl, pir-vsl [default: all].
+    /// Methods, comma-separated: pt, ir, ir-clamp, pir-clamp, vsl, pir-vsl, pir-mis, pir-bdpt
+    /// [default: all].
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub methods: Option<Vec<String>>,
     /// Wall-clock budget of each line, in seconds.

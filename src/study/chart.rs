@@ -140,7 +140,7 @@ pub fn draw(stem: &Path, snapshots: &[Snapshot], metric: Metric, subtitle: &str)
     Ok(())
 }
 
-/// Enough distinct colours for the six methods and a sweep (Tableau 10).
+/// Enough distinct colours for the eight methods and a sweep (Tableau 10).
 const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
