@@ -10,6 +10,11 @@
 //! operations in the same order (the edges are computed once, at build time, by the same
 //! subtractions), so every lane gives bit for bit the distance, barycentrics and verdict the
 //! oracle gives for its triangle: the backends still agree hit for hit.
+//!
+//! Testing a leaf's two packs at once, as eight lanes written as plain loops (for one AVX
+//! operation per step, like the box test), did not pay: LLVM kept those loops 4-wide, and the
+//! instructions per ray in traversal rose by 4–12 % on the bunny (occlusion 840 → 918, gather
+//! 1,085 → 1,219, closest hit 696 → 721).
 
 use glam::{BVec4A, Vec3, Vec4};
 

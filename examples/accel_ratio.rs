@@ -1,0 +1,131 @@
+//! Ray-query rates of the BVH against Embree measured in one process, alternating, for
+//! before/after comparisons on a busy machine, and fixed workloads for instruction counts.
+//!
+//!     accel_ratio ratio SCENE WORKLOAD ROUNDS   BVH/Embree rate ratio, median of ROUNDS
+//!     accel_ratio bvh SCENE WORKLOAD PASSES     the BVH alone (for valgrind --tool=callgrind)
+//!     accel_ratio embree SCENE WORKLOAD PASSES  Embree alone
+//!
+//! SCENE: cornell, bunny, dragon (from ../shared/scenes) or closed1m; WORKLOAD: closest,
+//! occluded or gather, the rays of `benches/accel.rs`. A round traces about 400,000 rays on the
+//! BVH, then as many on Embree, each timed in CPU time of this thread (Linux's
+//! /proc/thread-self/schedstat), so time the thread spends preempted does not count and the
+//! machine's drift between the two halves of a round is small. Compare two builds by their
+//! ratios: `cargo build --release --example accel_ratio`, copy `target/release/examples/
+//! accel_ratio` aside, change the code, build again, and run both in turn.
+//!
+//! Instruction counts of the traversal alone: `valgrind --tool=callgrind
+//! --toggle-collect='*hit_dispatch*' target/release/examples/accel_ratio bvh bunny occluded 1`.
+
+use std::path::Path;
+
+use glam::Vec3;
+use pir::accel::testmesh::{self, Mesh};
+use pir::accel::{Accelerator, Backend, Bvh, build_accelerator};
+use pir::geometry::{Ray, VertexBuffer};
+
+/// CPU time of this thread in nanoseconds.
+fn cpu_ns() -> u64 {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").expect("Linux schedstat");
+    s.split_whitespace().next().and_then(|t| t.parse().ok()).expect("schedstat's first field")
+}
+
+fn load_obj(path: &Path) -> Mesh {
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let (models, _) = tobj::load_obj(path, &opts).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut m = Mesh::default();
+    for model in models {
+        let part = Mesh {
+            positions: model.mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect(),
+            indices: model.mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        };
+        m.append(&part);
+    }
+    m
+}
+
+fn scene(name: &str) -> Mesh {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    match name {
+        "cornell" => testmesh::cornell_like(),
+        "closed1m" => testmesh::closed_scene(1_000_000),
+        "bunny" => load_obj(&shared.join("bunny/bun_zipper.obj")),
+        "dragon" => load_obj(&shared.join("dragon/dragon_vrip_res2.obj")),
+        _ => panic!("unknown scene {name}"),
+    }
+}
+
+/// The workload's rays, as `benches/accel.rs` makes them.
+fn rays(m: &Mesh, workload: &str) -> Vec<Ray> {
+    let b = m.bounds();
+    match workload {
+        "closest" => testmesh::random_rays(&b, 65_536, 11),
+        "occluded" => testmesh::random_segments(&b, 65_536, 12),
+        "gather" => testmesh::gather_rays(m, b.min.lerp(b.max, 0.85), 1_024, 13),
+        _ => panic!("unknown workload {workload}"),
+    }
+}
+
+fn trace(acc: &dyn Accelerator, rays: &[Ray], closest: bool) -> usize {
+    if closest {
+        rays.iter().filter(|r| acc.intersect(std::hint::black_box(r)).is_some()).count()
+    } else {
+        rays.iter().filter(|r| acc.occluded(std::hint::black_box(r))).count()
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let [_, mode, scene_name, workload, n] = &args[..] else {
+        panic!("usage: accel_ratio ratio|bvh|embree SCENE WORKLOAD N (see the source's docs)");
+    };
+    let n: usize = n.parse().expect("N");
+    let m = scene(scene_name);
+    let rs = rays(&m, workload);
+    let closest = workload == "closest";
+    let vertices = VertexBuffer::from(m.positions.clone());
+    let embree = || build_accelerator(Backend::Embree, &vertices, &m.indices).expect("a build with Embree");
+    match mode.as_str() {
+        "bvh" => {
+            let bvh = Bvh::new(&m.positions, &m.indices);
+            println!("{} hits", (0..n).map(|_| trace(&bvh, &rs, closest)).sum::<usize>());
+        }
+        "embree" => {
+            let e = embree();
+            println!("{} hits", (0..n).map(|_| trace(e.as_ref(), &rs, closest)).sum::<usize>());
+        }
+        "ratio" => {
+            let bvh = Bvh::new(&m.positions, &m.indices);
+            let e = embree();
+            assert_eq!(trace(&bvh, &rs, closest), trace(e.as_ref(), &rs, closest), "hit counts differ");
+            let passes = (400_000 / rs.len()).max(1);
+            let rate = |acc: &dyn Accelerator| {
+                let t0 = cpu_ns();
+                for _ in 0..passes {
+                    trace(acc, &rs, closest);
+                }
+                (passes * rs.len()) as f64 / (cpu_ns() - t0) as f64 * 1e3
+            };
+            let (mut b, mut em, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+            for _ in 0..n {
+                b.push(rate(&bvh));
+                em.push(rate(e.as_ref()));
+                ratio.push(b[b.len() - 1] / em[em.len() - 1]);
+            }
+            let (lo, hi) = ratio.iter().fold((f64::MAX, 0f64), |(l, h), &r| (l.min(r), h.max(r)));
+            println!(
+                "{scene_name} {workload}: BVH {:.3}, Embree {:.3} M rays/s (CPU time), BVH/Embree {:.3} \
+                 (median of {n}; {lo:.3}-{hi:.3})",
+                median(&b),
+                median(&em),
+                median(&ratio)
+            );
+        }
+        _ => panic!("unknown mode {mode}"),
+    }
+}
