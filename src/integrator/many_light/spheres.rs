@@ -20,7 +20,7 @@
 //! # Narrow cones at a point light's cost
 //! A glossy end's BSDF sampling joins only when the cone is wider than its lobe: half-angle
 //! above [`NARROW_CONE`] times its GGX alpha. In a narrower cone the lobe changes little (the
-//! half vector moves by at most α/2), uniform cone samples alone follow it, and one sample
+//! half vector stays within α/2 of the axis's), uniform cone samples alone follow it, and one sample
 //! costs two BSDF evaluations, as a point light does. Any subset of techniques that includes
 //! the uniform cone samples is unbiased for the cone integral; the choice only sets the
 //! noise, and `docs/measurements.md` has the trade (1.3–1.7× the efficiency on the glossy
@@ -227,9 +227,11 @@ impl Lobes {
     /// sampling puts few samples in a narrow cone and follows a bounded, smooth factor that
     /// uniform cone samples already handle; so does a glossy end's when the cone is no wider
     /// than [`NARROW_CONE`] times its roughness (the GGX alpha, about the lobe's angular
-    /// width): the half vector then moves by at most half that across the cone, and D
-    /// changes by about a sixth (`docs/measurements.md`). Such a VSL costs one uniform
-    /// cone sample, two BSDF evaluations: a point light's cost.
+    /// width): the half vector then stays within α/2 of its value at the cone's axis, and
+    /// where the cone holds the lobe's centre the GGX distribution stays above about two
+    /// thirds of its peak ((1 + 1/4)⁻²), a smooth factor for cone samples
+    /// (`docs/measurements.md`). Such a VSL costs one uniform cone sample, two BSDF
+    /// evaluations: a point light's cost.
     fn of(e: &Ends, cone: &Cone) -> Lobes {
         let wide = |b: &Bsdf| match *b {
             Bsdf::Glossy { roughness, .. } => cone.theta_max > NARROW_CONE * roughness,
