@@ -20,14 +20,12 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use glam::Vec3;
-use pir::accel::testmesh::{self, Mesh};
+use pir::accel::testmesh::{self, Mesh, Workloads};
 use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};
 use pir::geometry::{Ray, VertexBuffer};
 
 /// Brute force only below this many triangles.
 const BRUTE_MAX: usize = 2_000;
-const RAYS: usize = 65_536;
 
 fn backends<'a>(m: &'a Mesh, vertices: &'a VertexBuffer) -> Vec<Box<dyn Accelerator + 'a>> {
     let mut v: Vec<Box<dyn Accelerator + 'a>> = Vec::new();
@@ -46,33 +44,12 @@ fn load_obj(path: &Path) -> Option<Mesh> {
         println!("skipping {}: not found", path.display());
         return None;
     }
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, _) = match tobj::load_obj(path, &opts) {
-        Ok(x) => x,
-        Err(e) => {
-            println!("skipping {}: {e}", path.display());
-            return None;
-        }
-    };
-    let mut m = Mesh::default();
-    for model in models {
-        let part = Mesh {
-            positions: model.mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect(),
-            indices: model.mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
-        };
-        m.append(&part);
-    }
-    Some(m)
+    Mesh::from_obj(path).map_err(|e| println!("skipping {}: {e}", path.display())).ok()
 }
 
 fn scenes() -> Vec<(&'static str, Mesh)> {
     let mut v = vec![("cornell", testmesh::cornell_like()), ("closed1m", testmesh::closed_scene(1_000_000))];
-    // `../shared` next to the main checkout, `../../shared` from a worktree in `wt/`.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let shared = [root.join("../shared/scenes"), root.join("../../shared/scenes")]
-        .into_iter()
-        .find(|p| p.exists())
-        .unwrap_or_else(|| root.join("../shared/scenes"));
+    let shared = testmesh::shared_scenes();
     for (name, file) in [("bunny", "bunny/bun_zipper.obj"), ("dragon", "dragon/dragon_vrip_res2.obj")] {
         if let Some(m) = load_obj(&shared.join(file)) {
             v.push((name, m));
@@ -83,12 +60,7 @@ fn scenes() -> Vec<(&'static str, Mesh)> {
 
 fn bench_queries(c: &mut Criterion) {
     for (scene, m) in scenes() {
-        let b = m.bounds();
-        let rays = testmesh::random_rays(&b, RAYS, 11);
-        let segs = testmesh::random_segments(&b, RAYS, 12);
-        // One point in open space (inside the closed scenes' outer box, outside their contents).
-        let from = b.min.lerp(b.max, 0.85);
-        let gather = testmesh::gather_rays(&m, from, 1_024, 13);
+        let Workloads { closest: rays, occluded: segs, gather } = Workloads::new(&m);
         let vertices = VertexBuffer::from(m.positions.clone());
         let accs = backends(&m, &vertices);
         for acc in &accs {

@@ -16,10 +16,7 @@
 //! Instruction counts of the traversal alone: `valgrind --tool=callgrind
 //! --toggle-collect='*hit_dispatch*' target/release/examples/accel_ratio bvh bunny occluded 1`.
 
-use std::path::Path;
-
-use glam::Vec3;
-use pir::accel::testmesh::{self, Mesh};
+use pir::accel::testmesh::{self, Mesh, Workloads};
 use pir::accel::{Accelerator, Backend, Bvh, build_accelerator};
 use pir::geometry::{Ray, VertexBuffer};
 
@@ -29,38 +26,27 @@ fn cpu_ns() -> u64 {
     s.split_whitespace().next().and_then(|t| t.parse().ok()).expect("schedstat's first field")
 }
 
-fn load_obj(path: &Path) -> Mesh {
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, _) = tobj::load_obj(path, &opts).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut m = Mesh::default();
-    for model in models {
-        let part = Mesh {
-            positions: model.mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect(),
-            indices: model.mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
-        };
-        m.append(&part);
-    }
-    m
-}
-
 fn scene(name: &str) -> Mesh {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    let obj = |file: &str| {
+        let path = testmesh::shared_scenes().join(file);
+        Mesh::from_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    };
     match name {
         "cornell" => testmesh::cornell_like(),
         "closed1m" => testmesh::closed_scene(1_000_000),
-        "bunny" => load_obj(&shared.join("bunny/bun_zipper.obj")),
-        "dragon" => load_obj(&shared.join("dragon/dragon_vrip_res2.obj")),
+        "bunny" => obj("bunny/bun_zipper.obj"),
+        "dragon" => obj("dragon/dragon_vrip_res2.obj"),
         _ => panic!("unknown scene {name}"),
     }
 }
 
-/// The workload's rays, as `benches/accel.rs` makes them.
+/// The workload's rays, as `benches/accel.rs` traces them.
 fn rays(m: &Mesh, workload: &str) -> Vec<Ray> {
-    let b = m.bounds();
+    let w = Workloads::new(m);
     match workload {
-        "closest" => testmesh::random_rays(&b, 65_536, 11),
-        "occluded" => testmesh::random_segments(&b, 65_536, 12),
-        "gather" => testmesh::gather_rays(m, b.min.lerp(b.max, 0.85), 1_024, 13),
+        "closest" => w.closest,
+        "occluded" => w.occluded,
+        "gather" => w.gather,
         _ => panic!("unknown workload {workload}"),
     }
 }
@@ -113,9 +99,10 @@ fn main() {
             };
             let (mut b, mut em, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
             for _ in 0..n {
-                b.push(rate(&bvh));
-                em.push(rate(e.as_ref()));
-                ratio.push(b[b.len() - 1] / em[em.len() - 1]);
+                let (rb, re) = (rate(&bvh), rate(e.as_ref()));
+                b.push(rb);
+                em.push(re);
+                ratio.push(rb / re);
             }
             let (lo, hi) = ratio.iter().fold((f64::MAX, 0f64), |(l, h), &r| (l.min(r), h.max(r)));
             println!(

@@ -4,6 +4,7 @@
 //! agreement tests and the benchmarks of every backend see exactly the same geometry and rays.
 
 use std::f32::consts::PI;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
@@ -31,6 +32,22 @@ impl Mesh {
     pub fn point_on(&self, i: usize, u: f32, v: f32) -> Vec3 {
         let [a, b, c] = self.triangle(i);
         a * (1.0 - u - v) + b * u + c * v
+    }
+
+    /// Every triangle of the OBJ file at `path` (all its objects, polygons triangulated),
+    /// or the loader's error.
+    pub fn from_obj(path: &Path) -> Result<Mesh, tobj::LoadError> {
+        let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+        let (models, _) = tobj::load_obj(path, &opts)?;
+        let mut m = Mesh::default();
+        for model in models {
+            let part = Mesh {
+                positions: model.mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect(),
+                indices: model.mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+            };
+            m.append(&part);
+        }
+        Ok(m)
     }
 
     /// Appends `other`, renumbering its indices.
@@ -220,4 +237,39 @@ pub fn random_segments(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
             Ray::segment(p, q - p, 1.0)
         })
         .collect()
+}
+
+/// The project's shared scene folder: `../shared/scenes` beside the checkout, or
+/// `../../shared/scenes` from a worktree in `wt/`; the first when neither exists.
+pub fn shared_scenes() -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    [root.join("../shared/scenes"), root.join("../../shared/scenes")]
+        .into_iter()
+        .find(|p| p.exists())
+        .unwrap_or_else(|| root.join("../shared/scenes"))
+}
+
+/// Rays per workload of the accel benchmark ([`Workloads`]), but the gather's.
+pub const WORKLOAD_RAYS: usize = 65_536;
+
+/// The ray-query workloads of the accel benchmark over one mesh.
+pub struct Workloads {
+    /// [`WORKLOAD_RAYS`] incoherent rays (closest hit).
+    pub closest: Vec<Ray>,
+    /// [`WORKLOAD_RAYS`] random segments in the mesh's box (occlusion).
+    pub occluded: Vec<Ray>,
+    /// The gather pattern: one point in open space (inside a closed scene's outer box, outside
+    /// its contents) to 1,024 points of the surface (occlusion).
+    pub gather: Vec<Ray>,
+}
+
+impl Workloads {
+    pub fn new(m: &Mesh) -> Workloads {
+        let b = m.bounds();
+        Workloads {
+            closest: random_rays(&b, WORKLOAD_RAYS, 11),
+            occluded: random_segments(&b, WORKLOAD_RAYS, 12),
+            gather: gather_rays(m, b.min.lerp(b.max, 0.85), 1_024, 13),
+        }
+    }
 }
