@@ -21,7 +21,7 @@ use super::light_set::{LightSet, Lights, PointLights, Selection};
 use super::light_tree::LightTree;
 use super::mis::Weighing;
 use super::resample::resample;
-use super::shadow_batch::ShadowBatch;
+use super::shadow_batch::{ShadowBatch, with_shadow_batch};
 use super::spheres::SphereLights;
 use super::tree_gather::{Kernel, Pick, Receiver};
 use crate::geometry::OffsetPoint;
@@ -44,34 +44,35 @@ impl LightSet {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
-        let mut batch = ShadowBatch::new(ctx.accel);
-        let queued = match (&self.lights, &self.selection) {
-            (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, weighing, &mut batch),
-            (Lights::Spheres(s), Selection::All) => s.queue(ctx, v, max_vpl_depth, sampler, &mut batch),
-            (lights, &Selection::Resampled { candidates, samples }) => {
-                let (m, k) = (candidates, samples);
-                match lights {
-                    Lights::Points(p) => {
-                        p.queue_resampled(v, max_vpl_depth, m, k, weighing, sampler, &mut batch)
+        with_shadow_batch(ctx.accel, |batch| {
+            let queued = match (&self.lights, &self.selection) {
+                (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, weighing, batch),
+                (Lights::Spheres(s), Selection::All) => s.queue(ctx, v, max_vpl_depth, sampler, batch),
+                (lights, &Selection::Resampled { candidates, samples }) => {
+                    let (m, k) = (candidates, samples);
+                    match lights {
+                        Lights::Points(p) => {
+                            p.queue_resampled(v, max_vpl_depth, m, k, weighing, sampler, batch)
+                        }
+                        Lights::Spheres(s) => s.queue_resampled(ctx, v, max_vpl_depth, m, k, sampler, batch),
                     }
-                    Lights::Spheres(s) => s.queue_resampled(ctx, v, max_vpl_depth, m, k, sampler, &mut batch),
                 }
-            }
-            (lights, Selection::Tree { tree, samples: k }) => {
-                let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-                let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
-                match lights {
-                    Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, weighing, &mut batch),
-                    Lights::Spheres(s) => s.queue_sampled(ctx, v, &picks, *k, sampler, &mut batch),
+                (lights, Selection::Tree { tree, samples: k }) => {
+                    let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+                    let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
+                    match lights {
+                        Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, weighing, batch),
+                        Lights::Spheres(s) => s.queue_sampled(ctx, v, &picks, *k, sampler, batch),
+                    }
                 }
+            };
+            if !queued {
+                return Vec3::ZERO;
             }
-        };
-        if !queued {
-            return Vec3::ZERO;
-        }
-        let (total, traced) = batch.finish();
-        counters.shadow_rays += traced;
-        total
+            let (total, traced) = batch.finish();
+            counters.shadow_rays += traced;
+            total
+        })
     }
 }
 
