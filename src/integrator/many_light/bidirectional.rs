@@ -1,7 +1,8 @@
 //! Bidirectional weighing of VPL connections (`pir-bdpt`): every camera path is a full path
 //! tracer's (next-event estimation and BSDF-sampled emission at every vertex, Russian
 //! roulette), and at every non-delta vertex it also connects to the iteration's VPLs; each
-//! path is counted by all the techniques that can make it, weighed by the balance heuristic.
+//! path is counted by all the techniques that can make it, weighed by the balance heuristic
+//! (the power heuristic where only the two emitter techniques can make it).
 //!
 //! **The techniques.** Take a path z_1 … z_k from the camera's first hit z_1 to an emitter
 //! point z_k. pir can make it in k ways, by t = 1 … k camera vertices:
@@ -16,6 +17,20 @@
 //! of techniques is the same for every path of a given shape and the balance heuristic's
 //! weights p_t n_t / Σ_u p_u n_u (n_u = N for connections, 1 otherwise) sum to one: without
 //! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests).
+//!
+//! **Direct light: the power heuristic.** A path whose only non-delta vertex before the
+//! emitter is z_{k−1} (the direct light of the camera path's first non-delta vertex, after
+//! any delta chain) has no connection technique: a connection needs two non-delta vertices
+//! before the emitter. Only next-event estimation and the hit make it, and pir weighs them
+//! by the power heuristic (β = 2), p_t² / Σ_u p_u², exactly as `pt` does. Both techniques
+//! decide it by the same test on the path (the walk's `direct`), so its weights still sum to
+//! one; every other path keeps the balance heuristic. Why: with the balance heuristic here,
+//! `pir-bdpt` was noisier than `pt` wherever direct light dominates — on the Mori knob (one
+//! large light over glossy surfaces of GGX alpha 0.41 and 0.45) its relative MSE at 256
+//! iterations was 1.25e-5 against 7.2e-6 with the power heuristic, while the power heuristic
+//! for every path (computed by squaring every density ratio in the running sums) cost 6–8 %
+//! on the glossy Cornell box and the near-mirror floor (`docs/measurements.md`, "Which
+//! heuristic").
 //!
 //! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
 //! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
@@ -202,19 +217,29 @@ fn weight(others: f32) -> f32 {
     if w.is_finite() && others >= 0.0 { w } else { 0.0 }
 }
 
+/// The weight of one of the two emitter techniques, given the other's density relative to
+/// its own (`others`): the power heuristic (β = 2) for a path that no connection can make
+/// (`direct`, see [`walk`]), else the balance heuristic against every technique.
+#[inline]
+fn emitter_weight(others: f32, direct: bool) -> f32 {
+    weight(if direct { others * others } else { others })
+}
+
 /// The weight of an emitter hit by BSDF sampling, at an emitter point of area density
 /// `pdf_area` whose cosine towards the path is `cos_light`, with the camera subpath's
-/// `state` (after [`MisState::arrive`]).
+/// `state` (after [`MisState::arrive`]); `direct` when no non-delta vertex precedes the
+/// vertex the ray left.
 #[inline]
-pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32) -> f32 {
+pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, direct: bool) -> f32 {
     let emission_pdf = pdf_area * cos_light * FRAC_1_PI;
-    weight(pdf_area * state.dvcm + paths * emission_pdf * state.dvc)
+    emitter_weight(pdf_area * state.dvcm + paths * emission_pdf * state.dvc, direct)
 }
 
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
 /// the density of the vertex's BSDF sampling back along the camera path from the light's
 /// direction, `cos_receiver` the cosine at the vertex towards the light;
-/// `previous_connects` whether the camera vertex before it connects to VPLs.
+/// `previous_connects` whether the camera vertex before it connects to VPLs; `direct` when no
+/// non-delta vertex precedes the vertex.
 #[inline]
 pub fn light_weight(
     state: &MisState,
@@ -223,6 +248,7 @@ pub fn light_weight(
     cos_receiver: f32,
     paths: f32,
     previous_connects: bool,
+    direct: bool,
 ) -> f32 {
     if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
         return 0.0;
@@ -230,7 +256,7 @@ pub fn light_weight(
     let hit = light.pdf_bsdf / light.pdf_light;
     let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
     let dvcm = if previous_connects { state.dvcm } else { 0.0 };
-    weight(hit + extend * (dvcm + state.dvc * pdf_rev))
+    emitter_weight(hit + extend * (dvcm + state.dvc * pdf_rev), direct)
 }
 
 /// What a connection's weight needs of the camera vertex: its BSDF prepared for its `wo`,
@@ -300,6 +326,11 @@ pub fn walk(
     let mut state = MisState::CAMERA;
     let mut from = ray.origin;
     let mut depth = 0u32;
+    // Whether no non-delta vertex precedes the current one, and whether none preceded the one
+    // the current ray left: the direct light of the first non-delta vertex is a path that
+    // only the two emitter techniques make (a connection needs two non-delta vertices before
+    // the emitter), weighed by the power heuristic as `pt` weighs it.
+    let (mut direct, mut hit_direct) = (true, true);
     loop {
         counters.rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
@@ -313,7 +344,8 @@ pub fn walk(
         // ---- Emission found by the camera ray or a BSDF sample.
         let le = emitted(material.emission, sp.ng, wo);
         if le != Vec3::ZERO {
-            radiance += beta * le * hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths);
+            radiance +=
+                beta * le * hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths, hit_direct);
         }
         if depth >= ctx.max_depth {
             break;
@@ -327,7 +359,7 @@ pub fn walk(
                 * sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                     let previous = connect.at(depth - 1);
-                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous)
+                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous, direct)
                 });
             // ---- The connections to the VPLs.
             if connect.at(depth) {
@@ -343,6 +375,8 @@ pub fn walk(
 
         // ---- BSDF sampling: the next vertex.
         let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
+        hit_direct = direct;
+        direct &= bsdf.is_delta();
         eta_scale *= s.eta * s.eta;
         // (Only the camera's sums that are not zero need it: none at the first vertex.)
         let pdf_rev = match (s.delta, state.dvc > 0.0) {
@@ -428,8 +462,10 @@ mod tests {
         for t in 1..=k {
             let cam = camera_state(z, t, connect);
             let x = &z[t];
+            // No non-delta vertex before z[k - 1]: only the emitter techniques make the path.
+            let direct = (1..k - 1).all(|j| z[j].bsdf.is_none());
             w.push(if t == k {
-                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths))
+                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, direct))
             } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
                 None
             } else if t == k - 1 {
@@ -443,7 +479,7 @@ mod tests {
                     wi: x.dir(e),
                 };
                 let previous = connect.at(t as u32 - 1);
-                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous))
+                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, direct))
             } else {
                 let y = &z[t + 1];
                 let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
@@ -502,6 +538,34 @@ mod tests {
                 Node { p: pts[j], g: LocalGeometry { ng: n, frame: Frame::from_normal(n) }, bsdf }
             })
             .collect()
+    }
+
+    /// The direct light of the first non-delta vertex (a path of two segments after any delta
+    /// chain from the camera) is weighed exactly as `pt` weighs it: the power heuristic of
+    /// next-event estimation against BSDF sampling.
+    #[test]
+    fn direct_light_is_weighed_as_the_path_tracer_weighs_it() {
+        let mut s = Sampler::new(5, 0, Domain::LightPath, 0);
+        let mut checked = 0;
+        for trial in 0..200 {
+            let z = random_path(&mut s, 2, None);
+            let (x, e) = (&z[1], &z[2]);
+            if x.g.ng.dot(x.dir(&z[0])) <= 0.05
+                || x.g.ng.dot(x.dir(e)) <= 0.05
+                || e.g.ng.dot(e.dir(x)) <= 0.05
+            {
+                continue;
+            }
+            let pdf_area = 0.1 + trial as f32 * 0.01;
+            let w = weights(&z, pdf_area, 32.0, Connect::First);
+            let pdf_light = pdf_area * dist2(x, e) / e.cos(x);
+            let pdf_bsdf = x.pdf(&z[0], e);
+            let nee = crate::integrator::direct::power_heuristic(pdf_light, pdf_bsdf);
+            assert!((w[0].unwrap() - nee).abs() < 1e-4, "{w:?} against {nee}");
+            assert!((w[1].unwrap() - (1.0 - nee)).abs() < 1e-4, "{w:?} against {}", 1.0 - nee);
+            checked += 1;
+        }
+        assert!(checked > 50, "only {checked} paths checked");
     }
 
     /// The techniques' weights of a path sum to one, for paths of 2 to 7 vertices with diffuse
