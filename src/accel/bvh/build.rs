@@ -21,7 +21,7 @@
 //! the whole build, copied back in parallel. Chunk size and thresholds are constants, so the
 //! tree is the same whatever the number of threads.
 
-use glam::{BVec4A, Vec3A, Vec4};
+use glam::{BVec3A, BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::{Node, NodePair};
@@ -418,18 +418,26 @@ fn partition(prims: &mut [Prim], scratch: &mut [Prim], s: &Split) -> (usize, Box
     if prims.len() >= PARALLEL_PASS_MIN {
         return partition_parallel(prims, scratch, &goes_left);
     }
-    let (mut i, mut j) = (0, prims.len());
+    // Branch-free (Lomuto): every record is swapped with the first right one and the left
+    // count advances by 0 or 1, so the side, which is as good as random, is never a branch.
+    let mut i = 0;
     let (mut cl, mut cr) = (Box3::EMPTY, Box3::EMPTY);
-    while i < j {
-        let c = prims[i].centroid2();
-        if goes_left(c) {
-            cl = cl.grow(c);
-            i += 1;
-        } else {
-            cr = cr.grow(c);
-            j -= 1;
-            prims.swap(i, j);
-        }
+    for j in 0..prims.len() {
+        let p = prims[j];
+        let c = p.centroid2();
+        let left = goes_left(c);
+        let m = BVec3A::splat(left);
+        cl = Box3 {
+            min: Vec3A::select(m, cl.min.min(c), cl.min),
+            max: Vec3A::select(m, cl.max.max(c), cl.max),
+        };
+        cr = Box3 {
+            min: Vec3A::select(m, cr.min, cr.min.min(c)),
+            max: Vec3A::select(m, cr.max, cr.max.max(c)),
+        };
+        prims[j] = prims[i];
+        prims[i] = p;
+        i += usize::from(left);
     }
     (i, cl, cr)
 }
