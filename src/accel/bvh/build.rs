@@ -365,42 +365,47 @@ fn best_split(prims: &[Prim], b: Bounds, bins: &mut Bins) -> Option<Split> {
     let nb = bins_for(prims.len());
     let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), Vec3A::splat(nb as f32) / ext, Vec3A::ZERO);
     bin_prims(prims, cb.min, scale, nb, bins);
-    let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
-    let mut best: Option<Split> = None;
+    // The sweeps look for the lowest cost only (weighted by area, before the division by the
+    // parent's, which keeps the order); the winner's two boxes are gathered from its bins
+    // afterwards.
+    let n = prims.len() as u32;
+    let (mut best_cost, mut best_axis, mut best_bin) = (f32::INFINITY, 0, 0);
     for (axis, bins) in bins.iter().enumerate() {
-        // Sweep from the right: bounds and cost of the right side for each split position.
+        // Sweep from the right: the cost of the right side for each split position.
         let mut right_cost = [0.0f32; BINS];
-        let mut right_bounds = [Box3::EMPTY; BINS];
         let (mut acc, mut cnt) = (Box3::EMPTY, 0u32);
         for i in (1..nb).rev() {
             acc = acc.union(bins[i].bounds);
             cnt += bins[i].count;
-            right_bounds[i] = acc;
             right_cost[i] = acc.half_area() * leaf_cost(cnt as usize);
         }
         let (mut acc, mut cnt) = (Box3::EMPTY, 0u32);
         for i in 1..nb {
             acc = acc.union(bins[i - 1].bounds);
             cnt += bins[i - 1].count;
-            if cnt == 0 || cnt as usize == prims.len() {
-                continue;
-            }
-            let cost = C_TRAV + (acc.half_area() * leaf_cost(cnt as usize) + right_cost[i]) / parent_area;
-            if best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(Split {
-                    axis,
-                    bin: i,
-                    left: acc,
-                    right: right_bounds[i],
-                    cost,
-                    min: cb.min[axis],
-                    scale: scale[axis],
-                    bins: nb,
-                });
+            let cost = acc.half_area() * leaf_cost(cnt as usize) + right_cost[i];
+            // A side without primitives is no split.
+            if cost < best_cost && cnt != 0 && cnt != n {
+                (best_cost, best_axis, best_bin) = (cost, axis, i);
             }
         }
     }
-    best
+    if best_bin == 0 {
+        return None;
+    }
+    let side =
+        |r: std::ops::Range<usize>| bins[best_axis][r].iter().fold(Box3::EMPTY, |a, b| a.union(b.bounds));
+    let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
+    Some(Split {
+        axis: best_axis,
+        bin: best_bin,
+        left: side(0..best_bin),
+        right: side(best_bin..nb),
+        cost: C_TRAV + best_cost / parent_area,
+        min: cb.min[best_axis],
+        scale: scale[best_axis],
+        bins: nb,
+    })
 }
 
 /// The cost of intersecting a leaf of `n` triangles: one test per pack of four (see
