@@ -142,29 +142,56 @@ pub(super) fn build(mut prims: Vec<Prim>) -> Built {
         if prims.len() >= PARALLEL_PASS_MIN { prims.par_iter().copied().collect() } else { Vec::new() };
     let sub = subtree(&mut prims, &mut scratch, 0, root, 0);
     root_pair.nodes[0] = sub.root.shifted(1);
-    let mut pairs = Vec::with_capacity(sub.pairs.len() + 1);
-    pairs.push(root_pair);
-    append_shifted(&mut pairs, sub.pairs);
-    let order = prims.iter().map(Prim::id).collect();
+    let pairs = flatten(root_pair, &sub.segments);
+    let order = prims.par_iter().map(Prim::id).collect();
     Built { pairs, order, leaves: sub.leaves, depth: sub.depth }
 }
 
-/// A subtree built on its own: its root node and its pairs, with child links (the root's too)
-/// relative to the start of `pairs`; leaf ranges are final.
+/// A subtree built on its own: its root node and its pairs, in segments to be laid out one
+/// after the other (depth-first); every child link in a segment is relative to that
+/// segment's start, and the root's to the first segment's. Leaf ranges are final.
 struct Subtree {
     root: Node,
-    pairs: Vec<NodePair>,
+    segments: Vec<Vec<NodePair>>,
+    /// Pairs in all segments.
+    len: usize,
     leaves: usize,
     depth: usize,
 }
 
-/// Appends `sub` to `pairs`, shifting its relative child links by the insertion point.
-fn append_shifted(pairs: &mut Vec<NodePair>, sub: Vec<NodePair>) {
-    let base = pairs.len() as u32;
-    pairs.extend(sub.into_iter().map(|mut p| {
-        p.nodes = p.nodes.map(|n| n.shifted(base));
-        p
-    }));
+/// The root's pair followed by the segments, with their links made absolute, copied in
+/// parallel: stitching subtrees by copying their pairs at every join put a copy of all pairs
+/// on one thread at the top join (and of half of them at the next level, and so on).
+fn flatten(root_pair: NodePair, segments: &[Vec<NodePair>]) -> Vec<NodePair> {
+    // Where each segment starts; pair 0 is the root's.
+    let mut starts = Vec::with_capacity(segments.len());
+    let mut total = 1;
+    for s in segments {
+        starts.push(total);
+        total += s.len();
+    }
+    (0..total)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|g| {
+            if g == 0 {
+                return root_pair;
+            }
+            // The last segment starting at or before `g` (empty segments share their start
+            // with the next one, which comes later in the list).
+            let k = starts.partition_point(|&s| s <= g) - 1;
+            let mut p = segments[k][g - starts[k]];
+            p.nodes = p.nodes.map(|n| n.shifted(starts[k] as u32));
+            p
+        })
+        .collect()
+}
+
+/// Pairs built sequentially (see [`build_into`]).
+struct Seq {
+    pairs: Vec<NodePair>,
+    leaves: usize,
+    depth: usize,
 }
 
 /// A node's bounds: of its primitives' boxes and of their doubled centroids (which binning
@@ -297,20 +324,21 @@ fn choose_split(
 }
 
 /// Builds the subtree over `prims`, whose first element sits at `offset` in the final order:
-/// large ranges as two rayon tasks whose pair lists are stitched together, small ones
-/// sequentially into one list.
+/// large ranges as two rayon tasks whose segment lists are joined, small ones sequentially
+/// into one segment.
 /// `scratch` is as long as `prims` when they are many enough to be partitioned in parallel.
 fn subtree(prims: &mut [Prim], scratch: &mut [Prim], offset: usize, b: Bounds, depth: usize) -> Subtree {
     let n = prims.len();
     if n < PARALLEL_MIN {
-        let mut sub = Subtree { root: Node::default(), pairs: Vec::new(), leaves: 0, depth };
+        let mut seq = Seq { pairs: Vec::new(), leaves: 0, depth };
         let mut bins = EMPTY_BINS;
-        sub.root = build_into(prims, offset, b, depth, &mut sub, &mut bins);
-        return sub;
+        let root = build_into(prims, offset, b, depth, &mut seq, &mut bins);
+        let len = seq.pairs.len();
+        return Subtree { root, segments: vec![seq.pairs], len, leaves: seq.leaves, depth: seq.depth };
     }
     let Some(Parts { mid, left, right }) = choose_split(prims, scratch, &mut { EMPTY_BINS }, b, depth) else {
         let root = Node::leaf(b.prims.aabb(), offset as u32, n as u32);
-        return Subtree { root, pairs: Vec::new(), leaves: 1, depth };
+        return Subtree { root, segments: Vec::new(), len: 0, leaves: 1, depth };
     };
     let (lp, rp) = prims.split_at_mut(mid);
     let (ls, rs) = if scratch.is_empty() { (&mut [][..], &mut [][..]) } else { scratch.split_at_mut(mid) };
@@ -318,28 +346,30 @@ fn subtree(prims: &mut [Prim], scratch: &mut [Prim], offset: usize, b: Bounds, d
         || subtree(lp, ls, offset, left, depth + 1),
         || subtree(rp, rs, offset + mid, right, depth + 1),
     );
-    // Layout (depth-first over pairs): [children pair][left subtree][right subtree].
-    // Child links are relative to the start of each subtree's own pairs.
-    let mut pairs = Vec::with_capacity(1 + l.pairs.len() + r.pairs.len());
-    pairs.push(NodePair { nodes: [l.root.shifted(1), r.root.shifted(1 + l.pairs.len() as u32)] });
-    append_shifted(&mut pairs, l.pairs);
-    append_shifted(&mut pairs, r.pairs);
+    // Layout (depth-first over pairs): [children pair][left subtree][right subtree]. The
+    // children pair is a segment of its own, so its links are relative to its start.
+    let mut segments = Vec::with_capacity(1 + l.segments.len() + r.segments.len());
+    segments.push(vec![NodePair { nodes: [l.root.shifted(1), r.root.shifted(1 + l.len as u32)] }]);
+    segments.extend(l.segments);
+    segments.extend(r.segments);
     Subtree {
         root: Node::interior(b.prims.aabb(), 0),
-        pairs,
+        segments,
+        len: 1 + l.len + r.len,
         leaves: l.leaves + r.leaves,
         depth: l.depth.max(r.depth),
     }
 }
 
-/// Builds sequentially, appending pairs depth-first to `out.pairs`; returns the node.
+/// Builds sequentially, appending pairs depth-first to `out.pairs` (links relative to its
+/// start); returns the node.
 /// `bins` is a workspace shared by the whole recursion.
 fn build_into(
     prims: &mut [Prim],
     offset: usize,
     b: Bounds,
     depth: usize,
-    out: &mut Subtree,
+    out: &mut Seq,
     bins: &mut Bins,
 ) -> Node {
     let Some(Parts { mid, left, right }) = choose_split(prims, &mut [], bins, b, depth) else {
