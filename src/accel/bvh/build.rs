@@ -9,9 +9,17 @@
 //! [`MAX_DEPTH`]. Primitive records (box and id, SIMD-aligned `Vec3A`) are partitioned in
 //! place, so every pass reads memory sequentially; the partition also bounds both sides'
 //! centroids, which the children's binning needs, so a node costs two passes over its
-//! primitives (binning, partition). The sequential recursion bins into one workspace and resets
-//! only the bins a node uses. Subtrees with many primitives are built in parallel with rayon
-//! and stitched together afterwards.
+//! primitives (binning, partition). The partition is branch-free (which side a record goes to
+//! is as good as random). The sequential recursion bins into one workspace and resets only the
+//! bins a node uses. Subtrees with many primitives are built in parallel with rayon; their
+//! pairs stay in per-task segments, laid out once at the end by a parallel copy.
+//!
+//! Measured and not kept (2026-12-02, build on one thread, CPU time): binning even and odd
+//! primitives into two sets of bins, merged afterwards, to break the store-to-load chains of
+//! consecutive primitives falling into the same bin (dragon 60.1 → 61.9 ms, bunny 18.7 →
+//! 18.8, 1M scene 356 → 350); bin indices converted four lanes at once with the 2²³ trick,
+//! and the partition comparing positions without converting them (5 % fewer instructions
+//! in the whole process, dragon 59.0 → 57.3 ms, 1M scene 339 → 342).
 //!
 //! Large nodes (the top levels, where the two subtrees are not yet running on their own
 //! threads) are also binned and partitioned in parallel: their primitives are cut into chunks
