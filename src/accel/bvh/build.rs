@@ -126,10 +126,16 @@ impl Prim {
     }
 }
 
-/// The product of a build: sibling pairs (pair 0 holds the root in slot 0) and the order of the
-/// primitives in the leaves.
+/// A leaf's pack of up to four triangles: its first position in the leaf order and its
+/// triangles.
+pub(super) type PackRange = (u32, u32);
+
+/// The product of a build: sibling pairs (pair 0 holds the root in slot 0), whose leaves refer
+/// to their packs (`index`: first pack, `count`: packs), the packs, leaf by leaf in the
+/// triangle order, and the order of the primitives in the leaves.
 pub(super) struct Built {
     pub pairs: Vec<NodePair>,
+    pub packs: Vec<PackRange>,
     pub order: Vec<u32>,
     pub leaves: usize,
     pub depth: usize,
@@ -141,7 +147,7 @@ pub(super) fn build(mut prims: Vec<Prim>) -> Built {
     if prims.is_empty() {
         // An empty leaf whose box no ray enters.
         root_pair.nodes[0] = Node::leaf(Aabb::EMPTY, 0, 0);
-        return Built { pairs: vec![root_pair], order: Vec::new(), leaves: 1, depth: 0 };
+        return Built { pairs: vec![root_pair], packs: Vec::new(), order: Vec::new(), leaves: 1, depth: 0 };
     }
     let root = Bounds { prims: range_bounds(&prims), centroids: centroid_bounds(&prims) };
     // The parallel partition's destination, allocated (and its pages touched) once for the
@@ -149,57 +155,90 @@ pub(super) fn build(mut prims: Vec<Prim>) -> Built {
     let mut scratch: Vec<Prim> =
         if prims.len() >= PARALLEL_PASS_MIN { prims.par_iter().copied().collect() } else { Vec::new() };
     let sub = subtree(&mut prims, &mut scratch, 0, root, 0);
-    root_pair.nodes[0] = sub.root.shifted(1);
-    let pairs = flatten(root_pair, &sub.segments);
+    // The first segment's packs start at 0.
+    root_pair.nodes[0] = sub.root.shifted(1, 0);
+    let (pairs, packs) = flatten(root_pair, &sub.segments);
     let order = prims.par_iter().map(Prim::id).collect();
-    Built { pairs, order, leaves: sub.leaves, depth: sub.depth }
+    Built { pairs, packs, order, leaves: sub.leaves, depth: sub.depth }
 }
 
-/// A subtree built on its own: its root node and its pairs, in segments to be laid out one
-/// after the other (depth-first); every child link in a segment is relative to that
-/// segment's start, and the root's to the first segment's. Leaf ranges are final.
+/// Pairs and leaf packs built on one task, laid out after those of the tasks before it. Its
+/// child links are relative to the start of its pairs and its leaves' packs to the start of its
+/// packs.
+struct Segment {
+    pairs: Vec<NodePair>,
+    packs: Vec<PackRange>,
+}
+
+/// A subtree built on its own: its root node and its segments, to be laid out one after the
+/// other (depth-first); the root's link is relative to the first segment's start (pairs and
+/// packs). Leaves' triangle ranges are final.
 struct Subtree {
     root: Node,
-    segments: Vec<Vec<NodePair>>,
+    segments: Vec<Segment>,
     /// Pairs in all segments.
     len: usize,
+    /// Packs in all segments.
+    packs: usize,
     leaves: usize,
     depth: usize,
 }
 
-/// The root's pair followed by the segments, with their links made absolute, copied in
-/// parallel: stitching subtrees by copying their pairs at every join put a copy of all pairs
-/// on one thread at the top join (and of half of them at the next level, and so on).
-fn flatten(root_pair: NodePair, segments: &[Vec<NodePair>]) -> Vec<NodePair> {
-    // Where each segment starts; pair 0 is the root's.
-    let mut starts = Vec::with_capacity(segments.len());
-    let mut total = 1;
+/// The root's pair followed by the segments' pairs, and all the segments' packs, with their
+/// links made absolute, copied in parallel: stitching subtrees by copying their pairs at every
+/// join put a copy of all pairs on one thread at the top join (and of half of them at the next
+/// level, and so on), and assigning the leaves their packs by a walk of the whole tree was
+/// sequential too.
+fn flatten(root_pair: NodePair, segments: &[Segment]) -> (Vec<NodePair>, Vec<PackRange>) {
+    // Where each segment's pairs and packs start; pair 0 is the root's.
+    let (mut pair_at, mut pack_at) = (Vec::with_capacity(segments.len()), Vec::with_capacity(segments.len()));
+    let (mut pairs, mut packs) = (1, 0);
     for s in segments {
-        starts.push(total);
-        total += s.len();
+        pair_at.push(pairs);
+        pack_at.push(packs);
+        pairs += s.pairs.len();
+        packs += s.packs.len();
     }
-    (0..total)
+    // The last segment starting at or before `g` (empty segments share their start with the
+    // next one, which comes later in the list).
+    let find = |starts: &[usize], g: usize| starts.partition_point(|&s| s <= g) - 1;
+    let pairs = (0..pairs)
         .into_par_iter()
         .with_min_len(4096)
         .map(|g| {
             if g == 0 {
                 return root_pair;
             }
-            // The last segment starting at or before `g` (empty segments share their start
-            // with the next one, which comes later in the list).
-            let k = starts.partition_point(|&s| s <= g) - 1;
-            let mut p = segments[k][g - starts[k]];
-            p.nodes = p.nodes.map(|n| n.shifted(starts[k] as u32));
+            let k = find(&pair_at, g);
+            let mut p = segments[k].pairs[g - pair_at[k]];
+            p.nodes = p.nodes.map(|n| n.shifted(pair_at[k] as u32, pack_at[k] as u32));
             p
         })
-        .collect()
+        .collect();
+    let packs = (0..packs)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|g| {
+            let k = find(&pack_at, g);
+            segments[k].packs[g - pack_at[k]]
+        })
+        .collect();
+    (pairs, packs)
 }
 
-/// Pairs built sequentially (see [`build_into`]).
+/// Pairs and packs built sequentially (see [`build_into`]).
 struct Seq {
-    pairs: Vec<NodePair>,
+    segment: Segment,
     leaves: usize,
     depth: usize,
+}
+
+/// A leaf over the `n` primitives from `offset`, its packs appended to `packs`, which it
+/// refers to from the list's start.
+fn leaf(b: Box3, offset: usize, n: usize, packs: &mut Vec<PackRange>) -> Node {
+    let first = packs.len();
+    packs.extend((offset..offset + n).step_by(4).map(|p| (p as u32, (offset + n - p).min(4) as u32)));
+    Node::leaf(b.aabb(), first as u32, n.div_ceil(4) as u32)
 }
 
 /// A node's bounds: of its primitives' boxes and of their doubled centroids (which binning
@@ -338,15 +377,31 @@ fn choose_split(
 fn subtree(prims: &mut [Prim], scratch: &mut [Prim], offset: usize, b: Bounds, depth: usize) -> Subtree {
     let n = prims.len();
     if n < PARALLEL_MIN {
-        let mut seq = Seq { pairs: Vec::new(), leaves: 0, depth };
+        let mut seq = Seq { segment: Segment { pairs: Vec::new(), packs: Vec::new() }, leaves: 0, depth };
         let mut bins = EMPTY_BINS;
         let root = build_into(prims, offset, b, depth, &mut seq, &mut bins);
-        let len = seq.pairs.len();
-        return Subtree { root, segments: vec![seq.pairs], len, leaves: seq.leaves, depth: seq.depth };
+        let (len, packs) = (seq.segment.pairs.len(), seq.segment.packs.len());
+        return Subtree {
+            root,
+            segments: vec![seq.segment],
+            len,
+            packs,
+            leaves: seq.leaves,
+            depth: seq.depth,
+        };
     }
     let Some(Parts { mid, left, right }) = choose_split(prims, scratch, &mut { EMPTY_BINS }, b, depth) else {
-        let root = Node::leaf(b.prims.aabb(), offset as u32, n as u32);
-        return Subtree { root, segments: Vec::new(), len: 0, leaves: 1, depth };
+        let mut packs = Vec::new();
+        let root = leaf(b.prims, offset, n, &mut packs);
+        let segment = Segment { pairs: Vec::new(), packs };
+        return Subtree {
+            root,
+            packs: segment.packs.len(),
+            segments: vec![segment],
+            len: 0,
+            leaves: 1,
+            depth,
+        };
     };
     let (lp, rp) = prims.split_at_mut(mid);
     let (ls, rs) = if scratch.is_empty() { (&mut [][..], &mut [][..]) } else { scratch.split_at_mut(mid) };
@@ -355,22 +410,25 @@ fn subtree(prims: &mut [Prim], scratch: &mut [Prim], offset: usize, b: Bounds, d
         || subtree(rp, rs, offset + mid, right, depth + 1),
     );
     // Layout (depth-first over pairs): [children pair][left subtree][right subtree]. The
-    // children pair is a segment of its own, so its links are relative to its start.
+    // children pair is a segment of its own, without packs, so its links are relative to its
+    // start: the left subtree's packs start where its own do.
     let mut segments = Vec::with_capacity(1 + l.segments.len() + r.segments.len());
-    segments.push(vec![NodePair { nodes: [l.root.shifted(1), r.root.shifted(1 + l.len as u32)] }]);
+    let nodes = [l.root.shifted(1, 0), r.root.shifted(1 + l.len as u32, l.packs as u32)];
+    segments.push(Segment { pairs: vec![NodePair { nodes }], packs: Vec::new() });
     segments.extend(l.segments);
     segments.extend(r.segments);
     Subtree {
         root: Node::interior(b.prims.aabb(), 0),
         segments,
         len: 1 + l.len + r.len,
+        packs: l.packs + r.packs,
         leaves: l.leaves + r.leaves,
         depth: l.depth.max(r.depth),
     }
 }
 
-/// Builds sequentially, appending pairs depth-first to `out.pairs` (links relative to its
-/// start); returns the node.
+/// Builds sequentially, appending pairs depth-first to `out.segment.pairs` and leaf packs to
+/// `out.segment.packs` (links relative to their starts); returns the node.
 /// `bins` is a workspace shared by the whole recursion.
 fn build_into(
     prims: &mut [Prim],
@@ -383,14 +441,14 @@ fn build_into(
     let Some(Parts { mid, left, right }) = choose_split(prims, &mut [], bins, b, depth) else {
         out.leaves += 1;
         out.depth = out.depth.max(depth);
-        return Node::leaf(b.prims.aabb(), offset as u32, prims.len() as u32);
+        return leaf(b.prims, offset, prims.len(), &mut out.segment.packs);
     };
-    let at = out.pairs.len();
-    out.pairs.push(NodePair::default());
+    let at = out.segment.pairs.len();
+    out.segment.pairs.push(NodePair::default());
     let (lp, rp) = prims.split_at_mut(mid);
     let l = build_into(lp, offset, left, depth + 1, out, bins);
     let r = build_into(rp, offset + mid, right, depth + 1, out, bins);
-    out.pairs[at].nodes = [l, r];
+    out.segment.pairs[at].nodes = [l, r];
     Node::interior(b.prims.aabb(), at as u32)
 }
 
