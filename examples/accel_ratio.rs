@@ -6,7 +6,10 @@
 //!     accel_ratio embree SCENE WORKLOAD PASSES  Embree alone
 //!
 //! SCENE: cornell, bunny, dragon (from ../shared/scenes) or closed1m; WORKLOAD: closest,
-//! occluded or gather, the rays of `benches/accel.rs`. A round traces about 400,000 rays on the
+//! occluded or gather, the rays of `benches/accel.rs`, or `build`: the BVH's build time over
+//! Embree's (medium quality), both on every core (rayon's and TBB's threads), timed in wall
+//! time, alternating, a build of each per round (the ratio is of times: lower is better; `bvh
+//! SCENE build N` builds N times, for profilers). A round traces about 400,000 rays on the
 //! BVH, then as many on Embree, each timed in CPU time of this thread (Linux's
 //! /proc/thread-self/schedstat), so time the thread spends preempted does not count and the
 //! machine's drift between the two halves of a round is small. Compare two builds by their
@@ -72,6 +75,9 @@ fn main() {
     };
     let n: usize = n.parse().expect("N");
     let m = scene(scene_name);
+    if workload == "build" {
+        return builds(mode, scene_name, &m, n);
+    }
     let rs = rays(&m, workload);
     let closest = workload == "closest";
     let vertices = VertexBuffer::from(m.positions.clone());
@@ -110,6 +116,45 @@ fn main() {
                  (median of {n}; {lo:.3}-{hi:.3})",
                 median(&b),
                 median(&em),
+                median(&ratio)
+            );
+        }
+        _ => panic!("unknown mode {mode}"),
+    }
+}
+
+/// The `build` workload: wall time of builds on every core.
+fn builds(mode: &str, scene_name: &str, m: &Mesh, n: usize) {
+    let vertices = VertexBuffer::from(m.positions.clone());
+    let time = |f: &dyn Fn()| {
+        let t0 = std::time::Instant::now();
+        f();
+        t0.elapsed().as_secs_f64() * 1e3
+    };
+    let bvh = || drop(std::hint::black_box(Bvh::new(&m.positions, &m.indices)));
+    let embree = || {
+        drop(std::hint::black_box(build_accelerator(Backend::Embree, &vertices, &m.indices).expect("Embree")))
+    };
+    match mode {
+        "bvh" => (0..n).for_each(|_| bvh()),
+        "embree" => (0..n).for_each(|_| embree()),
+        "ratio" => {
+            // One build of each first: page faults of the first allocations, thread pools.
+            bvh();
+            embree();
+            let (mut b, mut e, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+            for _ in 0..n {
+                let (tb, te) = (time(&bvh), time(&embree));
+                b.push(tb);
+                e.push(te);
+                ratio.push(tb / te);
+            }
+            let (lo, hi) = ratio.iter().fold((f64::MAX, 0f64), |(l, h), &r| (l.min(r), h.max(r)));
+            println!(
+                "{scene_name} build: BVH {:.1} ms, Embree {:.1} ms (wall time), BVH/Embree {:.3} \
+                 (median of {n}; {lo:.3}-{hi:.3})",
+                median(&b),
+                median(&e),
                 median(&ratio)
             );
         }

@@ -50,8 +50,8 @@ use crate::geometry::{Aabb, Ray};
 use leaf::Tri4;
 use wide::Node8;
 
-/// One node: its box and two indices. For a leaf, `index` is the first triangle (in leaf order)
-/// and `count > 0`; for an interior node, `index` is the pair holding its children and
+/// One node: its box and two indices. For a leaf, `index` is the first pack of triangles
+/// ([`build::Built::packs`]) and `count > 0` the packs; for an interior node, `index` is the pair holding its children and
 /// `count == 0`.
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C)]
@@ -71,11 +71,10 @@ impl Node {
         Node { min: b.min.to_array(), max: b.max.to_array(), index: pair, count: 0 }
     }
 
-    /// The node with its child link moved by `by` pairs (leaves are unchanged).
-    fn shifted(mut self, by: u32) -> Self {
-        if !self.is_leaf() {
-            self.index += by;
-        }
+    /// The node with its link moved by `pairs` pairs (an interior node) or `packs` packs (a
+    /// leaf).
+    fn shifted(mut self, pairs: u32, packs: u32) -> Self {
+        self.index += if self.is_leaf() { packs } else { pairs };
         self
     }
 
@@ -146,8 +145,17 @@ impl Bvh {
         if prims.par_iter().any(|p| p.is_empty()) {
             prims.retain(|p| !p.is_empty());
         }
-        let mut built = build::build(prims);
-        let packs = pack_leaves(&mut built, |p| verts(&indices[p as usize]));
+        let built = build::build(prims);
+        // An indexed iterator: `collect` writes the packs in place.
+        let packs: Vec<Tri4> = built
+            .packs
+            .par_iter()
+            .with_min_len(1024)
+            .map(|&(first, count)| {
+                let tris = &built.order[first as usize..(first + count) as usize];
+                Tri4::new(tris.iter().map(|&p| (verts(&indices[p as usize]), p)))
+            })
+            .collect();
         let nodes = wide::collapse(&built.pairs);
         let bytes = std::mem::size_of_val(&nodes[..]) + std::mem::size_of_val(&packs[..]);
         Bvh {
@@ -177,43 +185,6 @@ impl Bvh {
     pub fn build_time(&self) -> Duration {
         self.build_time
     }
-}
-
-/// Packs every leaf's triangles into `⌈n/4⌉` consecutive [`Tri4`]s, leaves in the order of
-/// their triangles (depth-first), and points the leaves at their packs (`index`: first pack,
-/// `count`: packs). `verts` gives an original triangle's vertices.
-fn pack_leaves(built: &mut build::Built, verts: impl Fn(u32) -> [Vec3; 3] + Sync) -> Vec<Tri4> {
-    let n = built.order.len();
-    if n == 0 {
-        return Vec::new();
-    }
-    // (first triangle in the order, triangles) of every pack. The leaves' ranges tile the
-    // triangle order, and a depth-first walk, left child first, meets them in that order
-    // without sorting; it reads the pairs almost sequentially (they are laid out depth-first).
-    let mut packs = Vec::with_capacity(n.div_ceil(3));
-    let mut stack = vec![(0usize, 0usize)];
-    while let Some((pair, slot)) = stack.pop() {
-        let l = &mut built.pairs[pair].nodes[slot];
-        if !l.is_leaf() {
-            let children = l.index as usize;
-            stack.extend([(children, 1), (children, 0)]);
-            continue;
-        }
-        let (first, count) = (l.index as usize, l.count as usize);
-        (l.index, l.count) = (packs.len() as u32, count.div_ceil(4) as u32);
-        packs
-            .extend((first..first + count).step_by(4).map(|p| (p as u32, (first + count - p).min(4) as u32)));
-    }
-    // An indexed iterator: `collect` writes the packs in place.
-    let order = &built.order;
-    packs
-        .par_iter()
-        .with_min_len(1024)
-        .map(|&(first, count)| {
-            let tris = &order[first as usize..(first + count) as usize];
-            Tri4::new(tris.iter().map(|&p| (verts(p), p)))
-        })
-        .collect()
 }
 
 impl Accelerator for Bvh {
