@@ -2,7 +2,7 @@
 //! tracer's (next-event estimation and BSDF-sampled emission at every vertex, Russian
 //! roulette), and at every non-delta vertex it also connects to the iteration's VPLs; each
 //! path is counted by all the techniques that can make it, weighed by the balance heuristic
-//! (the power heuristic where only the two emitter techniques can make it).
+//! (the two emitter techniques among themselves by the power heuristic, as `pt` weighs them).
 //!
 //! **The techniques.** Take a path z_1 … z_k from the camera's first hit z_1 to an emitter
 //! point z_k. pir can make it in k ways, by t = 1 … k camera vertices:
@@ -18,19 +18,19 @@
 //! weights p_t n_t / Σ_u p_u n_u (n_u = N for connections, 1 otherwise) sum to one: without
 //! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests).
 //!
-//! **Direct light: the power heuristic.** A path whose only non-delta vertex before the
-//! emitter is z_{k−1} (the direct light of the camera path's first non-delta vertex, after
-//! any delta chain) has no connection technique: a connection needs two non-delta vertices
-//! before the emitter. Only next-event estimation and the hit make it, and pir weighs them
-//! by the power heuristic (β = 2), p_t² / Σ_u p_u², exactly as `pt` does. Both techniques
-//! decide it by the same test on the path (the walk's `direct`), so its weights still sum to
-//! one; every other path keeps the balance heuristic. Why: with the balance heuristic here,
-//! `pir-bdpt` was noisier than `pt` wherever direct light dominates — on the Mori knob (one
-//! large light over glossy surfaces of GGX alpha 0.41 and 0.45) its relative MSE at 256
-//! iterations was 1.25e-5 against 7.2e-6 with the power heuristic, while the power heuristic
-//! for every path (computed by squaring every density ratio in the running sums) cost 6–8 %
-//! on the glossy Cornell box and the near-mirror floor (`docs/measurements.md`, "Which
-//! heuristic").
+//! **The emitter techniques: the power heuristic among themselves.** The weights are
+//! two-level: next-event estimation and the hit together take their balance-heuristic share
+//! against the connections, (p_n + p_h) / (p_n + p_h + Σ_c p_c n_c), and split it between
+//! them by the power heuristic (β = 2), p_n² / (p_n² + p_h²), as `pt` does; a connection
+//! keeps p_c n_c / Σ_u p_u n_u. The three shares of a path still sum to one, whatever the
+//! densities. A path that no connection can make (the direct light of the first non-delta
+//! vertex: a connection needs two non-delta vertices before the emitter) is weighed exactly
+//! as `pt` weighs it. Why: with the balance heuristic there, `pir-bdpt` was noisier than
+//! `pt` wherever direct light dominates — on the Mori knob (one large light over glossy
+//! surfaces of GGX alpha 0.41 and 0.45) its relative MSE at 256 iterations was 1.25e-5
+//! against 7.1e-6 now; the other scenes gain 0–6 %, while the power heuristic for every
+//! technique (every density ratio of the running sums squared) cost 6–8 % on the glossy
+//! Cornell box and the near-mirror floor (`docs/measurements.md`, "Which heuristic").
 //!
 //! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
 //! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
@@ -217,29 +217,30 @@ fn weight(others: f32) -> f32 {
     if w.is_finite() && others >= 0.0 { w } else { 0.0 }
 }
 
-/// The weight of one of the two emitter techniques, given the other's density relative to
-/// its own (`others`): the power heuristic (β = 2) for a path that no connection can make
-/// (`direct`, see [`walk`]), else the balance heuristic against every technique.
+/// The weight of one of the two emitter techniques (next-event estimation, the hit), given
+/// the other's density relative to its own (`emitter`) and the connections' (`connections`):
+/// the two as a group against the connections by the balance heuristic, (1 + e) / (1 + e +
+/// c), and within the group by the power heuristic, 1 / (1 + e²) (see the module docs).
 #[inline]
-fn emitter_weight(others: f32, direct: bool) -> f32 {
-    weight(if direct { others * others } else { others })
+fn emitter_weight(emitter: f32, connections: f32) -> f32 {
+    let w = (1.0 + emitter) / (1.0 + emitter + connections) / (1.0 + emitter * emitter);
+    if w.is_finite() && emitter >= 0.0 && connections >= 0.0 { w } else { 0.0 }
 }
 
 /// The weight of an emitter hit by BSDF sampling, at an emitter point of area density
 /// `pdf_area` whose cosine towards the path is `cos_light`, with the camera subpath's
-/// `state` (after [`MisState::arrive`]); `direct` when no non-delta vertex precedes the
-/// vertex the ray left.
+/// `state` (after [`MisState::arrive`]): next-event estimation at the vertex the ray left is
+/// `dvcm`'s technique, the connections `dvc`'s.
 #[inline]
-pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, direct: bool) -> f32 {
+pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32) -> f32 {
     let emission_pdf = pdf_area * cos_light * FRAC_1_PI;
-    emitter_weight(pdf_area * state.dvcm + paths * emission_pdf * state.dvc, direct)
+    emitter_weight(pdf_area * state.dvcm, paths * emission_pdf * state.dvc)
 }
 
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
 /// the density of the vertex's BSDF sampling back along the camera path from the light's
 /// direction, `cos_receiver` the cosine at the vertex towards the light;
-/// `previous_connects` whether the camera vertex before it connects to VPLs; `direct` when no
-/// non-delta vertex precedes the vertex.
+/// `previous_connects` whether the camera vertex before it connects to VPLs.
 #[inline]
 pub fn light_weight(
     state: &MisState,
@@ -248,7 +249,6 @@ pub fn light_weight(
     cos_receiver: f32,
     paths: f32,
     previous_connects: bool,
-    direct: bool,
 ) -> f32 {
     if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
         return 0.0;
@@ -256,7 +256,7 @@ pub fn light_weight(
     let hit = light.pdf_bsdf / light.pdf_light;
     let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
     let dvcm = if previous_connects { state.dvcm } else { 0.0 };
-    emitter_weight(hit + extend * (dvcm + state.dvc * pdf_rev), direct)
+    emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev))
 }
 
 /// What a connection's weight needs of the camera vertex: its BSDF prepared for its `wo`,
@@ -326,11 +326,6 @@ pub fn walk(
     let mut state = MisState::CAMERA;
     let mut from = ray.origin;
     let mut depth = 0u32;
-    // Whether no non-delta vertex precedes the current one, and whether none preceded the one
-    // the current ray left: the direct light of the first non-delta vertex is a path that
-    // only the two emitter techniques make (a connection needs two non-delta vertices before
-    // the emitter), weighed by the power heuristic as `pt` weighs it.
-    let (mut direct, mut hit_direct) = (true, true);
     loop {
         counters.rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
@@ -344,8 +339,7 @@ pub fn walk(
         // ---- Emission found by the camera ray or a BSDF sample.
         let le = emitted(material.emission, sp.ng, wo);
         if le != Vec3::ZERO {
-            radiance +=
-                beta * le * hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths, hit_direct);
+            radiance += beta * le * hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths);
         }
         if depth >= ctx.max_depth {
             break;
@@ -359,7 +353,7 @@ pub fn walk(
                 * sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                     let previous = connect.at(depth - 1);
-                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous, direct)
+                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous)
                 });
             // ---- The connections to the VPLs.
             if connect.at(depth) {
@@ -375,8 +369,6 @@ pub fn walk(
 
         // ---- BSDF sampling: the next vertex.
         let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
-        hit_direct = direct;
-        direct &= bsdf.is_delta();
         eta_scale *= s.eta * s.eta;
         // (Only the camera's sums that are not zero need it: none at the first vertex.)
         let pdf_rev = match (s.delta, state.dvc > 0.0) {
@@ -462,10 +454,8 @@ mod tests {
         for t in 1..=k {
             let cam = camera_state(z, t, connect);
             let x = &z[t];
-            // No non-delta vertex before z[k - 1]: only the emitter techniques make the path.
-            let direct = (1..k - 1).all(|j| z[j].bsdf.is_none());
             w.push(if t == k {
-                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, direct))
+                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths))
             } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
                 None
             } else if t == k - 1 {
@@ -479,7 +469,7 @@ mod tests {
                     wi: x.dir(e),
                 };
                 let previous = connect.at(t as u32 - 1);
-                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, direct))
+                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous))
             } else {
                 let y = &z[t + 1];
                 let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
