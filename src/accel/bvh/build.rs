@@ -71,6 +71,15 @@ impl Box3 {
         Box3 { min: self.min.min(p), max: self.max.max(p) }
     }
 
+    /// `self` grown by `p` where `m` is set, unchanged elsewhere (without a branch).
+    #[inline]
+    fn grow_where(self, m: BVec3A, p: Vec3A) -> Box3 {
+        Box3 {
+            min: Vec3A::select(m, self.min.min(p), self.min),
+            max: Vec3A::select(m, self.max.max(p), self.max),
+        }
+    }
+
     /// Half the surface area; 0 for an empty box.
     #[inline]
     fn half_area(self) -> f32 {
@@ -182,6 +191,14 @@ struct Subtree {
     packs: usize,
     leaves: usize,
     depth: usize,
+}
+
+impl Subtree {
+    /// A subtree built in one segment; its sizes are the segment's.
+    fn single(root: Node, segment: Segment, leaves: usize, depth: usize) -> Subtree {
+        let (len, packs) = (segment.pairs.len(), segment.packs.len());
+        Subtree { root, segments: vec![segment], len, packs, leaves, depth }
+    }
 }
 
 /// The root's pair followed by the segments' pairs, and all the segments' packs, with their
@@ -380,28 +397,12 @@ fn subtree(prims: &mut [Prim], scratch: &mut [Prim], offset: usize, b: Bounds, d
         let mut seq = Seq { segment: Segment { pairs: Vec::new(), packs: Vec::new() }, leaves: 0, depth };
         let mut bins = EMPTY_BINS;
         let root = build_into(prims, offset, b, depth, &mut seq, &mut bins);
-        let (len, packs) = (seq.segment.pairs.len(), seq.segment.packs.len());
-        return Subtree {
-            root,
-            segments: vec![seq.segment],
-            len,
-            packs,
-            leaves: seq.leaves,
-            depth: seq.depth,
-        };
+        return Subtree::single(root, seq.segment, seq.leaves, seq.depth);
     }
     let Some(Parts { mid, left, right }) = choose_split(prims, scratch, &mut { EMPTY_BINS }, b, depth) else {
         let mut packs = Vec::new();
         let root = leaf(b.prims, offset, n, &mut packs);
-        let segment = Segment { pairs: Vec::new(), packs };
-        return Subtree {
-            root,
-            packs: segment.packs.len(),
-            segments: vec![segment],
-            len: 0,
-            leaves: 1,
-            depth,
-        };
+        return Subtree::single(root, Segment { pairs: Vec::new(), packs }, 1, depth);
     };
     let (lp, rp) = prims.split_at_mut(mid);
     let (ls, rs) = if scratch.is_empty() { (&mut [][..], &mut [][..]) } else { scratch.split_at_mut(mid) };
@@ -528,14 +529,8 @@ fn partition(prims: &mut [Prim], scratch: &mut [Prim], s: &Split) -> (usize, Box
         let c = p.centroid2();
         let left = goes_left(c);
         let m = BVec3A::splat(left);
-        cl = Box3 {
-            min: Vec3A::select(m, cl.min.min(c), cl.min),
-            max: Vec3A::select(m, cl.max.max(c), cl.max),
-        };
-        cr = Box3 {
-            min: Vec3A::select(m, cr.min, cr.min.min(c)),
-            max: Vec3A::select(m, cr.max, cr.max.max(c)),
-        };
+        cl = cl.grow_where(m, c);
+        cr = cr.grow_where(!m, c);
         prims[j] = prims[i];
         prims[i] = p;
         i += usize::from(left);
