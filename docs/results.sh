@@ -89,4 +89,12 @@ if [ -f "$shared/scenes/mori-knob/testObj.obj" ]; then
 else
     echo "skipping the Mori knob study: $shared/scenes/mori-knob is absent" >&2
 fi
+# Dense glossy meshes (the dragon and the bunny, scenes/dense/README.md), lit indirectly and
+# directly, every method at 256x256 for 30 s: the shape of issues 11 and 12's held-out scenes.
+if [ -f "$shared/scenes/dragon/dragon_res2_meshopt100k.obj" ] && [ -f "$shared/scenes/bunny/bun_zipper.obj" ]; then
+    study dense-indirect scenes/dense/indirect.toml scenes/dense/reference-indirect-256.exr 30
+    study dense-direct scenes/dense/direct.toml scenes/dense/reference-direct-256.exr 30
+else
+    echo "skipping the dense-mesh studies: $shared/scenes/dragon or bunny is absent" >&2
+fi
 echo "done: $out" >&2
