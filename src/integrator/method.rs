@@ -120,9 +120,9 @@ impl FromStr for Method {
 #[derive(Args, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
-    /// vertex) [default: 256 for pir-mis and pir-bdpt, 32 otherwise].
-    #[arg(long, value_name = "N")]
-    pub vpls: Option<usize>,
+    /// vertex).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
+    pub vpls: usize,
     /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis, pir-bdpt: b_1 of
     /// the bound on the weighted connection, in the same units [default: 100 / scene
     /// diagonal², the G of facing surfaces a tenth of the scene apart].
@@ -194,16 +194,6 @@ pub const MAX_GATHER_SAMPLES: usize = 64;
 /// 1.02, 1, 0.89: none clearly better (`docs/measurements.md`, "Bidirectional weights").
 pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64);
 
-/// Light paths per iteration of `pir-mis` and `pir-bdpt` when `--vpls` is not given. Their
-/// resampled gather looks at a window of m candidates whatever the number of paths, so a
-/// camera vertex costs the same with 32 paths or 256, and tracing the paths is a small part of
-/// an iteration; but every pixel's window is drawn from the same paths, whose noise is shared
-/// by the whole image: with 32 paths an iteration's image mean strays by several percent and
-/// its error is blotchy. With 256 the per-pixel error was the same (Cornell box; the dense
-/// indirectly lit scene) and the image mean's spread from seed to seed 2–3× smaller
-/// (`docs/measurements.md`, "Light paths of the resampled gather").
-pub const MIS_PATHS: usize = 256;
-
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
 /// given: of 64, 128 and 256 candidates with 4 or 8 picks and 32 to 256 light paths, 128
 /// candidates with 4 picks and 256 paths had the lowest variance × time per iteration on
@@ -213,7 +203,7 @@ pub const DEFAULT_GATHER_CANDIDATES: usize = 128;
 impl Default for MethodParams {
     fn default() -> Self {
         MethodParams {
-            vpls: None,
+            vpls: DEFAULT_PATHS,
             clamp: None,
             radius: None,
             alpha: DEFAULT_ALPHA,
@@ -231,10 +221,8 @@ pub const MAX_VPLS: usize = 1 << 24;
 impl MethodParams {
     /// Checks every parameter; the error names the flag.
     pub fn validate(&self) -> Result<()> {
-        if let Some(n) = self.vpls
-            && (n == 0 || n > MAX_VPLS)
-        {
-            bail!("--vpls {n}: must be 1 to {MAX_VPLS}");
+        if self.vpls == 0 || self.vpls > MAX_VPLS {
+            bail!("--vpls {}: must be 1 to {MAX_VPLS}", self.vpls);
         }
         for (parameter, value) in [(Parameter::Clamp, self.clamp), (Parameter::Radius, self.radius)] {
             if let Some(v) = value
@@ -373,15 +361,9 @@ impl MethodConfig {
         }
     }
 
-    /// Light paths traced per iteration: `--vpls`, else the method's default ([`MIS_PATHS`] for
-    /// `pir-mis` and `pir-bdpt`, [`DEFAULT_PATHS`] for the thesis' methods); 0 for the path
-    /// tracer.
+    /// Light paths traced per iteration: `--vpls` for the VPL methods, 0 for the path tracer.
     pub fn light_paths(&self) -> usize {
-        match self.method {
-            Method::Pt => 0,
-            Method::PirMis | Method::PirBdpt => self.params.vpls.unwrap_or(MIS_PATHS),
-            _ => self.params.vpls.unwrap_or(DEFAULT_PATHS),
-        }
+        if self.method.uses_vpls() { self.params.vpls } else { 0 }
     }
 
     /// The configuration as it decides the image, for a scene whose bounding box has this
@@ -396,9 +378,7 @@ impl MethodConfig {
         MethodConfig {
             method: m,
             params: MethodParams {
-                // (The path tracer's is the old fixed default, so that its checkpoints written
-                // before the defaults differed by method still resume.)
-                vpls: Some(if m.uses_vpls() { self.light_paths() } else { DEFAULT_PATHS }),
+                vpls: if m.uses_vpls() { p.vpls } else { default.vpls },
                 clamp: m
                     .uses_clamp()
                     .then(|| p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal))),
@@ -416,7 +396,7 @@ impl MethodConfig {
     pub fn integrator(&self, scene_diagonal: f32) -> Box<dyn Integrator> {
         let p = &self.params;
         let bound = p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal));
-        let paths = self.light_paths();
+        let paths = p.vpls;
         let lights = match self.method {
             Method::Pt => return Box::new(PathTracer),
             Method::Ir => VirtualLights::Points(Clamping::None),
@@ -447,8 +427,7 @@ mod tests {
     fn names_round_trip_and_integrators_carry_them() {
         for m in Method::ALL {
             assert_eq!(m.name().parse::<Method>(), Ok(m));
-            let c =
-                MethodConfig { method: m, params: MethodParams { vpls: Some(4), ..MethodParams::default() } };
+            let c = MethodConfig { method: m, params: MethodParams { vpls: 4, ..MethodParams::default() } };
             assert_eq!(c.integrator(3.0).name(), m.name());
         }
         assert!("photon".parse::<Method>().unwrap_err().contains("pir-vsl"));
@@ -459,7 +438,7 @@ mod tests {
         let ok = MethodParams::default();
         assert!(ok.validate().is_ok());
         for (bad, flag) in [
-            (MethodParams { vpls: Some(0), ..ok }, "--vpls 0"),
+            (MethodParams { vpls: 0, ..ok }, "--vpls 0"),
             (MethodParams { clamp: Some(-2.0), ..ok }, "--clamp -2"),
             (MethodParams { radius: Some(f32::NAN), ..ok }, "--radius NaN"),
             (MethodParams { alpha: 1.0, ..ok }, "--alpha 1"),
@@ -476,7 +455,7 @@ mod tests {
         let mut a = MethodConfig::new(Method::Pt);
         let mut b = a;
         b.params.alpha = 0.3;
-        b.params.vpls = Some(9);
+        b.params.vpls = 9;
         assert_eq!(a.identity(2.0), b.identity(2.0));
         a.method = Method::PirClamp;
         let c = a.identity(2.0);
@@ -484,29 +463,6 @@ mod tests {
         assert_eq!(c.integrator(2.0).parameters(), a.integrator(2.0).parameters());
         b.method = Method::PirClamp;
         assert_ne!(a.identity(2.0), b.identity(2.0));
-    }
-
-    /// `--vpls` unset takes the method's default, and the identity holds it explicitly, so that
-    /// a render resumed after a change of default says so; the path tracer's identity keeps
-    /// the old fixed value (its checkpoints from before still resume).
-    #[test]
-    fn light_paths_default_by_method() {
-        let paths = |m| MethodConfig::new(m).light_paths();
-        assert_eq!(paths(Method::Pt), 0);
-        assert_eq!(paths(Method::PirBdpt), MIS_PATHS);
-        assert_eq!(paths(Method::PirMis), MIS_PATHS);
-        assert_eq!(paths(Method::PirClamp), DEFAULT_PATHS);
-        assert_eq!(paths(Method::PirVsl), DEFAULT_PATHS);
-        let mut c = MethodConfig::new(Method::PirBdpt);
-        assert_eq!(c.identity(2.0).params.vpls, Some(MIS_PATHS));
-        c.params.vpls = Some(32);
-        assert_eq!(c.light_paths(), 32);
-        assert_ne!(c.identity(2.0), MethodConfig::new(Method::PirBdpt).identity(2.0));
-        assert_eq!(MethodConfig::new(Method::Pt).identity(2.0).params.vpls, Some(DEFAULT_PATHS));
-        // A job written when `vpls` was a plain number still reads.
-        let old = r#"{"method":"pt","vpls":32,"clamp":null,"radius":null,"alpha":0.6}"#;
-        let back: MethodConfig = serde_json::from_str(old).unwrap();
-        assert_eq!(back, MethodConfig::new(Method::Pt).identity(2.0));
     }
 
     #[test]
@@ -527,7 +483,7 @@ mod tests {
                     clamp: Some(v),
                     radius: Some(v.abs()),
                     alpha: v,
-                    vpls: Some(7),
+                    vpls: 7,
                     gather: Some(GatherKind::Resample),
                     gather_samples: Some(5),
                     gather_candidates: Some(77),
