@@ -97,4 +97,26 @@ if [ -f "$shared/scenes/dragon/dragon_res2_meshopt100k.obj" ] && [ -f "$shared/s
 else
     echo "skipping the dense-mesh studies: $shared/scenes/dragon or bunny is absent" >&2
 fi
+# The thesis' consistent methods with the resampled gather (256 light paths, 4 picks of 128
+# candidates), against pt, on the scenes above: is it the better default for them too?
+resample=(--methods pt,pir-clamp,pir-vsl --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4)
+if [ -f "$shared/references/cornell-box-original.exr" ]; then
+    study cornell-box-thesis-resample "$shared/scenes/cornell-box/original.toml" \
+        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" "${resample[@]}"
+fi
+study cornell-glossy-thesis-resample scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30 \
+    "${resample[@]}"
+study glossy-thesis-resample scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20 "${resample[@]}"
+study corner-glossy-thesis-resample scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10 \
+    "${resample[@]}"
+study slit-thesis-resample scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 "${resample[@]}"
+if [ -f "$shared/scenes/mori-knob/testObj.obj" ]; then
+    study mori-knob-thesis-resample scenes/mori-knob/scene.toml scenes/mori-knob/reference-256.exr 30 "${resample[@]}"
+fi
+if [ -f "$shared/scenes/dragon/dragon_res2_meshopt100k.obj" ] && [ -f "$shared/scenes/bunny/bun_zipper.obj" ]; then
+    study dense-indirect-thesis-resample scenes/dense/indirect.toml scenes/dense/reference-indirect-256.exr 30 \
+        "${resample[@]}"
+    study dense-direct-thesis-resample scenes/dense/direct.toml scenes/dense/reference-direct-256.exr 30 \
+        "${resample[@]}"
+fi
 echo "done: $out" >&2
