@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates docs/results/: the studies that docs/results.md shows. One command:
 #
-#     docs/results.sh            (from the checkout; about 25 minutes on 2 cores)
+#     docs/results.sh            (from the checkout; about 70 minutes on 2 cores)
 #
 # Every study races the methods at equal wall-clock time, one at a time on all threads, so the
 # machine should be otherwise idle. TIME_SCALE=0.25 docs/results.sh makes every budget a
@@ -22,11 +22,14 @@ mkdir -p "$out"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
+# Whether the study NAME is to run (ONLY).
+wanted() { [[ $1 =~ ${ONLY:-.} ]]; }
+
 # study NAME SCENE REFERENCE SECONDS [more pir study flags…]
 study() {
     local name=$1 scene=$2 reference=$3 time=$4
     shift 4
-    [[ $name =~ ${ONLY:-.} ]] || return 0
+    wanted "$name" || return 0
     echo "== $name: $scene, $(secs "$time") s per line" >&2
     rm -rf "${out:?}/$name"
     "$pir" study "$scene" --reference "$reference" --time "$(secs "$time")" --out "$out/$name" "$@"
@@ -34,89 +37,84 @@ study() {
     rm -f "$out/$name"/final-*.exr
 }
 
+# Scenes with their references (SCENE REFERENCE).
 shared=../shared
-if [ -f "$shared/references/cornell-box-original.exr" ]; then
-    # The error of pt at 1,024 spp is the target each method's time is measured against.
-    "$pir" render "$shared/scenes/cornell-box/original.toml" --spp 1024 --out "$tmp/pt-1024.exr" --quiet
-    target=$("$pir" compare "$tmp/pt-1024.exr" "$shared/references/cornell-box-original.exr" |
-        awk '/^relative MSE/ { print $3 }')
-    echo "pt at 1,024 spp: relative MSE $target" >&2
+cornell=("$shared/scenes/cornell-box/original.toml" "$shared/references/cornell-box-original.exr")
+cornell_glossy=(scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr)
+corner=(scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr)
+near_mirror=(scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr)
+slit=(scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr)
+mori=(scenes/mori-knob/scene.toml scenes/mori-knob/reference-256.exr)
+dense_indirect=(scenes/dense/indirect.toml scenes/dense/reference-indirect-256.exr)
+dense_direct=(scenes/dense/direct.toml scenes/dense/reference-direct-256.exr)
+
+# The resampled gather's settings in its studies (docs/results.md, "The resampled gather"), and
+# the thesis' consistent methods with it against pt: is it the better default for them too?
+resample=(--gather resample --vpls 256 --gather-candidates 128 --gather-samples 4)
+thesis_resample=(--methods pt,pir-clamp,pir-vsl "${resample[@]}")
+
+if [ -f "${cornell[1]}" ]; then
+    # The error of pt at 1,024 spp is the target each method's time is measured against
+    # (rendered only if a study that uses it is to run).
+    target=
+    for name in cornell-box cornell-box-mis cornell-box-resample cornell-box-thesis-resample; do
+        wanted "$name" && target=pending
+    done
+    if [ -n "$target" ]; then
+        "$pir" render "${cornell[0]}" --spp 1024 --out "$tmp/pt-1024.exr" --quiet
+        target=$("$pir" compare "$tmp/pt-1024.exr" "${cornell[1]}" | awk '/^relative MSE/ { print $3 }')
+        echo "pt at 1,024 spp: relative MSE $target" >&2
+    fi
     # pir-mis and pir-bdpt at their defaults (docs/results.md, "Weighed connections" and
     # "Bidirectional weights") against pt and pir-clamp.
-    study cornell-box-mis "$shared/scenes/cornell-box/original.toml" \
-        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" \
-        --methods pt,pir-clamp,pir-mis,pir-bdpt
-    study cornell-box "$shared/scenes/cornell-box/original.toml" \
-        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target"
-    # The resampled gather (docs/results.md, "The resampled gather") against pt, same target.
-    study cornell-box-resample "$shared/scenes/cornell-box/original.toml" \
-        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" \
-        --methods pt,pir-clamp --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4
+    study cornell-box-mis "${cornell[@]}" 60 --target-rel-mse "$target" --methods pt,pir-clamp,pir-mis,pir-bdpt
+    study cornell-box "${cornell[@]}" 60 --target-rel-mse "$target"
+    # The resampled gather against pt, same target.
+    study cornell-box-resample "${cornell[@]}" 60 --target-rel-mse "$target" --methods pt,pir-clamp "${resample[@]}"
+    study cornell-box-thesis-resample "${cornell[@]}" 60 --target-rel-mse "$target" "${thesis_resample[@]}"
     # The thesis' parameter study (figures 5.1-5.4), at 128x128.
     for sweep in alpha=0.3,0.5,0.6,0.7,0.9 clamp=1,3,10,30,100 radius=0.02,0.05,0.1,0.2,0.4; do
-        study "sweep-${sweep%%=*}" "$shared/scenes/cornell-box/original.toml" \
-            "$shared/references/cornell-box-original.exr" 10 --resolution 128 128 --sweep "$sweep"
+        study "sweep-${sweep%%=*}" "${cornell[@]}" 10 --resolution 128 128 --sweep "$sweep"
     done
 else
     echo "skipping the Cornell box studies: $shared/references is absent" >&2
 fi
 
-study cornell-glossy scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30
+study cornell-glossy "${cornell_glossy[@]}" 30
 study corner-diffuse scenes/stress/corner/diffuse.toml scenes/stress/corner/reference-diffuse-64.exr 10
-study corner-glossy scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10
-study glossy scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20
+study corner-glossy "${corner[@]}" 10
+study glossy "${near_mirror[@]}" 20
 # The radius trade-off where it bites: glossy receivers want larger spheres than creases do.
-study sweep-radius-glossy scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 10 \
-    --resolution 64 64 --sweep radius=0.02,0.05,0.1,0.2
-study slit scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20
-study slit-resample scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
-    --methods pt,pir-clamp --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4
+study sweep-radius-glossy "${near_mirror[@]}" 10 --resolution 64 64 --sweep radius=0.02,0.05,0.1,0.2
+study slit "${slit[@]}" 20
+study slit-resample "${slit[@]}" 20 --methods pt,pir-clamp "${resample[@]}"
 study caustic scenes/stress/caustic/scene.toml scenes/stress/caustic/reference-128.exr 20
 # pir-mis and pir-bdpt at their defaults on the glossy scenes and the slit, against pt and the
 # thesis' best.
-study cornell-glossy-mis scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30 \
-    --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
-study glossy-mis scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20 \
-    --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
-study corner-glossy-mis scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10 \
-    --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
-study slit-mis scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 \
-    --methods pt,pir-clamp,pir-mis,pir-bdpt
+study cornell-glossy-mis "${cornell_glossy[@]}" 30 --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+study glossy-mis "${near_mirror[@]}" 20 --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+study corner-glossy-mis "${corner[@]}" 10 --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+study slit-mis "${slit[@]}" 20 --methods pt,pir-clamp,pir-mis,pir-bdpt
+# The thesis' methods with the resampled gather on the same scenes.
+study cornell-glossy-thesis-resample "${cornell_glossy[@]}" 30 "${thesis_resample[@]}"
+study glossy-thesis-resample "${near_mirror[@]}" 20 "${thesis_resample[@]}"
+study corner-glossy-thesis-resample "${corner[@]}" 10 "${thesis_resample[@]}"
+study slit-thesis-resample "${slit[@]}" 20 "${thesis_resample[@]}"
 # The Mori knob (issue 12's glossy scene; its mesh is in ../shared) at 256x256 for 30 s.
 if [ -f "$shared/scenes/mori-knob/testObj.obj" ]; then
-    study mori-knob-mis scenes/mori-knob/scene.toml scenes/mori-knob/reference-256.exr 30 \
-        --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+    study mori-knob-mis "${mori[@]}" 30 --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+    study mori-knob-thesis-resample "${mori[@]}" 30 "${thesis_resample[@]}"
 else
-    echo "skipping the Mori knob study: $shared/scenes/mori-knob is absent" >&2
+    echo "skipping the Mori knob studies: $shared/scenes/mori-knob is absent" >&2
 fi
 # Dense glossy meshes (the dragon and the bunny, scenes/dense/README.md), lit indirectly and
 # directly, every method at 256x256 for 30 s: the shape of issues 11 and 12's held-out scenes.
 if [ -f "$shared/scenes/dragon/dragon_res2_meshopt100k.obj" ] && [ -f "$shared/scenes/bunny/bun_zipper.obj" ]; then
-    study dense-indirect scenes/dense/indirect.toml scenes/dense/reference-indirect-256.exr 30
-    study dense-direct scenes/dense/direct.toml scenes/dense/reference-direct-256.exr 30
+    study dense-indirect "${dense_indirect[@]}" 30
+    study dense-direct "${dense_direct[@]}" 30
+    study dense-indirect-thesis-resample "${dense_indirect[@]}" 30 "${thesis_resample[@]}"
+    study dense-direct-thesis-resample "${dense_direct[@]}" 30 "${thesis_resample[@]}"
 else
     echo "skipping the dense-mesh studies: $shared/scenes/dragon or bunny is absent" >&2
-fi
-# The thesis' consistent methods with the resampled gather (256 light paths, 4 picks of 128
-# candidates), against pt, on the scenes above: is it the better default for them too?
-resample=(--methods pt,pir-clamp,pir-vsl --gather resample --vpls 256 --gather-candidates 128 --gather-samples 4)
-if [ -f "$shared/references/cornell-box-original.exr" ]; then
-    study cornell-box-thesis-resample "$shared/scenes/cornell-box/original.toml" \
-        "$shared/references/cornell-box-original.exr" 60 --target-rel-mse "$target" "${resample[@]}"
-fi
-study cornell-glossy-thesis-resample scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-128.exr 30 \
-    "${resample[@]}"
-study glossy-thesis-resample scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-128.exr 20 "${resample[@]}"
-study corner-glossy-thesis-resample scenes/stress/corner/scene.toml scenes/stress/corner/reference-64.exr 10 \
-    "${resample[@]}"
-study slit-thesis-resample scenes/stress/slit/scene.toml scenes/stress/slit/reference-128.exr 20 "${resample[@]}"
-if [ -f "$shared/scenes/mori-knob/testObj.obj" ]; then
-    study mori-knob-thesis-resample scenes/mori-knob/scene.toml scenes/mori-knob/reference-256.exr 30 "${resample[@]}"
-fi
-if [ -f "$shared/scenes/dragon/dragon_res2_meshopt100k.obj" ] && [ -f "$shared/scenes/bunny/bun_zipper.obj" ]; then
-    study dense-indirect-thesis-resample scenes/dense/indirect.toml scenes/dense/reference-indirect-256.exr 30 \
-        "${resample[@]}"
-    study dense-direct-thesis-resample scenes/dense/direct.toml scenes/dense/reference-direct-256.exr 30 \
-        "${resample[@]}"
 fi
 echo "done: $out" >&2

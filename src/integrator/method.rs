@@ -44,9 +44,8 @@ pub enum Method {
     /// Bidirectional: a full camera path connects to the VPLs at every non-delta vertex, and
     /// every technique (the path tracer's two and each connection) is weighed against the
     /// others by the balance heuristic (the two emitter techniques among themselves by the
-    /// power heuristic, as `pt`), the
-    /// weighted connection bounded progressively:
-    /// consistent (pir's own).
+    /// power heuristic, as `pt`), the weighted connection bounded progressively: consistent
+    /// (pir's own).
     PirBdpt,
 }
 
