@@ -22,7 +22,7 @@ use super::light_tree::LightTree;
 use super::mis::Weighing;
 use super::resample::resample;
 use super::shadow_batch::{ShadowBatch, with_shadow_batch};
-use super::spheres::SphereLights;
+use super::spheres::{SphereLights, SphereReceiver};
 use super::tree_gather::{Kernel, Pick, Receiver};
 use crate::geometry::OffsetPoint;
 use crate::integrator::direct::shadow_segment;
@@ -47,14 +47,14 @@ impl LightSet {
         with_shadow_batch(ctx.accel, |batch| {
             let queued = match (&self.lights, &self.selection) {
                 (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, weighing, batch),
-                (Lights::Spheres(s), Selection::All) => s.queue(ctx, v, max_vpl_depth, sampler, batch),
+                (Lights::Spheres(s), Selection::All) => s.queue(v, max_vpl_depth, sampler, batch),
                 (lights, &Selection::Resampled { candidates, samples }) => {
                     let (m, k) = (candidates, samples);
                     match lights {
                         Lights::Points(p) => {
                             p.queue_resampled(v, max_vpl_depth, m, k, weighing, sampler, batch)
                         }
-                        Lights::Spheres(s) => s.queue_resampled(ctx, v, max_vpl_depth, m, k, sampler, batch),
+                        Lights::Spheres(s) => s.queue_resampled(v, max_vpl_depth, m, k, sampler, batch),
                     }
                 }
                 (lights, Selection::Tree { tree, samples: k }) => {
@@ -62,7 +62,7 @@ impl LightSet {
                     let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
                     match lights {
                         Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, weighing, batch),
-                        Lights::Spheres(s) => s.queue_sampled(ctx, v, &picks, *k, sampler, batch),
+                        Lights::Spheres(s) => s.queue_sampled(v, &picks, *k, sampler, batch),
                     }
                 }
             };
@@ -231,26 +231,28 @@ impl SphereLights {
     /// Queues the sampled spheres' weighted contributions with their shadow rays.
     fn queue_sampled(
         &self,
-        ctx: &RenderContext,
         v: &Vertex,
         picks: &[Pick],
         k: usize,
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
+        let rx = SphereReceiver::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo);
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         for pick in picks {
-            self.queue_one(ctx, v, &x, pick.light, |c| weighted(c, pick, k), sampler, batch);
+            let c = self.contribution(pick.light, &rx, sampler);
+            if c != Vec3::ZERO {
+                batch.push(shadow_segment(&x, &self.ends[pick.light]), weighted(c, pick, k));
+            }
         }
         true
     }
 
-    /// Queues the k spheres picked from a window of m candidates ([`super::resample`]). Draws
-    /// two numbers before the candidates' own.
-    #[allow(clippy::too_many_arguments)]
+    /// Queues the k spheres picked from a window of m candidates ([`super::resample`]); `false`
+    /// when the receiver reflects nothing towards `v.wo`. Draws two numbers before the
+    /// candidates' own, always.
     fn queue_resampled(
         &self,
-        ctx: &RenderContext,
         v: &Vertex,
         max_vpl_depth: u32,
         m: usize,
@@ -258,13 +260,13 @@ impl SphereLights {
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
-        let g = v.sp.geometry();
+        let rx = SphereReceiver::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo);
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         resample(
             self.vpls.len().div_ceil(LANES),
             m,
             k,
-            true,
+            rx.is_active(),
             sampler,
             |cands, block, sampler| {
                 let mut cs = [Vec3::ZERO; LANES];
@@ -272,54 +274,33 @@ impl SphereLights {
                     let j = block * LANES + i;
                     let Some(vpl) = self.vpls.get(j) else { break };
                     if vpl.depth <= max_vpl_depth {
-                        let bsdf_p = &ctx.scene.material(vpl.material).bsdf;
-                        *c = self.contribution(j, &g, v.sp.p, v.bsdf, v.wo, bsdf_p, sampler);
+                        *c = self.contribution(j, &rx, sampler);
                     }
                 }
                 cands.push_values(block * LANES, [0, 1, 2].map(|k| Vec4::from_array(cs.map(|c| c[k]))));
             },
             |j, factor, c| batch.push(shadow_segment(&x, &self.ends[j]), c * factor),
         );
-        true
+        rx.is_active()
     }
 
-    /// Queues every sphere's contribution with its shadow ray to the centre.
-    fn queue(
-        &self,
-        ctx: &RenderContext,
-        v: &Vertex,
-        max_vpl_depth: u32,
-        sampler: &mut Sampler,
-        batch: &mut ShadowBatch,
-    ) -> bool {
+    /// Queues every sphere's contribution with its shadow ray to the centre; `false` when the
+    /// receiver reflects nothing towards `v.wo`.
+    fn queue(&self, v: &Vertex, max_vpl_depth: u32, sampler: &mut Sampler, batch: &mut ShadowBatch) -> bool {
+        let rx = SphereReceiver::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo);
+        if !rx.is_active() {
+            return false;
+        }
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         for (j, vpl) in self.vpls.iter().enumerate() {
             if vpl.depth <= max_vpl_depth {
-                self.queue_one(ctx, v, &x, j, |c| c, sampler, batch);
+                let c = self.contribution(j, &rx, sampler);
+                if c != Vec3::ZERO {
+                    batch.push(shadow_segment(&x, &self.ends[j]), c);
+                }
             }
         }
         true
-    }
-
-    /// Queues sphere j's contribution at `v` (`x` its offset point), as `weight` scales it,
-    /// unless it is zero.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn queue_one(
-        &self,
-        ctx: &RenderContext,
-        v: &Vertex,
-        x: &OffsetPoint,
-        j: usize,
-        weight: impl Fn(Vec3) -> Vec3,
-        sampler: &mut Sampler,
-        batch: &mut ShadowBatch,
-    ) {
-        let bsdf_p = &ctx.scene.material(self.vpls[j].material).bsdf;
-        let c = self.contribution(j, &v.sp.geometry(), v.sp.p, v.bsdf, v.wo, bsdf_p, sampler);
-        if c != Vec3::ZERO {
-            batch.push(shadow_segment(x, &self.ends[j]), weight(c));
-        }
     }
 }
 

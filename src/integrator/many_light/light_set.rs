@@ -126,6 +126,7 @@ impl LightSet {
             }
             VirtualLights::Spheres { radius, alpha } => Lights::Spheres(SphereLights::new(
                 vpls,
+                |v| ctx.scene.material(v.material).bsdf,
                 radius,
                 alpha,
                 iteration,
@@ -159,9 +160,7 @@ impl Lights {
                 let bsdf = ctx.scene.material(v.material).bsdf;
                 let active = match self {
                     Lights::Points(p) => p.emitting[j].is_active(),
-                    Lights::Spheres(_) => {
-                        PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance).is_active()
-                    }
+                    Lights::Spheres(s) => s.emitting[j].is_active(),
                 };
                 tree_light(v, &bsdf, active, radii.map_or(0.0, |r| r[j]))
             })

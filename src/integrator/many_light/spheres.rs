@@ -84,19 +84,56 @@ pub fn density_radius_name() -> String {
     format!("density (k={KNN_K}, x{KNN_SCALE}, max {MAX_RADIUS} diagonal)")
 }
 
-/// This iteration's virtual spherical lights: the VPLs with their shadow-ray ends and radii.
+/// This iteration's virtual spherical lights: the VPLs with their shadow-ray ends, radii and
+/// BSDFs prepared for their incoming directions, once for all the receivers that gather from
+/// them.
 pub struct SphereLights {
     pub vpls: Vec<Vpl>,
     /// VPL j's end of its shadow rays.
     pub ends: Vec<OffsetPoint>,
     /// VPL j's radius in this iteration.
     pub radii: Vec<f32>,
+    /// VPL j's BSDF, and the same prepared for its incoming direction (importance mode).
+    pub bsdfs: Vec<Bsdf>,
+    pub emitting: Vec<PreparedBsdf>,
+}
+
+/// A receiver of the gather: its point, geometry, BSDF and outgoing direction, with the BSDF
+/// prepared for that direction once for all the spheres it gathers from.
+pub struct SphereReceiver<'a> {
+    pub x: Vec3,
+    pub gx: LocalGeometry,
+    pub bsdf: &'a Bsdf,
+    pub wo: Vec3,
+    fx: PreparedBsdf,
+}
+
+impl<'a> SphereReceiver<'a> {
+    /// `bsdf` must not be delta.
+    pub fn new(x: Vec3, gx: LocalGeometry, bsdf: &'a Bsdf, wo: Vec3) -> Self {
+        let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
+        SphereReceiver { x, gx, bsdf, wo, fx }
+    }
+
+    /// Whether the receiver reflects anything towards `wo` (otherwise every sphere's
+    /// contribution is zero).
+    pub fn is_active(&self) -> bool {
+        self.fx.is_active()
+    }
 }
 
 impl SphereLights {
     /// The spheres of iteration `iteration` (from 1): radius r_1 (global or per light by
     /// density), times i^((α−1)/2) when `alpha` is given. `scene_diagonal` sets the cap.
-    pub fn new(vpls: Vec<Vpl>, r: Radius, alpha: Option<f32>, iteration: u64, scene_diagonal: f32) -> Self {
+    /// `bsdf_of` gives a VPL's BSDF (its material's).
+    pub fn new(
+        vpls: Vec<Vpl>,
+        bsdf_of: impl Fn(&Vpl) -> Bsdf,
+        r: Radius,
+        alpha: Option<f32>,
+        iteration: u64,
+        scene_diagonal: f32,
+    ) -> Self {
         let factor = alpha.map_or(1.0, |a| radius(1.0, a, iteration));
         let max_radius = MAX_RADIUS * scene_diagonal;
         let radii = match r {
@@ -117,23 +154,35 @@ impl SphereLights {
             }
         };
         let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
-        SphereLights { vpls, ends, radii }
+        let bsdfs: Vec<Bsdf> = vpls.iter().map(bsdf_of).collect();
+        let emitting = vpls
+            .iter()
+            .zip(&bsdfs)
+            .map(|(v, b)| PreparedBsdf::new(*b, v.geometry(), v.w_in, TransportMode::Importance))
+            .collect();
+        SphereLights { vpls, ends, radii, bsdfs, emitting }
     }
 
-    /// Sphere j's contribution at the receiver x, without visibility (see [`contribution`]).
-    #[allow(clippy::too_many_arguments)]
+    /// Sphere j's contribution at the receiver, without visibility (see [`contribution`]).
     #[inline]
-    pub fn contribution(
-        &self,
-        j: usize,
-        gx: &LocalGeometry,
-        x: Vec3,
-        bsdf_x: &Bsdf,
-        wo: Vec3,
-        bsdf_p: &Bsdf,
-        sampler: &mut Sampler,
-    ) -> Vec3 {
-        contribution(gx, x, bsdf_x, wo, &self.vpls[j], bsdf_p, self.radii[j], sampler)
+    pub fn contribution(&self, j: usize, rx: &SphereReceiver, sampler: &mut Sampler) -> Vec3 {
+        let vsl = &self.vpls[j];
+        let (bsdf_p, fp) = (&self.bsdfs[j], &self.emitting[j]);
+        // A VSL that reflects nothing (its light came from behind it) has a zero integrand.
+        if !fp.is_active() {
+            return Vec3::ZERO;
+        }
+        let ends = Ends {
+            gx: &rx.gx,
+            bsdf_x: rx.bsdf,
+            wo: rx.wo,
+            fx: rx.fx,
+            gp: vsl.geometry(),
+            bsdf_p,
+            w_in: vsl.w_in,
+            fp: *fp,
+        };
+        prepared_contribution(&ends, rx.x, vsl, self.radii[j], sampler)
     }
 }
 
@@ -185,13 +234,32 @@ impl Cone {
 
 /// The two ends of a VSL connection: the receiver x (its BSDF, geometry and outgoing
 /// direction) and the VSL (its BSDF, geometry and the direction its light came from).
+/// Each BSDF also prepared for its fixed direction (`wo`, and the VSL's incoming direction).
 struct Ends<'a> {
     gx: &'a LocalGeometry,
     bsdf_x: &'a Bsdf,
     wo: Vec3,
+    fx: PreparedBsdf,
     gp: LocalGeometry,
     bsdf_p: &'a Bsdf,
     w_in: Vec3,
+    fp: PreparedBsdf,
+}
+
+impl<'a> Ends<'a> {
+    /// Prepares both BSDFs.
+    fn new(
+        gx: &'a LocalGeometry,
+        bsdf_x: &'a Bsdf,
+        wo: Vec3,
+        gp: LocalGeometry,
+        bsdf_p: &'a Bsdf,
+        w_in: Vec3,
+    ) -> Self {
+        let fx = PreparedBsdf::new(*bsdf_x, *gx, wo, TransportMode::Radiance);
+        let fp = PreparedBsdf::new(*bsdf_p, gp, w_in, TransportMode::Importance);
+        Ends { gx, bsdf_x, wo, fx, gp, bsdf_p, w_in, fp }
+    }
 }
 
 /// Φ / (π r²) · ∫_cone f_x cos_x f_p cos_p dω for one VSL seen from a receiver, without
@@ -207,10 +275,15 @@ pub fn contribution(
     radius: f32,
     sampler: &mut Sampler,
 ) -> Vec3 {
+    let ends = Ends::new(gx, bsdf_x, wo, vsl.geometry(), bsdf_p, vsl.w_in);
+    prepared_contribution(&ends, x, vsl, radius, sampler)
+}
+
+/// [`contribution`] with both BSDFs prepared.
+#[inline]
+fn prepared_contribution(e: &Ends, x: Vec3, vsl: &Vpl, radius: f32, sampler: &mut Sampler) -> Vec3 {
     let Some(cone) = Cone::new(x, vsl.p, radius) else { return Vec3::ZERO };
-    let ends = Ends { gx, bsdf_x, wo, gp: vsl.geometry(), bsdf_p, w_in: vsl.w_in };
-    let integral =
-        diffuse_pair(&ends, &cone).unwrap_or_else(|| sampled(&ends, &cone, Lobes::of(&ends, &cone), sampler));
+    let integral = diffuse_pair(e, &cone).unwrap_or_else(|| sampled(e, &cone, Lobes::of(e, &cone), sampler));
     vsl.flux * integral / (PI * radius * radius)
 }
 
@@ -248,8 +321,7 @@ impl Lobes {
 fn sampled(e: &Ends, cone: &Cone, lobes: Lobes, sampler: &mut Sampler) -> Vec3 {
     let pdf_cone = 1.0 / (2.0 * PI * cone.one_minus);
     let frame = Frame::from_normal(cone.axis);
-    let fx = PreparedBsdf::new(*e.bsdf_x, *e.gx, e.wo, TransportMode::Radiance);
-    let fp = PreparedBsdf::new(*e.bsdf_p, e.gp, e.w_in, TransportMode::Importance);
+    let (fx, fp) = (&e.fx, &e.fp);
     let estimate = |w: Vec3| -> Vec3 {
         let a = fx.eval(w);
         if a == Vec3::ZERO {
@@ -375,7 +447,7 @@ mod tests {
             let w_in = tilted(ngp, 0.5, &mut s);
             let radius = p.length() * [0.02, 0.2, 0.5, 1.2][case % 4];
             let cone = Cone::new(x, p, radius).unwrap();
-            let e = Ends { gx: &gx, bsdf_x: &bx, wo, gp, bsdf_p: &bp, w_in };
+            let e = Ends::new(&gx, &bx, wo, gp, &bp, w_in);
             let all = Lobes { receiver: true, vsl: true };
             let three = mean_of(|| sampled(&e, &cone, all, &mut s).x, 20_000);
             let cone_only = mean_of(|| sampled(&e, &cone, Lobes::of(&e, &cone), &mut s).x, 20_000);
@@ -416,7 +488,7 @@ mod tests {
             // The receiver's mirror direction points at the VSL: the lobe is in the cone.
             let wo = Vec3::new(-p.x, -p.y, p.z).normalize();
             let (bx, bp) = if case % 2 == 0 { (&glossy, &diffuse) } else { (&diffuse, &glossy) };
-            let e = Ends { gx: &gx, bsdf_x: bx, wo, gp, bsdf_p: bp, w_in: tilted(ngp, 0.4, &mut s) };
+            let e = Ends::new(&gx, bx, wo, gp, bp, tilted(ngp, 0.4, &mut s));
             let cone = Cone::new(Vec3::ZERO, p, p.length() * [0.05, 0.3][case % 4 / 2]).unwrap();
             let lobes = Lobes::of(&e, &cone);
             // The narrow cones (half-angle 0.05 against roughness 0.08) take the cone samples
@@ -449,8 +521,7 @@ mod tests {
             // The receiver's mirror direction at the VSL, or tilted off it by about the lobe.
             let mirror = Vec3::new(-p.x, -p.y, p.z).normalize();
             let wo = if case % 2 == 0 { mirror } else { tilted(mirror, alpha, &mut s) };
-            let e =
-                Ends { gx: &gx, bsdf_x: &glossy, wo, gp, bsdf_p: &glossy, w_in: tilted(ngp, 0.4, &mut s) };
+            let e = Ends::new(&gx, &glossy, wo, gp, &glossy, tilted(ngp, 0.4, &mut s));
             // Half-angle up to NARROW_CONE · alpha.
             let half_angle = NARROW_CONE * alpha * (0.2 + 0.8 * s.next_f32());
             let cone = Cone::new(Vec3::ZERO, p, p.length() * half_angle.sin()).unwrap();
@@ -473,13 +544,13 @@ mod tests {
         let down = LocalGeometry { ng: -Vec3::Z, frame: Frame::from_normal(-Vec3::Z) };
         let p = Vec3::new(0.0, 0.0, 1.0);
         let narrow = Cone::new(Vec3::ZERO, p, 0.1).unwrap();
-        let e = Ends { gx: &up, bsdf_x: &d, wo: Vec3::Z, gp: down, bsdf_p: &d, w_in: -Vec3::Z };
+        let e = Ends::new(&up, &d, Vec3::Z, down, &d, -Vec3::Z);
         assert!(diffuse_pair(&e, &narrow).is_some());
         let inside = Cone::new(Vec3::ZERO, p, 1.5).unwrap();
         assert!(diffuse_pair(&e, &inside).is_none());
         let grazing = Cone::new(Vec3::ZERO, Vec3::new(1.0, 0.0, 0.05), 0.1).unwrap();
         assert!(diffuse_pair(&e, &grazing).is_none());
-        let e = Ends { gx: &up, bsdf_x: &g, wo: Vec3::Z, gp: down, bsdf_p: &d, w_in: -Vec3::Z };
+        let e = Ends::new(&up, &g, Vec3::Z, down, &d, -Vec3::Z);
         assert!(diffuse_pair(&e, &narrow).is_none());
     }
 }
