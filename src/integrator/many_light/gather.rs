@@ -269,14 +269,7 @@ impl SphereLights {
             rx.is_active(),
             sampler,
             |cands, block, sampler| {
-                let mut cs = [Vec3::ZERO; LANES];
-                for (i, c) in cs.iter_mut().enumerate() {
-                    let j = block * LANES + i;
-                    let Some(vpl) = self.vpls.get(j) else { break };
-                    if vpl.depth <= max_vpl_depth {
-                        *c = self.contribution(j, &rx, sampler);
-                    }
-                }
+                let cs = self.chunk_contributions(block, &rx, max_vpl_depth, sampler);
                 cands.push_values(block * LANES, [0, 1, 2].map(|k| Vec4::from_array(cs.map(|c| c[k]))));
             },
             |j, factor, c| batch.push(shadow_segment(&x, &self.ends[j]), c * factor),
@@ -292,15 +285,41 @@ impl SphereLights {
             return false;
         }
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
-        for (j, vpl) in self.vpls.iter().enumerate() {
-            if vpl.depth <= max_vpl_depth {
-                let c = self.contribution(j, &rx, sampler);
+        for chunk in 0..self.lanes.chunks() {
+            let cs = self.chunk_contributions(chunk, &rx, max_vpl_depth, sampler);
+            for (i, c) in cs.into_iter().enumerate() {
                 if c != Vec3::ZERO {
-                    batch.push(shadow_segment(&x, &self.ends[j]), c);
+                    batch.push(shadow_segment(&x, &self.ends[chunk * LANES + i]), c);
                 }
             }
         }
         true
+    }
+
+    /// The contributions at `rx` of the spheres of chunk `chunk` with at most `max_vpl_depth`
+    /// segments (zero for the others and past the last sphere): the diffuse pairs in closed
+    /// form four at a time ([`super::sphere_lanes`]), the others one by one in sphere order,
+    /// so that they draw their numbers as they would alone.
+    #[inline]
+    fn chunk_contributions(
+        &self,
+        chunk: usize,
+        rx: &SphereReceiver,
+        max_vpl_depth: u32,
+        sampler: &mut Sampler,
+    ) -> [Vec3; LANES] {
+        let (rgb, done) = match &rx.diffuse {
+            Some(end) => self.lanes.closed_form(chunk, end, max_vpl_depth),
+            None => ([Vec4::ZERO; 3], 0),
+        };
+        std::array::from_fn(|i| {
+            let j = chunk * LANES + i;
+            match self.vpls.get(j) {
+                _ if done >> i & 1 == 1 => Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]),
+                Some(vpl) if vpl.depth <= max_vpl_depth => self.contribution(j, rx, sampler),
+                _ => Vec3::ZERO,
+            }
+        })
     }
 }
 

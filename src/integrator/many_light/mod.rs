@@ -54,6 +54,7 @@ pub mod mis;
 pub mod resample;
 pub mod schedule;
 pub mod shadow_batch;
+pub mod sphere_lanes;
 pub mod spheres;
 pub mod tree_gather;
 

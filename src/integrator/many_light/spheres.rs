@@ -40,7 +40,9 @@
 //! below averages to, without its noise and at the cost of a point light. The cone lies in
 //! front of a plane of normal n exactly when n·A > sin θ_max. Otherwise the integral is
 //! sampled, with a BSDF's sampling as a technique only at a glossy end, whose lobe needs
-//! finding (see `sampled`).
+//! finding (see `sampled`). The exhaustive and the resampled gathers evaluate the closed form
+//! four spheres at a time ([`super::sphere_lanes`], bit for bit the same values) and only the
+//! other spheres one by one.
 //!
 //! # Radius
 //! The radius is global (`--radius`), or per VSL from the local VPL density: r = the distance
@@ -60,6 +62,7 @@ use super::Radius;
 use super::knn::KdTree;
 use super::light_paths::Vpl;
 use super::schedule::radius;
+use super::sphere_lanes::{DiffuseEnd, SphereLanes};
 use crate::geometry::{Frame, OffsetPoint};
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
@@ -96,6 +99,8 @@ pub struct SphereLights {
     /// VPL j's BSDF, and the same prepared for its incoming direction (importance mode).
     pub bsdfs: Vec<Bsdf>,
     pub emitting: Vec<PreparedBsdf>,
+    /// The same spheres in chunks, for the diffuse pairs' closed form four at a time.
+    pub lanes: SphereLanes,
 }
 
 /// A receiver of the gather: its point, geometry, BSDF and outgoing direction, with the BSDF
@@ -106,13 +111,16 @@ pub struct SphereReceiver<'a> {
     pub bsdf: &'a Bsdf,
     pub wo: Vec3,
     fx: PreparedBsdf,
+    /// The receiver as the end of [`SphereLanes::closed_form`], when it can be one.
+    pub diffuse: Option<DiffuseEnd>,
 }
 
 impl<'a> SphereReceiver<'a> {
     /// `bsdf` must not be delta.
     pub fn new(x: Vec3, gx: LocalGeometry, bsdf: &'a Bsdf, wo: Vec3) -> Self {
         let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
-        SphereReceiver { x, gx, bsdf, wo, fx }
+        let diffuse = DiffuseEnd::new(x, &gx, bsdf, wo);
+        SphereReceiver { x, gx, bsdf, wo, fx, diffuse }
     }
 
     /// Whether the receiver reflects anything towards `wo` (otherwise every sphere's
@@ -155,12 +163,13 @@ impl SphereLights {
         };
         let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
         let bsdfs: Vec<Bsdf> = vpls.iter().map(bsdf_of).collect();
-        let emitting = vpls
+        let emitting: Vec<PreparedBsdf> = vpls
             .iter()
             .zip(&bsdfs)
             .map(|(v, b)| PreparedBsdf::new(*b, v.geometry(), v.w_in, TransportMode::Importance))
             .collect();
-        SphereLights { vpls, ends, radii, bsdfs, emitting }
+        let lanes = SphereLanes::new(&vpls, &bsdfs, &emitting, &radii);
+        SphereLights { vpls, ends, radii, bsdfs, emitting, lanes }
     }
 
     /// Sphere j's contribution at the receiver, without visibility (see [`contribution`]).
