@@ -298,8 +298,8 @@ impl SphereLights {
 
     /// The contributions at `rx` of the spheres of chunk `chunk` with at most `max_vpl_depth`
     /// segments (zero for the others and past the last sphere): the diffuse pairs in closed
-    /// form four at a time ([`super::sphere_lanes`]), the others one by one in sphere order,
-    /// so that they draw their numbers as they would alone.
+    /// form and the cones without light four at a time ([`super::sphere_lanes`]), the others
+    /// one by one in sphere order, so that they draw their numbers as they would alone.
     #[inline]
     fn chunk_contributions(
         &self,
@@ -308,10 +308,7 @@ impl SphereLights {
         max_vpl_depth: u32,
         sampler: &mut Sampler,
     ) -> [Vec3; LANES] {
-        let (rgb, done) = match &rx.diffuse {
-            Some(end) => self.lanes.closed_form(chunk, end, max_vpl_depth),
-            None => ([Vec4::ZERO; 3], 0),
-        };
+        let (rgb, done) = self.lanes.closed_form(chunk, &rx.end, max_vpl_depth);
         std::array::from_fn(|i| {
             let j = chunk * LANES + i;
             match self.vpls.get(j) {

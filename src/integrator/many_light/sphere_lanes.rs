@@ -1,21 +1,23 @@
-//! Diffuse pairs of virtual spherical lights in closed form, [`LANES`] spheres at a time.
+//! Virtual spherical lights [`LANES`] at a time: diffuse pairs in closed form, and cones
+//! without light.
 //!
 //! [`super::spheres`] integrates a sphere's light over its cone in closed form when both ends
-//! are Lambertian and the cone lies in front of both surfaces; written per sphere, that path is
-//! a chain of calls (the cone, the two prepared BSDFs, the closed form) that costs more than
-//! the shadow ray. Here the same closed form runs on a chunk of four spheres at once with
-//! glam's `Vec4` (SSE), as [`super::lanes`] does for point lights. Every lane performs exactly
-//! the floating-point operations of `Cone::new`, `diffuse_pair` and `prepared_contribution` in
-//! the same order (SSE arithmetic, square root and division are IEEE per lane, and Rust never
-//! fuses or reorders), so a lane's value is bit for bit the scalar one
-//! (`matches_the_scalar_closed_form` below). A lane is *done* only where the scalar code would
-//! take the closed form or return zero without sampling (no cone, or no light in it, by the
-//! same comparisons of the same numbers); everywhere else (a glossy end, a cone across a horizon, a receiver
-//! inside the sphere, anything not finite) the caller evaluates the sphere one by one, as
-//! before, so the sampled cone integrals draw the same numbers in the same order and the image
-//! does not change.
+//! are Lambertian and the cone lies in front of both surfaces, and returns zero without
+//! sampling when the cone holds no light (`no_light_in`); written per sphere, those paths are a
+//! chain of calls (the cone, the two prepared BSDFs, the tests) that costs more than the
+//! shadow ray. Here the same computations run on a chunk of four spheres at once with glam's
+//! `Vec4` (SSE), as [`super::lanes`] does for point lights. Every lane performs exactly the
+//! floating-point operations of `Cone::new`, `diffuse_pair`, `no_light_in` and
+//! `prepared_contribution` in the same order (SSE arithmetic, square root and division are
+//! IEEE per lane, and Rust never fuses or reorders), so a lane's value and every decision are
+//! bit for bit the scalar ones (`matches_the_scalar_closed_form` below). A lane is *done* only
+//! where the scalar code would take the closed form or return zero without sampling (no cone,
+//! or no light in it), for any BSDF at either end; everywhere else (a cone across a horizon
+//! with light in it, a glossy end in front, a receiver inside the sphere, anything not finite)
+//! the caller evaluates the sphere one by one, as before, so the sampled cone integrals draw
+//! the same numbers in the same order and the image does not change.
 
-use glam::{Vec3, Vec4};
+use glam::{BVec4A, Vec3, Vec4};
 use std::f32::consts::PI;
 
 use super::lanes::LANES;
@@ -36,9 +38,12 @@ struct Chunk {
     ratio: Vec4,
     albedo: [Vec4; 3],
     flux: [Vec4; 3],
-    /// Segments from the emitter, as a float (exact below 2^24); infinite in lanes that can
-    /// never take the closed form (no sphere, a glossy one, light from behind it), so that the
-    /// depth test masks them.
+    /// 1 where the sphere can take the closed form (Lambertian, lit from in front of both its
+    /// normals), 0 elsewhere.
+    diffuse: Vec4,
+    /// Segments from the emitter, as a float (exact below 2^24); infinite in lanes without an
+    /// active sphere (padding, or one that reflects nothing), so that the depth test masks
+    /// them.
     depth: Vec4,
 }
 
@@ -51,27 +56,31 @@ const EMPTY_CHUNK: Chunk = Chunk {
     ratio: Vec4::ZERO,
     albedo: [Vec4::ZERO; 3],
     flux: [Vec4::ZERO; 3],
+    diffuse: Vec4::ZERO,
     depth: Vec4::INFINITY,
 };
 
-/// A Lambertian receiver whose outgoing direction is in front of both its normals: the other
-/// end of every lane.
+/// The receiver, the other end of every lane: its point, normals, and its albedo when it can
+/// take the closed form (Lambertian, `wo` in front of both its normals).
 #[derive(Clone, Copy, Debug)]
-pub struct DiffuseEnd {
+pub struct ReceiverEnd {
     x: Vec3,
     ng: Vec3,
     /// Shading normal.
     n: Vec3,
-    albedo: Vec3,
+    diffuse: Option<Vec3>,
 }
 
-impl DiffuseEnd {
-    /// `None` unless `bsdf` is Lambertian and `wo` is in front of both normals of `g` (the
-    /// scalar closed form's conditions at the receiver).
-    pub fn new(x: Vec3, g: &LocalGeometry, bsdf: &Bsdf, wo: Vec3) -> Option<Self> {
-        let Bsdf::Diffuse { albedo } = *bsdf else { return None };
+impl ReceiverEnd {
+    /// The receiver at `x` (geometry `g`, BSDF `bsdf`, outgoing direction `wo`), whose BSDF
+    /// reflects something towards `wo`.
+    pub fn new(x: Vec3, g: &LocalGeometry, bsdf: &Bsdf, wo: Vec3) -> Self {
         let n = g.frame.n;
-        (wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0).then_some(DiffuseEnd { x, ng: g.ng, n, albedo })
+        let diffuse = match *bsdf {
+            Bsdf::Diffuse { albedo } if wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0 => Some(albedo),
+            _ => None,
+        };
+        ReceiverEnd { x, ng: g.ng, n, diffuse }
     }
 }
 
@@ -89,11 +98,8 @@ impl SphereLanes {
         let mut chunks = vec![EMPTY_CHUNK; vpls.len().div_ceil(LANES)];
         for (j, v) in vpls.iter().enumerate() {
             let (c, i) = (&mut chunks[j / LANES], j % LANES);
-            let Bsdf::Diffuse { albedo } = bsdfs[j] else { continue };
-            let (in_ns, in_ng) = (v.w_in.dot(v.frame.n), v.w_in.dot(v.ng));
-            // The scalar code's conditions at the sphere (an inactive one contributes nothing
-            // and is skipped by the caller).
-            if !(emitting[j].is_active() && in_ns > 0.0 && in_ng > 0.0) {
+            // An inactive sphere contributes nothing and is skipped by the caller.
+            if !emitting[j].is_active() {
                 continue;
             }
             let r = radii[j];
@@ -101,13 +107,23 @@ impl SphereLanes {
                 c.p[k][i] = v.p[k];
                 c.ng[k][i] = v.ng[k];
                 c.ns[k][i] = v.frame.n[k];
-                c.albedo[k][i] = albedo[k];
                 c.flux[k][i] = v.flux[k];
             }
             c.radius[i] = r;
-            c.area[i] = PI * r * r;
-            c.ratio[i] = in_ns / in_ng;
             c.depth[i] = v.depth as f32;
+            // The scalar closed form's conditions at the sphere.
+            let (in_ns, in_ng) = (v.w_in.dot(v.frame.n), v.w_in.dot(v.ng));
+            if let Bsdf::Diffuse { albedo } = bsdfs[j]
+                && in_ns > 0.0
+                && in_ng > 0.0
+            {
+                for k in 0..3 {
+                    c.albedo[k][i] = albedo[k];
+                }
+                c.area[i] = PI * r * r;
+                c.ratio[i] = in_ns / in_ng;
+                c.diffuse[i] = 1.0;
+            }
         }
         SphereLanes { chunks }
     }
@@ -121,7 +137,7 @@ impl SphereLanes {
     /// without sampling: red, green and blue by lane, and the lanes done (bit per lane). The
     /// other lanes are zero and left to the caller.
     #[inline]
-    pub fn closed_form(&self, chunk: usize, x: &DiffuseEnd, max_depth: u32) -> ([Vec4; 3], u32) {
+    pub fn closed_form(&self, chunk: usize, x: &ReceiverEnd, max_depth: u32) -> ([Vec4; 3], u32) {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         // Cone::new: d = centre − x, its length, sin θ_max = r / |d|, 1 − cos θ_max, the axis.
@@ -146,9 +162,12 @@ impl SphereLanes {
         let nm = s(n.x) * m[0] + s(n.y) * m[1] + s(n.z) * m[2];
         let integral = a * (nm - na * ma) + b * na * ma;
         let scale = q.ratio * integral / s(PI * PI);
-        let v = [0, 1, 2].map(|k| s(x.albedo[k]) * q.albedo[k] * scale);
+        let albedo_x = x.diffuse.unwrap_or(Vec3::ZERO);
+        let v = [0, 1, 2].map(|k| s(albedo_x[k]) * q.albedo[k] * scale);
         let finite = v[0].is_finite_mask() & v[1].is_finite_mask() & v[2].is_finite_mask();
-        let closed = dist2.cmpgt(Vec4::ZERO)
+        let closed = BVec4A::splat(x.diffuse.is_some())
+            & q.diffuse.cmpgt(Vec4::ZERO)
+            & dist2.cmpgt(Vec4::ZERO)
             & q.radius.cmpgt(Vec4::ZERO)
             & sin_max.cmplt(s(1.0))
             & in_front
@@ -206,7 +225,11 @@ mod tests {
             let (ngx, frame_x) = normals(Vec3::Z, &mut s);
             let gx = LocalGeometry { ng: ngx, frame: frame_x };
             let albedo_x = Vec3::new(0.8, 0.4, s.next_f32());
-            let bsdf_x = Bsdf::Diffuse { albedo: albedo_x };
+            let bsdf_x = if round % 3 == 2 {
+                Bsdf::Glossy { albedo: albedo_x, specular: Vec3::splat(0.4), roughness: 0.2 }
+            } else {
+                Bsdf::Diffuse { albedo: albedo_x }
+            };
             let wo = (ngx + 0.5 * unit(&mut s)).normalize();
             let vpls: Vec<Vpl> = (0..n)
                 .map(|j| {
@@ -255,7 +278,7 @@ mod tests {
             let radii: Vec<f32> =
                 (0..n).map(|j| if j % 13 == 12 { 0.0 } else { [0.01, 0.1, 0.4, 1.5][j % 4] }).collect();
             let lanes = SphereLanes::new(&vpls, &bsdfs, &emitting, &radii);
-            let Some(end) = DiffuseEnd::new(x, &gx, &bsdf_x, wo) else { continue };
+            let end = ReceiverEnd::new(x, &gx, &bsdf_x, wo);
             let max_depth = 2;
             for c in 0..lanes.chunks() {
                 let (rgb, done) = lanes.closed_form(c, &end, max_depth);

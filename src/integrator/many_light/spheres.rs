@@ -72,7 +72,7 @@ use super::Radius;
 use super::knn::KdTree;
 use super::light_paths::Vpl;
 use super::schedule::radius;
-use super::sphere_lanes::{DiffuseEnd, SphereLanes};
+use super::sphere_lanes::{ReceiverEnd, SphereLanes};
 use crate::geometry::{Frame, OffsetPoint};
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
@@ -121,16 +121,16 @@ pub struct SphereReceiver<'a> {
     pub bsdf: &'a Bsdf,
     pub wo: Vec3,
     fx: PreparedBsdf,
-    /// The receiver as the end of [`SphereLanes::closed_form`], when it can be one.
-    pub diffuse: Option<DiffuseEnd>,
+    /// The receiver as the end of [`SphereLanes::closed_form`].
+    pub end: ReceiverEnd,
 }
 
 impl<'a> SphereReceiver<'a> {
     /// `bsdf` must not be delta.
     pub fn new(x: Vec3, gx: LocalGeometry, bsdf: &'a Bsdf, wo: Vec3) -> Self {
         let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
-        let diffuse = DiffuseEnd::new(x, &gx, bsdf, wo);
-        SphereReceiver { x, gx, bsdf, wo, fx, diffuse }
+        let end = ReceiverEnd::new(x, &gx, bsdf, wo);
+        SphereReceiver { x, gx, bsdf, wo, fx, end }
     }
 
     /// Whether the receiver reflects anything towards `wo` (otherwise every sphere's
