@@ -237,7 +237,7 @@ impl SphereLights {
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
-        let rx = SphereReceiver::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo);
+        let rx = SphereReceiver::at(v);
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         for pick in picks {
             let c = self.contribution(pick.light, &rx, sampler);
@@ -260,10 +260,10 @@ impl SphereLights {
         sampler: &mut Sampler,
         batch: &mut ShadowBatch,
     ) -> bool {
-        let rx = SphereReceiver::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo);
+        let rx = SphereReceiver::at(v);
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
         resample(
-            self.vpls.len().div_ceil(LANES),
+            self.lanes.chunks(),
             m,
             k,
             rx.is_active(),
@@ -280,7 +280,7 @@ impl SphereLights {
     /// Queues every sphere's contribution with its shadow ray to the centre; `false` when the
     /// receiver reflects nothing towards `v.wo`.
     fn queue(&self, v: &Vertex, max_vpl_depth: u32, sampler: &mut Sampler, batch: &mut ShadowBatch) -> bool {
-        let rx = SphereReceiver::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo);
+        let rx = SphereReceiver::at(v);
         if !rx.is_active() {
             return false;
         }
@@ -308,7 +308,7 @@ impl SphereLights {
         max_vpl_depth: u32,
         sampler: &mut Sampler,
     ) -> [Vec3; LANES] {
-        let (rgb, done) = self.lanes.closed_form(chunk, &rx.end, max_vpl_depth);
+        let (rgb, done) = self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
         std::array::from_fn(|i| {
             let j = chunk * LANES + i;
             match self.vpls.get(j) {

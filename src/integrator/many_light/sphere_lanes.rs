@@ -137,7 +137,7 @@ impl SphereLanes {
     /// without sampling: red, green and blue by lane, and the lanes done (bit per lane). The
     /// other lanes are zero and left to the caller.
     #[inline]
-    pub fn closed_form(&self, chunk: usize, x: &ReceiverEnd, max_depth: u32) -> ([Vec4; 3], u32) {
+    pub fn without_sampling(&self, chunk: usize, x: &ReceiverEnd, max_depth: u32) -> ([Vec4; 3], u32) {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         // Cone::new: d = centre − x, its length, sin θ_max = r / |d|, 1 − cos θ_max, the axis.
@@ -153,10 +153,10 @@ impl SphereLanes {
         let dot_axis = |v: Vec3| s(v.x) * axis[0] + s(v.y) * axis[1] + s(v.z) * axis[2];
         let dot_lanes = |v: &[Vec4; 3]| v[0] * axis[0] + v[1] * axis[1] + v[2] * axis[2];
         let (n, m) = (x.n, [-q.ng[0], -q.ng[1], -q.ng[2]]);
-        let na = dot_axis(n);
-        let ma = dot_lanes(&m);
-        let in_front =
-            dot_axis(x.ng).cmpgt(lim) & na.cmpgt(lim) & ma.cmpgt(lim) & (-dot_lanes(&q.ns)).cmpgt(lim);
+        // The axis against the four planes: the receiver's normals, the sphere's reversed.
+        let (ga, na) = (dot_axis(x.ng), dot_axis(n));
+        let (ma, sa) = (dot_lanes(&m), -dot_lanes(&q.ns));
+        let in_front = ga.cmpgt(lim) & na.cmpgt(lim) & ma.cmpgt(lim) & sa.cmpgt(lim);
         let a = s(PI) * t * t * (s(1.0) - t / s(3.0));
         let b = s(2.0 * PI) * t * (s(1.0) - t + t * t / s(3.0));
         let nm = s(n.x) * m[0] + s(n.y) * m[1] + s(n.z) * m[2];
@@ -179,11 +179,8 @@ impl SphereLanes {
         let no_cone = dist2.cmple(Vec4::ZERO) | q.radius.cmple(Vec4::ZERO);
         let same_normal = q.ng[0].cmpeq(s(x.ng.x)) & q.ng[1].cmpeq(s(x.ng.y)) & q.ng[2].cmpeq(s(x.ng.z));
         let behind = -lim;
-        let no_light = same_normal
-            | dot_axis(x.ng).cmplt(behind)
-            | na.cmplt(behind)
-            | ma.cmplt(behind)
-            | (-dot_lanes(&q.ns)).cmplt(behind);
+        let no_light =
+            same_normal | ga.cmplt(behind) | na.cmplt(behind) | ma.cmplt(behind) | sa.cmplt(behind);
         let done = q.depth.cmple(s(max_depth as f32)) & (closed | no_cone | no_light);
         let out = [0, 1, 2].map(|k| Vec4::select(closed & done, q.flux[k] * v[k] / q.area, Vec4::ZERO));
         (out, done.bitmask())
@@ -281,7 +278,7 @@ mod tests {
             let end = ReceiverEnd::new(x, &gx, &bsdf_x, wo);
             let max_depth = 2;
             for c in 0..lanes.chunks() {
-                let (rgb, done) = lanes.closed_form(c, &end, max_depth);
+                let (rgb, done) = lanes.without_sampling(c, &end, max_depth);
                 let values: [Vec3; LANES] =
                     std::array::from_fn(|i| Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]));
                 for (i, got) in values.into_iter().enumerate() {

@@ -74,6 +74,7 @@ use super::light_paths::Vpl;
 use super::schedule::radius;
 use super::sphere_lanes::{ReceiverEnd, SphereLanes};
 use crate::geometry::{Frame, OffsetPoint};
+use crate::integrator::walker::Vertex;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
@@ -121,7 +122,7 @@ pub struct SphereReceiver<'a> {
     pub bsdf: &'a Bsdf,
     pub wo: Vec3,
     fx: PreparedBsdf,
-    /// The receiver as the end of [`SphereLanes::closed_form`].
+    /// The receiver as the end of [`SphereLanes::without_sampling`].
     pub end: ReceiverEnd,
 }
 
@@ -131,6 +132,11 @@ impl<'a> SphereReceiver<'a> {
         let fx = PreparedBsdf::new(*bsdf, gx, wo, TransportMode::Radiance);
         let end = ReceiverEnd::new(x, &gx, bsdf, wo);
         SphereReceiver { x, gx, bsdf, wo, fx, end }
+    }
+
+    /// The gather's vertex `v` as a receiver.
+    pub fn at(v: &'a Vertex) -> Self {
+        Self::new(v.sp.p, v.sp.geometry(), v.bsdf, v.wo)
     }
 
     /// Whether the receiver reflects anything towards `wo` (otherwise every sphere's
