@@ -22,8 +22,17 @@ fn bdpt(clamping: Clamping, paths: usize) -> InstantRadiosity {
     bdpt_connecting(clamping, Connect::default(), paths)
 }
 
+/// With as many light samples at the first vertex as the default (`--connect first`), one
+/// (`first-two`) or three (`all`), so that every test covers a count other than one, whose
+/// weights count the light samples, and the count of one.
 fn bdpt_connecting(clamping: Clamping, connect: Connect, paths: usize) -> InstantRadiosity {
+    let light_samples = match connect {
+        Connect::First => pir::integrator::DEFAULT_LIGHT_SAMPLES,
+        Connect::FirstTwo => 1,
+        Connect::All => 3,
+    };
     InstantRadiosity::new(VirtualLights::Bidirectional(clamping, connect), paths)
+        .with_light_samples(light_samples)
 }
 
 fn glossy(emission: f32) -> Material {

@@ -163,6 +163,11 @@ pub struct MethodParams {
     #[arg(long, value_enum, value_name = "WHICH")]
     #[serde(default)]
     pub connect: Option<Connect>,
+    /// pir-bdpt: light samples (next-event estimation) at the camera path's first vertex, 1 to
+    /// 64, weighed as that many samples of the technique; deeper vertices take one [default: 4].
+    #[arg(long, value_name = "N")]
+    #[serde(default)]
+    pub light_samples: Option<u32>,
 }
 
 /// How a camera vertex gathers (`--gather`).
@@ -210,6 +215,7 @@ impl Default for MethodParams {
             gather_samples: None,
             gather_candidates: None,
             connect: None,
+            light_samples: None,
         }
     }
 }
@@ -217,11 +223,27 @@ impl Default for MethodParams {
 /// Most light paths per iteration (`--vpls`).
 pub const MAX_VPLS: usize = 1 << 24;
 
+/// `pir-bdpt`'s light samples at the first vertex when `--light-samples` is not given. Its
+/// iteration's cost is mostly the gather and the path, so a light sample costs it a smaller
+/// share than it costs `pt`, while the direct light of the first vertex is the error that
+/// connections cannot reach (a connection needs two non-delta vertices before the
+/// emitter): measured 2026-12-03 (`docs/measurements.md`, "Light samples at the first
+/// vertex"), 4 samples against 1 gave relative MSE × instructions 0.95× on the Cornell box,
+/// about 0.6× in the slit room and on the Mori knob, 1.06× on the glossy Cornell box.
+pub const DEFAULT_LIGHT_SAMPLES: u32 = 4;
+/// Most light samples at the first vertex (`--light-samples`).
+pub const MAX_LIGHT_SAMPLES: u32 = 64;
+
 impl MethodParams {
     /// Checks every parameter; the error names the flag.
     pub fn validate(&self) -> Result<()> {
         if self.vpls == 0 || self.vpls > MAX_VPLS {
             bail!("--vpls {}: must be 1 to {MAX_VPLS}", self.vpls);
+        }
+        if let Some(n) = self.light_samples
+            && !(1..=MAX_LIGHT_SAMPLES).contains(&n)
+        {
+            bail!("--light-samples {n}: must be 1 to {MAX_LIGHT_SAMPLES}");
         }
         for (parameter, value) in [(Parameter::Clamp, self.clamp), (Parameter::Radius, self.radius)] {
             if let Some(v) = value
@@ -387,6 +409,8 @@ impl MethodConfig {
                 gather_samples: (m.uses_vpls() && kind != GatherKind::All).then_some(k),
                 gather_candidates: (m.uses_vpls() && kind == GatherKind::Resample).then_some(cands),
                 connect: (m == Method::PirBdpt).then(|| p.connect.unwrap_or_default()),
+                light_samples: (m == Method::PirBdpt)
+                    .then(|| p.light_samples.unwrap_or(DEFAULT_LIGHT_SAMPLES)),
             },
         }
     }
@@ -414,7 +438,10 @@ impl MethodConfig {
                 VirtualLights::Spheres { radius, alpha }
             }
         };
-        Box::new(InstantRadiosity::new(lights, paths).with_gather(self.gather()))
+        let light_samples = p.light_samples.unwrap_or(DEFAULT_LIGHT_SAMPLES);
+        Box::new(
+            InstantRadiosity::new(lights, paths).with_gather(self.gather()).with_light_samples(light_samples),
+        )
     }
 }
 
@@ -443,6 +470,8 @@ mod tests {
             (MethodParams { alpha: 1.0, ..ok }, "--alpha 1"),
             (MethodParams { gather_samples: Some(0), ..ok }, "--gather-samples 0"),
             (MethodParams { gather_samples: Some(65), ..ok }, "--gather-samples 65"),
+            (MethodParams { light_samples: Some(0), ..ok }, "--light-samples 0"),
+            (MethodParams { light_samples: Some(65), ..ok }, "--light-samples 65"),
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.starts_with(flag), "{e}");
@@ -487,6 +516,7 @@ mod tests {
                     gather_samples: Some(5),
                     gather_candidates: Some(77),
                     connect: Some(Connect::All),
+                    light_samples: Some(3),
                 },
             };
             let back: MethodConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();

@@ -7,7 +7,9 @@
 //! **The techniques.** Take a path z_1 … z_k from the camera's first hit z_1 to an emitter
 //! point z_k. pir can make it in k ways, by t = 1 … k camera vertices:
 //! - t = k: the camera path hits the emitter (BSDF sampling); one sample per camera path;
-//! - t = k − 1: next-event estimation at z_{k−1}; one sample;
+//! - t = k − 1: next-event estimation at z_{k−1}; one sample, or n = `--light-samples` at
+//!   the camera's first vertex (default 4), counted n times, each sample's estimate divided
+//!   by n;
 //! - t ≤ k − 2: the camera vertex z_t connects to the VPL that light tracing left at z_{t+1}
 //!   (its light path came from the emitter through z_k … z_{t+2}); the iteration's N light
 //!   paths give N samples, so this technique's density is N times its path density.
@@ -15,7 +17,8 @@
 //! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}; the hit is
 //! always possible. Every technique reaches every path length up to `max_depth`, so the set
 //! of techniques is the same for every path of a given shape and the balance heuristic's
-//! weights p_t n_t / Σ_u p_u n_u (n_u = N for connections, 1 otherwise) sum to one: without
+//! weights p_t n_t / Σ_u p_u n_u (n_u = N for connections, the light samples for
+//! next-event estimation, 1 for the hit) sum to one: without
 //! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests).
 //!
 //! **The emitter techniques: the power heuristic among themselves.** The weights are
@@ -53,6 +56,16 @@
 //! through an opening, the N connections dominate. What is left of the connection keeps the
 //! progressive bound of `pir-mis` ([`super::mis::Weighing::apply`]), b_i = b_1 · i^α on
 //! π² · w · max(c) / max(Φ); its bias vanishes as b_i grows, so `pir-bdpt` is consistent.
+//!
+//! **Light samples at the first vertex.** The direct light of the camera's first vertex is
+//! the one error the connections cannot take over (a connection needs two non-delta vertices
+//! before the emitter), and where light comes through an opening it is most of what is left:
+//! in the slit room, 96 % of `pir-bdpt`'s variance per iteration with one light sample
+//! (two seeds at 256 iterations, `--max-depth 2` against the full depth). An iteration's cost
+//! is mostly the gather and the path, so a light sample costs `pir-bdpt` a smaller share
+//! than it costs `pt`; four of them per first vertex (`--light-samples`) measured 0.95× the
+//! relative MSE × instructions of one on the Cornell box and about 0.6× in the slit room and
+//! on the Mori knob (`docs/measurements.md`, "Light samples at the first vertex").
 //!
 //! Cost: a path tracer's rays plus a gather at each non-delta vertex of the camera path
 //! (the resampled gather: k shadow rays of m candidates).
@@ -230,17 +243,19 @@ fn emitter_weight(emitter: f32, connections: f32) -> f32 {
 /// The weight of an emitter hit by BSDF sampling, at an emitter point of area density
 /// `pdf_area` whose cosine towards the path is `cos_light`, with the camera subpath's
 /// `state` (after [`MisState::arrive`]): next-event estimation at the vertex the ray left is
-/// `dvcm`'s technique, the connections `dvc`'s.
+/// `dvcm`'s technique, with `light_samples` samples there, the connections `dvc`'s.
 #[inline]
-pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32) -> f32 {
+pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, light_samples: f32) -> f32 {
     let emission_pdf = pdf_area * cos_light * FRAC_1_PI;
-    emitter_weight(pdf_area * state.dvcm, paths * emission_pdf * state.dvc)
+    emitter_weight(light_samples * pdf_area * state.dvcm, paths * emission_pdf * state.dvc)
 }
 
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
 /// the density of the vertex's BSDF sampling back along the camera path from the light's
 /// direction, `cos_receiver` the cosine at the vertex towards the light;
-/// `previous_connects` whether the camera vertex before it connects to VPLs.
+/// `previous_connects` whether the camera vertex before it connects to VPLs;
+/// `light_samples` the light samples taken at the vertex (the technique's count: each
+/// sample's estimate is divided by it).
 #[inline]
 pub fn light_weight(
     state: &MisState,
@@ -249,14 +264,16 @@ pub fn light_weight(
     cos_receiver: f32,
     paths: f32,
     previous_connects: bool,
+    light_samples: f32,
 ) -> f32 {
     if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
         return 0.0;
     }
-    let hit = light.pdf_bsdf / light.pdf_light;
+    let own = light_samples * light.pdf_light;
+    let hit = light.pdf_bsdf / own;
     let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
     let dvcm = if previous_connects { state.dvcm } else { 0.0 };
-    emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev))
+    emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev) * light.pdf_light / own)
 }
 
 /// What a connection's weight needs of the camera vertex: its BSDF prepared for its `wo`,
@@ -315,6 +332,7 @@ pub fn walk(
     mut ray: Ray,
     set: &LightSet,
     connect: Connect,
+    light_samples: u32,
     paths: f32,
     bound: f32,
     sampler: &mut Sampler,
@@ -326,6 +344,8 @@ pub fn walk(
     let mut state = MisState::CAMERA;
     let mut from = ray.origin;
     let mut depth = 0u32;
+    // Light samples at the vertex the ray left (for the weight of an emitter it hits).
+    let mut left_samples = 1.0f32;
     loop {
         counters.rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
@@ -339,7 +359,8 @@ pub fn walk(
         // ---- Emission found by the camera ray or a BSDF sample.
         let le = emitted(material.emission, sp.ng, wo);
         if le != Vec3::ZERO {
-            radiance += beta * le * hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths);
+            let w = hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths, left_samples);
+            radiance += beta * le * w;
         }
         if depth >= ctx.max_depth {
             break;
@@ -347,14 +368,20 @@ pub fn walk(
 
         let bsdf = &material.bsdf;
         let geometry = sp.geometry();
+        // ---- Next-event estimation: `light_samples` samples at the first vertex.
+        let n = if depth == 1 { light_samples } else { 1 };
+        let count = n as f32;
+        left_samples = count;
         if !bsdf.is_delta() {
-            // ---- Next-event estimation.
-            radiance += beta
-                * sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
+            let mut direct = Vec3::ZERO;
+            for _ in 0..n {
+                direct += sample_emitters_weighted(ctx, &sp, bsdf, wo, sampler, counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                     let previous = connect.at(depth - 1);
-                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous)
+                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous, count)
                 });
+            }
+            radiance += beta * if n == 1 { direct } else { direct / count };
             // ---- The connections to the VPLs.
             if connect.at(depth) {
                 let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
@@ -447,15 +474,23 @@ mod tests {
     }
 
     /// Every technique's weight for the path z[1..=k] (z[k] on the emitter), in order of t;
-    /// `None` for a technique that cannot make the path.
-    fn weights(z: &[Node], pdf_area: f32, paths: f32, connect: Connect) -> Vec<Option<f32>> {
+    /// `None` for a technique that cannot make the path. The first vertex takes
+    /// `light_samples` light samples.
+    fn weights(
+        z: &[Node],
+        pdf_area: f32,
+        paths: f32,
+        connect: Connect,
+        light_samples: u32,
+    ) -> Vec<Option<f32>> {
         let k = z.len() - 1;
+        let samples_at = |t: usize| if t == 1 { light_samples as f32 } else { 1.0 };
         let mut w = Vec::new();
         for t in 1..=k {
             let cam = camera_state(z, t, connect);
             let x = &z[t];
             w.push(if t == k {
-                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths))
+                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
             } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
                 None
             } else if t == k - 1 {
@@ -469,7 +504,8 @@ mod tests {
                     wi: x.dir(e),
                 };
                 let previous = connect.at(t as u32 - 1);
-                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous))
+                let n = samples_at(t);
+                Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, n))
             } else {
                 let y = &z[t + 1];
                 let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
@@ -547,12 +583,15 @@ mod tests {
                 continue;
             }
             let pdf_area = 0.1 + trial as f32 * 0.01;
-            let w = weights(&z, pdf_area, 32.0, Connect::First);
             let pdf_light = pdf_area * dist2(x, e) / e.cos(x);
             let pdf_bsdf = x.pdf(&z[0], e);
-            let nee = crate::integrator::direct::power_heuristic(pdf_light, pdf_bsdf);
-            assert!((w[0].unwrap() - nee).abs() < 1e-4, "{w:?} against {nee}");
-            assert!((w[1].unwrap() - (1.0 - nee)).abs() < 1e-4, "{w:?} against {}", 1.0 - nee);
+            // With n light samples, the power heuristic with counts: (n p_l)² / ((n p_l)² + p_b²).
+            for n in [1, 3] {
+                let w = weights(&z, pdf_area, 32.0, Connect::First, n);
+                let nee = crate::integrator::direct::power_heuristic(n as f32 * pdf_light, pdf_bsdf);
+                assert!((w[0].unwrap() - nee).abs() < 1e-4, "n {n}: {w:?} against {nee}");
+                assert!((w[1].unwrap() - (1.0 - nee)).abs() < 1e-4, "n {n}: {w:?} against {}", 1.0 - nee);
+            }
             checked += 1;
         }
         assert!(checked > 50, "only {checked} paths checked");
@@ -574,18 +613,24 @@ mod tests {
             if !(1..=k).all(|j| front(j, j - 1) && (j == k || front(j, j + 1))) {
                 continue;
             }
-            for connect in [Connect::First, Connect::FirstTwo, Connect::All] {
-                let w = weights(&z, 0.37, 32.0, connect);
+            for (connect, light_samples) in [
+                (Connect::First, 1),
+                (Connect::FirstTwo, 1),
+                (Connect::All, 1),
+                (Connect::First, 4),
+                (Connect::All, 3),
+            ] {
+                let w = weights(&z, 0.37, 32.0, connect, light_samples);
                 let sum: f32 = w.iter().flatten().sum();
                 if w.iter().flatten().all(|w| w.is_finite()) {
                     assert!(
                         (sum - 1.0).abs() < 2e-3,
-                        "k {k}, delta at {delta_at:?}, {connect:?}: weights {w:?} sum to {sum}"
+                        "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples: weights {w:?} sum to {sum}"
                     );
                     checked += 1;
                 }
             }
         }
-        assert!(checked > 900, "only {checked} paths checked");
+        assert!(checked > 1500, "only {checked} paths checked");
     }
 }

@@ -159,17 +159,25 @@ pub struct InstantRadiosity {
     lights: VirtualLights,
     paths: usize,
     gather: Gather,
+    /// [`VirtualLights::Bidirectional`]: light samples at the camera path's first vertex.
+    light_samples: u32,
     set: LightSet,
 }
 
 impl InstantRadiosity {
     pub fn new(lights: VirtualLights, paths: usize) -> Self {
-        InstantRadiosity { lights, paths, gather: Gather::All, set: LightSet::default() }
+        InstantRadiosity { lights, paths, gather: Gather::All, light_samples: 1, set: LightSet::default() }
     }
 
     /// The same method gathering as `gather` says.
     pub fn with_gather(self, gather: Gather) -> Self {
         InstantRadiosity { gather, ..self }
+    }
+
+    /// The same method taking `n` light samples at the camera path's first vertex (for
+    /// [`VirtualLights::Bidirectional`]; the others take one).
+    pub fn with_light_samples(self, n: u32) -> Self {
+        InstantRadiosity { light_samples: n.max(1), ..self }
     }
 
     /// Point lights with the given clamping.
@@ -279,6 +287,7 @@ impl Integrator for InstantRadiosity {
             // The name `--connect` takes (clap's, from the enum).
             let name = clap::ValueEnum::to_possible_value(&connect).map(|v| v.get_name().to_string());
             p.push(("connect".into(), name.unwrap_or_default()));
+            p.push(("light-samples".into(), self.light_samples.to_string()));
         }
         match self.lights {
             VirtualLights::Points(Clamping::None)
@@ -328,7 +337,8 @@ impl Integrator for InstantRadiosity {
     ) -> Vec3 {
         match (&self.lights, &self.set.mis) {
             (&VirtualLights::Bidirectional(_, connect), Some(mis)) => {
-                bidirectional::walk(ctx, ray, &self.set, connect, mis.paths, mis.bound, sampler, counters)
+                let n = self.light_samples;
+                bidirectional::walk(ctx, ray, &self.set, connect, n, mis.paths, mis.bound, sampler, counters)
             }
             _ => walk(ctx, ray, &self.set, sampler, counters),
         }
