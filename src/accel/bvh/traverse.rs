@@ -56,14 +56,15 @@
 //! must then be the point at `+∞` with a finite cap on the exit distance, since an inverted
 //! box counts as a full one once ordered), and any-hit's stack holding child references only,
 //! its three or more hit children sorted as `u32` keys (the entry distance's bits with the
-//! lane in the lowest three). Interleaved `accel_ratio` rounds on the idle machine, old → new
-//! BVH/Embree rate, two runs of 7 rounds each: bunny occlusion 0.704, 0.714 → 0.698, 0.706;
-//! dragon occlusion 0.771, 0.782 → 0.753, 0.776; bunny closest hit 0.834, 0.851 → 0.784,
-//! 0.800; dragon closest hit 0.814, 0.837 → 0.774, 0.809. Traversal here waits on loads and
-//! on the node-to-node dependency chain, not on instruction throughput: Embree's 614
-//! instructions per occlusion ray on the bunny against these 840 do not explain its lead
-//! (the simulated D1 misses per ray are the same, 15), and an extra min in each axis' chain
-//! costs more than the select it replaces.
+//! lane in the lowest three). Interleaved `accel_ratio` rounds on the idle machine (one
+//! thread), old → new BVH/Embree rate, two runs of 7 rounds each: bunny occlusion 0.715,
+//! 0.759 → 0.676, 0.727; dragon occlusion 0.683, 0.750 → 0.750, 0.735; bunny closest hit
+//! 0.750, 0.770 → 0.773, 0.792; dragon closest hit 0.838, 0.815 → 0.837, 0.833 (a first
+//! pair of runs, with the other core busy, had closest hit 3–6 % slower and occlusion level):
+//! no change beyond the rounds' scatter. Traversal here waits on loads and on the
+//! node-to-node dependency chain more than on instruction throughput, so Embree's 614
+//! instructions per occlusion ray on the bunny against these 840 (with the same simulated
+//! D1 misses per ray, 15) are not where its lead comes from.
 
 use glam::Vec4;
 use multiversion::multiversion;
