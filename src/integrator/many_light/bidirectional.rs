@@ -269,11 +269,11 @@ pub fn light_weight(
     if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
         return 0.0;
     }
-    let own = light_samples * light.pdf_light;
-    let hit = light.pdf_bsdf / own;
+    // The other techniques' densities relative to all the light samples' (exact for one).
+    let hit = light.pdf_bsdf / (light_samples * light.pdf_light);
     let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
     let dvcm = if previous_connects { state.dvcm } else { 0.0 };
-    emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev) * light.pdf_light / own)
+    emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev) / light_samples)
 }
 
 /// What a connection's weight needs of the camera vertex: its BSDF prepared for its `wo`,
@@ -381,7 +381,7 @@ pub fn walk(
                     light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous, count)
                 });
             }
-            radiance += beta * if n == 1 { direct } else { direct / count };
+            radiance += beta * (direct / count);
             // ---- The connections to the VPLs.
             if connect.at(depth) {
                 let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);

@@ -35,14 +35,37 @@ pub enum LaneKind {
     Other,
 }
 
+/// What every kind of lane takes from its VPL, a coordinate per `Vec4`: position, geometric
+/// and shading normals, and flux. Shared by these lanes and the spheres'
+/// ([`super::sphere_lanes`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct VplCoords {
+    pub p: [Vec4; 3],
+    pub ng: [Vec4; 3],
+    /// Shading normal.
+    pub ns: [Vec4; 3],
+    pub flux: [Vec4; 3],
+}
+
+impl VplCoords {
+    pub const ZERO: VplCoords =
+        VplCoords { p: [Vec4::ZERO; 3], ng: [Vec4::ZERO; 3], ns: [Vec4::ZERO; 3], flux: [Vec4::ZERO; 3] };
+
+    /// Lane `i` from `v`.
+    pub fn set(&mut self, i: usize, v: &Vpl) {
+        for k in 0..3 {
+            self.p[k][i] = v.p[k];
+            self.ng[k][i] = v.ng[k];
+            self.ns[k][i] = v.frame.n[k];
+            self.flux[k][i] = v.flux[k];
+        }
+    }
+}
+
 /// [`LANES`] lights, coordinate by coordinate.
 #[derive(Clone, Copy)]
 struct Chunk {
-    p: [Vec4; 3],
-    ng: [Vec4; 3],
-    /// Shading normal.
-    ns: [Vec4; 3],
-    flux: [Vec4; 3],
+    vpl: VplCoords,
     /// The emitting BSDF ([`PreparedDiffuse`], importance mode).
     albedo: [Vec4; 3],
     wo_cos_shading: Vec4,
@@ -59,10 +82,7 @@ struct Chunk {
 }
 
 const EMPTY_CHUNK: Chunk = Chunk {
-    p: [Vec4::ZERO; 3],
-    ng: [Vec4::ZERO; 3],
-    ns: [Vec4::ZERO; 3],
-    flux: [Vec4::ZERO; 3],
+    vpl: VplCoords::ZERO,
     albedo: [Vec4::ZERO; 3],
     wo_cos_shading: Vec4::ZERO,
     wo_cos_geometric: Vec4::ZERO,
@@ -107,12 +127,7 @@ impl VplLanes {
         let mut chunks = vec![EMPTY_CHUNK; vpls.len().div_ceil(LANES)];
         for (j, (v, e)) in vpls.iter().zip(emitting).enumerate() {
             let (c, i) = (&mut chunks[j / LANES], j % LANES);
-            for k in 0..3 {
-                c.p[k][i] = v.p[k];
-                c.ng[k][i] = v.ng[k];
-                c.ns[k][i] = v.frame.n[k];
-                c.flux[k][i] = v.flux[k];
-            }
+            c.vpl.set(i, v);
             c.kind[i] = match e.as_diffuse() {
                 Some(d) if d.mode == TransportMode::Importance => {
                     Self::set_diffuse(c, i, &d);
@@ -167,15 +182,15 @@ impl VplLanes {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         let zero = Vec4::ZERO;
-        let dx = q.p[0] - s(x.x);
-        let dy = q.p[1] - s(x.y);
-        let dz = q.p[2] - s(x.z);
+        let dx = q.vpl.p[0] - s(x.x);
+        let dy = q.vpl.p[1] - s(x.y);
+        let dz = q.vpl.p[2] - s(x.z);
         let dist2 = dx * dx + dy * dy + dz * dz;
         // Cosines times |d|.
         let x_ng = dx * s(ng.x) + dy * s(ng.y) + dz * s(ng.z);
         let x_ns = dx * s(ns.x) + dy * s(ns.y) + dz * s(ns.z);
-        let p_ng = -(dx * q.ng[0] + dy * q.ng[1] + dz * q.ng[2]);
-        let p_ns = -(dx * q.ns[0] + dy * q.ns[1] + dz * q.ns[2]);
+        let p_ng = -(dx * q.vpl.ng[0] + dy * q.vpl.ng[1] + dz * q.vpl.ng[2]);
+        let p_ns = -(dx * q.vpl.ns[0] + dy * q.vpl.ns[1] + dz * q.vpl.ns[2]);
         let g = (x_ns * p_ns / (dist2 * dist2)).min(s(bound));
         let active = q.any_depth.cmple(s(max_depth as f32))
             & x_ng.cmpgt(zero)
@@ -219,9 +234,9 @@ impl VplLanes {
         let s = Vec4::splat;
         let zero = Vec4::ZERO;
         // d = vpl.p − x, w = d / |d|.
-        let dx = q.p[0] - s(x.p.x);
-        let dy = q.p[1] - s(x.p.y);
-        let dz = q.p[2] - s(x.p.z);
+        let dx = q.vpl.p[0] - s(x.p.x);
+        let dy = q.vpl.p[1] - s(x.p.y);
+        let dz = q.vpl.p[2] - s(x.p.z);
         let dist2 = dx * dx + dy * dy + dz * dz;
         let len = dist2.sqrt();
         let (wx, wy, wz) = (dx / len, dy / len, dz / len);
@@ -237,8 +252,8 @@ impl VplLanes {
 
         // The VPL's f cos towards −w (importance mode, adjoint shading-normal factor).
         let (vx, vy, vz) = (-wx, -wy, -wz);
-        let p_ng = vx * q.ng[0] + vy * q.ng[1] + vz * q.ng[2];
-        let p_ns = vx * q.ns[0] + vy * q.ns[1] + vz * q.ns[2];
+        let p_ng = vx * q.vpl.ng[0] + vy * q.vpl.ng[1] + vz * q.vpl.ng[2];
+        let p_ns = vx * q.vpl.ns[0] + vy * q.vpl.ns[1] + vz * q.vpl.ns[2];
         let kp = s(FRAC_1_PI) * p_ns.max(zero);
         let factor = shading_correction(q.wo_cos_shading, q.wo_cos_geometric, p_ng, p_ns);
         let fp = [q.albedo[0] * kp * factor, q.albedo[1] * kp * factor, q.albedo[2] * kp * factor];
@@ -262,7 +277,7 @@ impl VplLanes {
         let clamped = g.cmpgt(s(bound));
         let scale = s(bound) / g;
         [0, 1, 2].map(|k| {
-            let c = q.flux[k] * fx[k] * fp[k] / dist2;
+            let c = q.vpl.flux[k] * fx[k] * fp[k] / dist2;
             Vec4::select(active, Vec4::select(clamped, c * scale, c), zero)
         })
     }

@@ -20,24 +20,21 @@
 use glam::{BVec4A, Vec3, Vec4};
 use std::f32::consts::PI;
 
-use super::lanes::LANES;
+use super::lanes::{LANES, VplCoords};
 use super::light_paths::Vpl;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 
 /// [`LANES`] spheres, coordinate by coordinate.
 #[derive(Clone, Copy)]
 struct Chunk {
-    p: [Vec4; 3],
-    /// The sphere's geometric and shading normals.
-    ng: [Vec4; 3],
-    ns: [Vec4; 3],
+    /// The sphere's centre, normals and flux.
+    vpl: VplCoords,
     radius: Vec4,
     /// π r² as the scalar code forms it, `(π · r) · r`.
     area: Vec4,
     /// |ω_in · n_s| / |ω_in · n_g| as `in_ns / in_ng`.
     ratio: Vec4,
     albedo: [Vec4; 3],
-    flux: [Vec4; 3],
     /// 1 where the sphere can take the closed form (Lambertian, lit from in front of both its
     /// normals), 0 elsewhere.
     diffuse: Vec4,
@@ -48,14 +45,11 @@ struct Chunk {
 }
 
 const EMPTY_CHUNK: Chunk = Chunk {
-    p: [Vec4::ZERO; 3],
-    ng: [Vec4::ZERO; 3],
-    ns: [Vec4::ZERO; 3],
+    vpl: VplCoords::ZERO,
     radius: Vec4::ZERO,
     area: Vec4::ZERO,
     ratio: Vec4::ZERO,
     albedo: [Vec4::ZERO; 3],
-    flux: [Vec4::ZERO; 3],
     diffuse: Vec4::ZERO,
     depth: Vec4::INFINITY,
 };
@@ -103,12 +97,7 @@ impl SphereLanes {
                 continue;
             }
             let r = radii[j];
-            for k in 0..3 {
-                c.p[k][i] = v.p[k];
-                c.ng[k][i] = v.ng[k];
-                c.ns[k][i] = v.frame.n[k];
-                c.flux[k][i] = v.flux[k];
-            }
+            c.vpl.set(i, v);
             c.radius[i] = r;
             c.depth[i] = v.depth as f32;
             // The scalar closed form's conditions at the sphere.
@@ -141,7 +130,7 @@ impl SphereLanes {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         // Cone::new: d = centre − x, its length, sin θ_max = r / |d|, 1 − cos θ_max, the axis.
-        let d = [q.p[0] - s(x.x.x), q.p[1] - s(x.x.y), q.p[2] - s(x.x.z)];
+        let d = [q.vpl.p[0] - s(x.x.x), q.vpl.p[1] - s(x.x.y), q.vpl.p[2] - s(x.x.z)];
         let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         let dist = dist2.sqrt();
         let sin_max = q.radius / dist;
@@ -152,10 +141,10 @@ impl SphereLanes {
         let lim = sin_max + s(1e-4);
         let dot_axis = |v: Vec3| s(v.x) * axis[0] + s(v.y) * axis[1] + s(v.z) * axis[2];
         let dot_lanes = |v: &[Vec4; 3]| v[0] * axis[0] + v[1] * axis[1] + v[2] * axis[2];
-        let (n, m) = (x.n, [-q.ng[0], -q.ng[1], -q.ng[2]]);
+        let (n, m) = (x.n, [-q.vpl.ng[0], -q.vpl.ng[1], -q.vpl.ng[2]]);
         // The axis against the four planes: the receiver's normals, the sphere's reversed.
         let (ga, na) = (dot_axis(x.ng), dot_axis(n));
-        let (ma, sa) = (dot_lanes(&m), -dot_lanes(&q.ns));
+        let (ma, sa) = (dot_lanes(&m), -dot_lanes(&q.vpl.ns));
         let in_front = ga.cmpgt(lim) & na.cmpgt(lim) & ma.cmpgt(lim) & sa.cmpgt(lim);
         let a = s(PI) * t * t * (s(1.0) - t / s(3.0));
         let b = s(2.0 * PI) * t * (s(1.0) - t + t * t / s(3.0));
@@ -177,12 +166,13 @@ impl SphereLanes {
         // no light in it (`no_light_in`: the same geometric normal at both ends, or the cone
         // behind one of the four planes).
         let no_cone = dist2.cmple(Vec4::ZERO) | q.radius.cmple(Vec4::ZERO);
-        let same_normal = q.ng[0].cmpeq(s(x.ng.x)) & q.ng[1].cmpeq(s(x.ng.y)) & q.ng[2].cmpeq(s(x.ng.z));
+        let same_normal =
+            q.vpl.ng[0].cmpeq(s(x.ng.x)) & q.vpl.ng[1].cmpeq(s(x.ng.y)) & q.vpl.ng[2].cmpeq(s(x.ng.z));
         let behind = -lim;
         let no_light =
             same_normal | ga.cmplt(behind) | na.cmplt(behind) | ma.cmplt(behind) | sa.cmplt(behind);
         let done = q.depth.cmple(s(max_depth as f32)) & (closed | no_cone | no_light);
-        let out = [0, 1, 2].map(|k| Vec4::select(closed & done, q.flux[k] * v[k] / q.area, Vec4::ZERO));
+        let out = [0, 1, 2].map(|k| Vec4::select(closed & done, q.vpl.flux[k] * v[k] / q.area, Vec4::ZERO));
         (out, done.bitmask())
     }
 }
