@@ -262,17 +262,38 @@ impl SphereLights {
     ) -> bool {
         let rx = SphereReceiver::at(v);
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
+        // The picked spheres' contributions: the chunk's closed forms and zeros four at a time
+        // (picks come in sphere order), the other spheres' cone integrals one by one.
+        let mut chunk_done: Option<(usize, [Vec4; 3], u32)> = None;
         resample(
             self.lanes.chunks(),
             m,
             k,
             rx.is_active(),
             sampler,
-            |cands, block, sampler| {
-                let cs = self.chunk_contributions(block, &rx, max_vpl_depth, sampler);
-                cands.push_values(block * LANES, [0, 1, 2].map(|k| Vec4::from_array(cs.map(|c| c[k]))));
+            |cands, block, _| cands.push(block * LANES, self.lanes.estimates(block, &rx.end, max_vpl_depth)),
+            |j, factor, sampler| {
+                let (chunk, lane) = (j / LANES, j % LANES);
+                let (rgb, done) = match chunk_done {
+                    Some((c, rgb, done)) if c == chunk => (rgb, done),
+                    _ => {
+                        let (rgb, done) = self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
+                        chunk_done = Some((chunk, rgb, done));
+                        (rgb, done)
+                    }
+                };
+                // A lane that is not done has an estimate only if the sphere is within the
+                // depth and active (`SphereLanes::estimates`), so it is sampled as a whole gather
+                // would sample it.
+                let c = if done >> lane & 1 == 1 {
+                    Vec3::new(rgb[0][lane], rgb[1][lane], rgb[2][lane])
+                } else {
+                    self.contribution(j, &rx, sampler)
+                };
+                if c != Vec3::ZERO {
+                    batch.push(shadow_segment(&x, &self.ends[j]), c * factor);
+                }
             },
-            |j, factor, c| batch.push(shadow_segment(&x, &self.ends[j]), c * factor),
         );
         rx.is_active()
     }

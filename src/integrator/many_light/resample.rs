@@ -1,6 +1,6 @@
-//! The resampled gather: a receiver evaluates the unoccluded contribution of a random window
-//! of m candidate lights (cheap: the four-wide kernel, no ray), then traces shadow rays to
-//! only k of them, drawn in proportion to those contributions.
+//! The resampled gather: a receiver estimates the unoccluded contribution of a random window
+//! of m candidate lights (cheap: a four-wide kernel, no ray), then evaluates and traces
+//! shadow rays to only k of them, drawn in proportion to those estimates.
 //!
 //! Two stages, each unbiased given the one before, so the estimate is unbiased for the
 //! iteration's full gather Σ_j c_j V_j (c_j the unoccluded contribution of light j with the
@@ -12,22 +12,26 @@
 //!    full sum (Horvitz–Thompson with inclusion probability w / n). The VPLs are stored path
 //!    by path, and the light paths of an iteration are independent, so a window is a random
 //!    handful of whole light paths: per receiver, a different one.
-//! 2. **The picks.** Within the window, with p̂_j = the sum of c_j's three channels and
-//!    T = Σ p̂_j, k picks by systematic sampling of the cumulative sums at (u + i) T / k: light
-//!    j is picked n_j times with E[n_j] = k p̂_j / T, and Σ_j n_j c_j V_j T / (k p̂_j) is
-//!    unbiased for Σ_{window} c_j V_j. Every light with c_j ≠ 0 has p̂_j > 0, and a pick's
-//!    weight c_j T / (k p̂_j) has channels of at most T / k: no spikes from the division.
+//! 2. **The picks.** Within the window, with p̂_j a cheap estimate of light j's unoccluded
+//!    contribution (power × geometry, the BSDFs' shapes left out: `VplLanes::estimates` for
+//!    points, `SphereLanes::estimates` for spheres) and T = Σ p̂_j, k picks by systematic
+//!    sampling of the cumulative sums at (u + i) T / k: light j is picked n_j times with
+//!    E[n_j] = k p̂_j / T, and Σ_j n_j c_j V_j T / (k p̂_j) is unbiased for Σ_{window} c_j V_j
+//!    as long as every light with c_j ≠ 0 has p̂_j > 0, which both estimates guarantee. Only
+//!    the picked lights' contributions c_j are evaluated.
 //!
-//! The stochastic cone integral of a glossy sphere ([`super::spheres`]) is an unbiased
-//! estimate ĉ_j drawn before the picks; the picks then estimate Σ ĉ_j V_j, and with
-//! E[ĉ_j] = c_j the estimate stays unbiased.
+//! A glossy sphere's cone integral is stochastic ([`super::spheres`]): an estimate ĉ_j with
+//! E[ĉ_j] = c_j, drawn after the pick from numbers that did not choose it, so the estimate
+//! stays unbiased; and only the k picked spheres pay for their integrals, not the m
+//! candidates (a tenth of the cost of `pir-vsl`'s gather on the glossy Cornell box, when every
+//! candidate's integral was drawn to serve as its p̂).
 //!
 //! Why it pays: an iteration can hold many more light paths than a full gather affords, since a
 //! receiver's cost is m kernel evaluations and k rays, not one ray per light; the light paths'
 //! noise falls with their number, and within the window the rays go where the light is. What
 //! is left is the noise of visibility among the k picks and of the window's choice of paths.
 
-use glam::{Vec3, Vec4};
+use glam::Vec4;
 
 use super::lanes::LANES;
 
@@ -45,9 +49,10 @@ fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
 /// The resampled gather over `blocks` blocks of [`LANES`] lights with `m` candidates and `k`
 /// picks: draws the window's start and the picks' number (two numbers of `sampler`, always,
 /// before any the candidates draw), lets `candidate` push each block of the window, then
-/// calls `emit(j, factor, value)` for every light picked, with the window's scale n / w in
-/// the factor ([`Candidates::pick`]). With `active` false (a receiver that reflects nothing)
-/// only the numbers are drawn.
+/// calls `emit(j, factor, sampler)` for every light picked, with the window's scale n / w in
+/// the factor ([`Candidates::pick`]); `emit` may draw numbers of its own (a picked sphere's
+/// cone integral). With `active` false (a receiver that reflects nothing) only the
+/// numbers are drawn.
 pub fn resample(
     blocks: usize,
     m: usize,
@@ -55,7 +60,7 @@ pub fn resample(
     active: bool,
     sampler: &mut Sampler,
     mut candidate: impl FnMut(&mut Candidates, usize, &mut Sampler),
-    emit: impl FnMut(usize, f32, Vec3),
+    mut emit: impl FnMut(usize, f32, &mut Sampler),
 ) {
     let w = m.div_ceil(LANES).clamp(1, blocks.max(1));
     let window = window(blocks, w, sampler);
@@ -67,7 +72,7 @@ pub fn resample(
         for block in window {
             candidate(cands, block, sampler);
         }
-        cands.pick(k, u, blocks as f32 / w as f32, emit);
+        cands.pick(k, u, blocks as f32 / w as f32, |j, factor| emit(j, factor, sampler));
     });
 }
 
@@ -81,9 +86,8 @@ fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item = usi
     })
 }
 
-/// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes, or
-/// four consecutive spheres): p̂ lane by lane, their contributions channel by channel when
-/// known, and the lane-wise sum of p̂ over the blocks. Blocks whose lights all contribute
+/// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes of
+/// points or of spheres): p̂ lane by lane, and the lane-wise sum of p̂ over the blocks. Blocks whose lights all contribute
 /// nothing are left out. Reused from receiver to receiver ([`with_candidates`]), so that a
 /// gather allocates nothing. Pushing is branch-light and sums lane-wise; the cumulative sums
 /// are formed only while picking, and only up to the last pick.
@@ -93,8 +97,6 @@ pub struct Candidates {
     first: Vec<u32>,
     /// p̂ of each block's lanes.
     p: Vec<Vec4>,
-    /// Each block's contributions, when pushed with them ([`Self::push_values`]).
-    rgb: Vec<[Vec4; 3]>,
     /// Σ p̂ over the blocks, lane by lane.
     sum: Vec4,
 }
@@ -120,7 +122,6 @@ impl Candidates {
     pub fn clear(&mut self) {
         self.first.clear();
         self.p.clear();
-        self.rgb.clear();
         self.sum = Vec4::ZERO;
     }
 
@@ -145,18 +146,6 @@ impl Candidates {
         }
     }
 
-    /// Adds a block of lights with their contributions `rgb` (red, green, blue by lane) as
-    /// values, and p̂ = their channels' sum.
-    #[inline]
-    pub fn push_values(&mut self, first: usize, rgb: [Vec4; 3]) {
-        if let Some(p) = Self::kept(rgb[0] + rgb[1] + rgb[2]) {
-            self.first.push(first as u32);
-            self.p.push(p);
-            self.rgb.push(rgb);
-            self.sum += p;
-        }
-    }
-
     /// The lanes of `p` that are positive and finite (the others zero), unless none is.
     #[inline]
     fn kept(p: Vec4) -> Option<Vec4> {
@@ -170,13 +159,12 @@ impl Candidates {
     }
 
     /// The k picks for the number `u` in [0, 1), by systematic sampling of the cumulative p̂
-    /// at (u + i) T / k: `emit(j, factor, value)` once per distinct light picked, with
+    /// at (u + i) T / k: `emit(j, factor)` once per distinct light picked, with
     /// factor = n_j T / (k p̂_j) · `scale` (the window's n / w), so that c_j · factor is the
-    /// light's share of the estimate, and `value` its contribution as pushed with
-    /// [`Self::push_values`] (zero when pushed with [`Self::push`]). The cumulative sums are
+    /// light's share of the estimate. The cumulative sums are
     /// formed here in block order; their rounding differs from T's by ulps, and the last light
     /// takes any pick that rounding leaves over, so k picks are always made.
-    pub fn pick(&self, k: usize, u: f32, scale: f32, mut emit: impl FnMut(usize, f32, Vec3)) {
+    pub fn pick(&self, k: usize, u: f32, scale: f32, mut emit: impl FnMut(usize, f32)) {
         let total = self.total();
         if !(total > 0.0 && total.is_finite()) || k == 0 {
             return;
@@ -209,11 +197,7 @@ impl Candidates {
                     pos = (u + picked as f32) * step;
                 }
                 if n > 0 {
-                    let value = self
-                        .rgb
-                        .get(b)
-                        .map_or(Vec3::ZERO, |[r, g, bl]| Vec3::new(r[lane], g[lane], bl[lane]));
-                    emit(self.first[b] as usize + lane, n as f32 * step * scale / pl, value);
+                    emit(self.first[b] as usize + lane, n as f32 * step * scale / pl);
                 }
                 lo = lane_hi;
             }
@@ -229,6 +213,7 @@ impl Candidates {
 mod tests {
     use super::*;
     use crate::sampling::Domain;
+    use glam::Vec3;
 
     #[test]
     fn windows_cover_every_block_equally() {
@@ -253,7 +238,9 @@ mod tests {
     }
 
     /// The picks' weights add up, in expectation over u, to the candidates' sum, for every
-    /// candidate separately; and k picks are made in all.
+    /// candidate separately, whatever the estimates p̂ (positive wherever the contribution is
+    /// not zero; here neither proportional to the contributions nor to their channels' sum);
+    /// and at most k picks are made, exactly k when any p̂ is positive.
     #[test]
     fn picks_are_unbiased_per_candidate() {
         let mut cands = Candidates::new();
@@ -267,11 +254,11 @@ mod tests {
             Vec3::ZERO,
             Vec3::new(0.0, 0.0, 2.0),
         ];
-        let block =
-            |b: usize| std::array::from_fn(|k| Vec4::from_array(std::array::from_fn(|i| cs[4 * b + i][k])));
-        cands.push_values(0, block(0));
-        cands.push_values(100, [Vec4::ZERO; 3]);
-        cands.push_values(4, block(1));
+        let estimates = [0.5, 2.0, 0.0, 0.7, 3.0, 1e-3, 0.25, 0.1];
+        let block = |b: usize| Vec4::from_array(std::array::from_fn(|i| estimates[4 * b + i]));
+        cands.push(0, block(0));
+        cands.push(100, Vec4::ZERO);
+        cands.push(4, block(1));
         assert_eq!(cands.len(), 2);
         for k in [1, 2, 3, 8] {
             let steps = 100_000;
@@ -279,8 +266,8 @@ mod tests {
             for s in 0..steps {
                 let u = (s as f32 + 0.5) / steps as f32;
                 let mut picks = 0;
-                cands.pick(k, u, 2.0, |j, f, c| {
-                    sum[j] += (c * f / 2.0).as_dvec3();
+                cands.pick(k, u, 2.0, |j, f| {
+                    sum[j] += (cs[j] * f / 2.0).as_dvec3();
                     picks += 1;
                 });
                 assert!(picks <= k);
@@ -303,7 +290,7 @@ mod tests {
         cands.push(8, Vec4::new(f32::INFINITY, 0.0, -1.0, 0.0));
         assert_eq!(cands.total(), 0.0);
         let mut n = 0;
-        cands.pick(4, 0.5, 1.0, |_, _, _| n += 1);
+        cands.pick(4, 0.5, 1.0, |_, _| n += 1);
         assert_eq!(n, 0);
     }
 }

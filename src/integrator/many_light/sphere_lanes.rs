@@ -22,6 +22,7 @@ use std::f32::consts::PI;
 
 use super::lanes::{LANES, VplCoords};
 use super::light_paths::Vpl;
+use super::light_set::tree_light;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 
 /// [`LANES`] spheres, coordinate by coordinate.
@@ -29,6 +30,9 @@ use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 struct Chunk {
     /// The sphere's centre, normals and flux.
     vpl: VplCoords,
+    /// The light's power for [`SphereLanes::estimates`]: as a point light's
+    /// ([`super::light_set::tree_light`]).
+    power: Vec4,
     radius: Vec4,
     /// π r² as the scalar code forms it, `(π · r) · r`.
     area: Vec4,
@@ -46,6 +50,7 @@ struct Chunk {
 
 const EMPTY_CHUNK: Chunk = Chunk {
     vpl: VplCoords::ZERO,
+    power: Vec4::ZERO,
     radius: Vec4::ZERO,
     area: Vec4::ZERO,
     ratio: Vec4::ZERO,
@@ -98,6 +103,7 @@ impl SphereLanes {
             }
             let r = radii[j];
             c.vpl.set(i, v);
+            c.power[i] = tree_light(v, &bsdfs[j], true, r).intensity;
             c.radius[i] = r;
             c.depth[i] = v.depth as f32;
             // The scalar closed form's conditions at the sphere.
@@ -119,6 +125,59 @@ impl SphereLanes {
 
     pub fn chunks(&self) -> usize {
         self.chunks.len()
+    }
+
+    /// A cheap estimate p̂ of each lane's contribution at the receiver `x`, for the resampled
+    /// gather ([`super::resample`]), as [`super::lanes::VplLanes::estimates`] is for point
+    /// lights: power × the largest shading cosine over the cone at each end × Ω / (π r²), the
+    /// factor by which the cone's solid angle Ω turns the sphere's radiance into irradiance
+    /// (1 / d² for a far sphere, 2 / r² around the receiver, so finite); zero for the spheres
+    /// with more than `max_depth` segments and where [`Self::without_sampling`] is done with a
+    /// zero (no cone, or no light in it). It leaves out the BSDFs' shapes, so it is not the
+    /// contribution, but it is positive wherever the contribution can be: where the cone
+    /// reaches in front of all four planes (each cosine is floored at a tiny positive number
+    /// in the margin that `no_light_in` leaves), which is all that unbiasedness needs.
+    #[inline]
+    pub fn estimates(&self, chunk: usize, x: &ReceiverEnd, max_depth: u32) -> Vec4 {
+        let q = &self.chunks[chunk];
+        let s = Vec4::splat;
+        let d = [q.vpl.p[0] - s(x.x.x), q.vpl.p[1] - s(x.x.y), q.vpl.p[2] - s(x.x.z)];
+        let dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let dist = dist2.sqrt();
+        let sin_max = q.radius / dist;
+        let inside = sin_max.cmpge(s(1.0));
+        let sin_cone = sin_max.min(s(1.0));
+        let cos_cone = (s(1.0) - sin_cone * sin_cone).max(Vec4::ZERO).sqrt();
+        let axis = [d[0] / dist, d[1] / dist, d[2] / dist];
+        let dot_axis = |v: Vec3| s(v.x) * axis[0] + s(v.y) * axis[1] + s(v.z) * axis[2];
+        let dot_lanes = |v: &[Vec4; 3]| -(v[0] * axis[0] + v[1] * axis[1] + v[2] * axis[2]);
+        // The cosines of the axis with the four planes' normals (the sphere's reversed).
+        let (ga, na) = (dot_axis(x.ng), dot_axis(x.n));
+        let (ma, sa) = (dot_lanes(&q.vpl.ng), dot_lanes(&q.vpl.ns));
+        // The largest cosine over the cone: cos(max(θ − θ_max, 0)).
+        let widest = |c: Vec4| {
+            let sin = (s(1.0) - c * c).max(Vec4::ZERO).sqrt();
+            Vec4::select(c.cmpge(cos_cone), s(1.0), c * cos_cone + sin * sin_cone)
+        };
+        // Ω / (π r²) = 2 (1 − cos θ_max) / r² = 2 / (d² (1 + cos θ_max)) outside the sphere.
+        let solid =
+            Vec4::select(inside, s(2.0) / (q.radius * q.radius), s(2.0) / (dist2 * (s(1.0) + cos_cone)));
+        let floor = s(1e-6);
+        let g = widest(na).max(floor) * widest(sa).max(floor) * solid;
+        // Where without_sampling returns zero; the same margin as no_light_in.
+        let behind = -(sin_max + s(1e-4));
+        let same_normal =
+            q.vpl.ng[0].cmpeq(s(x.ng.x)) & q.vpl.ng[1].cmpeq(s(x.ng.y)) & q.vpl.ng[2].cmpeq(s(x.ng.z));
+        let dark = dist2.cmple(Vec4::ZERO)
+            | q.radius.cmple(Vec4::ZERO)
+            | same_normal
+            | ga.cmplt(behind)
+            | na.cmplt(behind)
+            | ma.cmplt(behind)
+            | sa.cmplt(behind);
+        let active = q.depth.cmple(s(max_depth as f32)) & !dark;
+        let p = q.power * g;
+        Vec4::select(active & p.is_finite_mask(), p, Vec4::ZERO)
     }
 
     /// Φ / (π r²) · ∫_cone f_x cos_x f_p cos_p dω of the spheres of chunk `chunk` with at most
@@ -197,19 +256,26 @@ mod tests {
         (ng, Frame::from_normal(ns))
     }
 
-    /// Every lane done gives bit for bit the scalar contribution, and the scalar code draws no
-    /// number (takes the closed form or returns zero) exactly where a lane the kernel holds is
-    /// done: spheres in front and across horizons, on the receiver's plane, around the
-    /// receiver, on its point, glossy spheres, light from behind, zero radii, depths beyond the
-    /// limit.
-    #[test]
-    fn matches_the_scalar_closed_form() {
-        let mut s = Sampler::new(5, 0, Domain::LightPath, 0);
-        let (mut done_count, mut zero_count, mut left) = (0, 0, 0);
-        for round in 0..300 {
+    /// A receiver and its spheres, the cases of the tests below: round `round` of a
+    /// sequence that covers spheres in front and across horizons, on the receiver's plane,
+    /// around the receiver, on its point, glossy spheres and receivers, light from behind,
+    /// zero radii and depths beyond 2.
+    struct Case {
+        x: Vec3,
+        gx: LocalGeometry,
+        bsdf_x: Bsdf,
+        wo: Vec3,
+        vpls: Vec<Vpl>,
+        bsdfs: Vec<Bsdf>,
+        emitting: Vec<PreparedBsdf>,
+        radii: Vec<f32>,
+    }
+
+    impl Case {
+        fn new(round: usize, s: &mut Sampler) -> Case {
             let n = 1 + round % 37;
             let x = Vec3::new(0.1, -0.2, 0.3);
-            let (ngx, frame_x) = normals(Vec3::Z, &mut s);
+            let (ngx, frame_x) = normals(Vec3::Z, s);
             let gx = LocalGeometry { ng: ngx, frame: frame_x };
             let albedo_x = Vec3::new(0.8, 0.4, s.next_f32());
             let bsdf_x = if round % 3 == 2 {
@@ -217,26 +283,26 @@ mod tests {
             } else {
                 Bsdf::Diffuse { albedo: albedo_x }
             };
-            let wo = (ngx + 0.5 * unit(&mut s)).normalize();
+            let wo = (ngx + 0.5 * unit(s)).normalize();
             let vpls: Vec<Vpl> = (0..n)
                 .map(|j| {
                     let p = match j % 9 {
                         0 => x,
-                        1 => x + 1e-3 * unit(&mut s),
-                        2 => x + 0.5 * unit(&mut s),
+                        1 => x + 1e-3 * unit(s),
+                        2 => x + 0.5 * unit(s),
                         // On the receiver's plane (its normal too, below).
                         3 => x + Frame::from_normal(ngx).to_world(Vec3::new(s.next_f32(), s.next_f32(), 0.0)),
                         _ => {
                             x + Vec3::new(s.next_f32() - 0.5, s.next_f32() - 0.5, 1.0) * (0.3 + s.next_f32())
                         }
                     };
-                    let (ng, frame) = normals((x - p).normalize_or(Vec3::Z), &mut s);
+                    let (ng, frame) = normals((x - p).normalize_or(Vec3::Z), s);
                     let (ng, frame) = if j % 9 == 3 { (ngx, Frame::from_normal(ngx)) } else { (ng, frame) };
                     Vpl {
                         p,
                         ng,
                         frame,
-                        w_in: (ng + 0.8 * unit(&mut s)).normalize_or(ng),
+                        w_in: (ng + 0.8 * unit(s)).normalize_or(ng),
                         material: 0,
                         flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
                         depth: (j % 4) as u32,
@@ -264,8 +330,44 @@ mod tests {
                 .collect();
             let radii: Vec<f32> =
                 (0..n).map(|j| if j % 13 == 12 { 0.0 } else { [0.01, 0.1, 0.4, 1.5][j % 4] }).collect();
-            let lanes = SphereLanes::new(&vpls, &bsdfs, &emitting, &radii);
-            let end = ReceiverEnd::new(x, &gx, &bsdf_x, wo);
+            Case { x, gx, bsdf_x, wo, vpls, bsdfs, emitting, radii }
+        }
+
+        fn lanes(&self) -> SphereLanes {
+            SphereLanes::new(&self.vpls, &self.bsdfs, &self.emitting, &self.radii)
+        }
+
+        fn end(&self) -> ReceiverEnd {
+            ReceiverEnd::new(self.x, &self.gx, &self.bsdf_x, self.wo)
+        }
+
+        /// The scalar contribution of sphere j with the numbers of `seed`, and whether it drew any.
+        fn scalar(&self, j: usize, seed: u64) -> (Vec3, bool) {
+            let mut s = Sampler::new(seed, 0, Domain::LightPath, 0);
+            let c = contribution(
+                &self.gx,
+                self.x,
+                &self.bsdf_x,
+                self.wo,
+                &self.vpls[j],
+                &self.bsdfs[j],
+                self.radii[j],
+                &mut s,
+            );
+            (c, s.next_u64() != Sampler::new(seed, 0, Domain::LightPath, 0).next_u64())
+        }
+    }
+
+    /// Every lane done gives bit for bit the scalar contribution, and the scalar code draws no
+    /// number (takes the closed form or returns zero) exactly where a lane the kernel holds is
+    /// done (the cases of [`Case`]).
+    #[test]
+    fn matches_the_scalar_closed_form() {
+        let mut s = Sampler::new(5, 0, Domain::LightPath, 0);
+        let (mut done_count, mut zero_count, mut left) = (0, 0, 0);
+        for round in 0..300 {
+            let case = Case::new(round, &mut s);
+            let (lanes, end, n) = (case.lanes(), case.end(), case.vpls.len());
             let max_depth = 2;
             for c in 0..lanes.chunks() {
                 let (rgb, done) = lanes.without_sampling(c, &end, max_depth);
@@ -273,27 +375,21 @@ mod tests {
                     std::array::from_fn(|i| Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]));
                 for (i, got) in values.into_iter().enumerate() {
                     let j = c * LANES + i;
-                    // The scalar code, and whether it drew any number.
-                    let scalar = |j: usize| {
-                        let mut s = Sampler::new(1, 0, Domain::LightPath, 0);
-                        let c = contribution(&gx, x, &bsdf_x, wo, &vpls[j], &bsdfs[j], radii[j], &mut s);
-                        (c, s.next_u64() != Sampler::new(1, 0, Domain::LightPath, 0).next_u64())
-                    };
                     if done >> i & 1 == 0 {
                         assert_eq!(got, Vec3::ZERO);
-                        let v = vpls.get(j);
+                        let v = case.vpls.get(j);
                         // A sphere the lanes hold (diffuse, lit from the front) is left only
                         // where the scalar code samples.
                         if let Some(v) =
                             v.filter(|v| v.depth <= max_depth && lanes.chunks[c].depth[i].is_finite())
                         {
-                            assert!(scalar(j).1, "{j} at {}", v.p);
+                            assert!(case.scalar(j, 1).1, "{j} at {}", v.p);
                             left += 1;
                         }
                         continue;
                     }
-                    assert!(j < n && vpls[j].depth <= max_depth && emitting[j].is_active(), "{j}");
-                    let (want, drew) = scalar(j);
+                    assert!(j < n && case.vpls[j].depth <= max_depth && case.emitting[j].is_active(), "{j}");
+                    let (want, drew) = case.scalar(j, 1);
                     assert_eq!(got.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "{j}");
                     assert!(!drew, "{j}");
                     if got == Vec3::ZERO {
@@ -308,5 +404,44 @@ mod tests {
             done_count > 1000 && zero_count > 300 && left > 300,
             "{done_count} in closed form, {zero_count} zero, {left} left"
         );
+    }
+
+    /// The resampled gather's estimates are positive wherever a sphere's contribution can be
+    /// (so that no light with light to give is left out: unbiasedness), and zero for the
+    /// spheres beyond the depth, the inactive ones, and where the lanes are done with a zero
+    /// (the cases of [`Case`], each sampled sphere's contribution drawn with several seeds).
+    #[test]
+    fn estimates_are_positive_wherever_a_sphere_gives_light() {
+        let mut s = Sampler::new(6, 0, Domain::LightPath, 0);
+        let (mut lit, mut dark) = (0, 0);
+        for round in 0..300 {
+            let case = Case::new(round, &mut s);
+            let (lanes, end) = (case.lanes(), case.end());
+            let max_depth = 2;
+            for c in 0..lanes.chunks() {
+                let p = lanes.estimates(c, &end, max_depth);
+                let (_, done) = lanes.without_sampling(c, &end, max_depth);
+                for i in 0..LANES {
+                    let j = c * LANES + i;
+                    assert!(p[i] >= 0.0 && p[i].is_finite(), "{j}: {}", p[i]);
+                    let beyond = case.vpls.get(j).is_none_or(|v| v.depth > max_depth);
+                    if beyond || !case.emitting[j].is_active() {
+                        assert_eq!(p[i], 0.0, "{j}");
+                        continue;
+                    }
+                    let gives = (1..=8).any(|seed| case.scalar(j, seed).0 != Vec3::ZERO);
+                    if gives {
+                        assert!(p[i] > 0.0, "{j}: lights the receiver but has no estimate");
+                        lit += 1;
+                    } else {
+                        dark += 1;
+                    }
+                    if done >> i & 1 == 1 && case.scalar(j, 1).0 == Vec3::ZERO {
+                        assert_eq!(p[i], 0.0, "{j}: no light in its cone, yet an estimate");
+                    }
+                }
+            }
+        }
+        assert!(lit > 1000 && dark > 300, "{lit} lit, {dark} dark");
     }
 }
