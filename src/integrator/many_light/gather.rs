@@ -227,6 +227,12 @@ impl PointLights {
     }
 }
 
+thread_local! {
+    /// The contributions a resampled gather of spheres evaluated as candidates: (sphere,
+    /// contribution), reused from receiver to receiver so that a gather allocates nothing.
+    static EXACT: std::cell::RefCell<Vec<(usize, Vec3)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 impl SphereLights {
     /// Queues the sampled spheres' weighted contributions with their shadow rays.
     fn queue_sampled(
@@ -262,39 +268,59 @@ impl SphereLights {
     ) -> bool {
         let rx = SphereReceiver::at(v);
         let x = OffsetPoint::new(v.sp.p, v.sp.ng);
-        // The picked spheres' contributions: the chunk's closed forms and zeros four at a time
-        // (picks come in sphere order), the other spheres' cone integrals one by one.
-        let mut chunk_done: Option<(usize, [Vec4; 3], u32)> = None;
-        resample(
-            self.lanes.chunks(),
-            m,
-            k,
-            rx.is_active(),
-            sampler,
-            |cands, block, _| cands.push(block * LANES, self.lanes.estimates(block, &rx.end, max_vpl_depth)),
-            |j, factor, sampler| {
-                let (chunk, lane) = (j / LANES, j % LANES);
-                let (rgb, done) = match chunk_done {
-                    Some((c, rgb, done)) if c == chunk => (rgb, done),
-                    _ => {
-                        let (rgb, done) = self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
-                        chunk_done = Some((chunk, rgb, done));
-                        (rgb, done)
+        EXACT.with(|exact| {
+            exact.borrow_mut().clear();
+            // The picked spheres' contributions: those evaluated as candidates (a narrow lobe
+            // at either end), the chunk's closed forms and zeros four at a time (picks come in
+            // sphere order), the other spheres' cone integrals one by one.
+            let mut chunk_done: Option<(usize, [Vec4; 3], u32)> = None;
+            resample(
+                self.lanes.chunks(),
+                m,
+                k,
+                rx.is_active(),
+                sampler,
+                |cands, block, sampler| {
+                    let (mut p, narrow) = self.lanes.estimates(block, &rx.end, max_vpl_depth);
+                    for i in (0..LANES).filter(|i| narrow >> i & 1 == 1) {
+                        let j = block * LANES + i;
+                        let c = self.contribution(j, &rx, sampler);
+                        p[i] = c.element_sum();
+                        exact.borrow_mut().push((j, c));
                     }
-                };
-                // A lane that is not done has an estimate only if the sphere is within the
-                // depth and active (`SphereLanes::estimates`), so it is sampled as a whole gather
-                // would sample it.
-                let c = if done >> lane & 1 == 1 {
-                    Vec3::new(rgb[0][lane], rgb[1][lane], rgb[2][lane])
-                } else {
-                    self.contribution(j, &rx, sampler)
-                };
-                if c != Vec3::ZERO {
-                    batch.push(shadow_segment(&x, &self.ends[j]), c * factor);
-                }
-            },
-        );
+                    cands.push(block * LANES, p)
+                },
+                |j, factor, sampler| {
+                    let (chunk, lane) = (j / LANES, j % LANES);
+                    let evaluated = exact.borrow().iter().find(|e| e.0 == j).map(|e| e.1);
+                    let c = match evaluated {
+                        Some(c) => c,
+                        None => {
+                            let (rgb, done) = match chunk_done {
+                                Some((c, rgb, done)) if c == chunk => (rgb, done),
+                                _ => {
+                                    let (rgb, done) =
+                                        self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
+                                    chunk_done = Some((chunk, rgb, done));
+                                    (rgb, done)
+                                }
+                            };
+                            // A lane that is not done has an estimate only if the sphere is
+                            // within the depth and active, so it is sampled as a whole gather
+                            // would sample it.
+                            if done >> lane & 1 == 1 {
+                                Vec3::new(rgb[0][lane], rgb[1][lane], rgb[2][lane])
+                            } else {
+                                self.contribution(j, &rx, sampler)
+                            }
+                        }
+                    };
+                    if c != Vec3::ZERO {
+                        batch.push(shadow_segment(&x, &self.ends[j]), c * factor);
+                    }
+                },
+            );
+        });
         rx.is_active()
     }
 

@@ -12,19 +12,26 @@
 //!    full sum (Horvitz–Thompson with inclusion probability w / n). The VPLs are stored path
 //!    by path, and the light paths of an iteration are independent, so a window is a random
 //!    handful of whole light paths: per receiver, a different one.
-//! 2. **The picks.** Within the window, with p̂_j a cheap estimate of light j's unoccluded
-//!    contribution (power × geometry, the BSDFs' shapes left out: `VplLanes::estimates` for
-//!    points, `SphereLanes::estimates` for spheres) and T = Σ p̂_j, k picks by systematic
-//!    sampling of the cumulative sums at (u + i) T / k: light j is picked n_j times with
-//!    E[n_j] = k p̂_j / T, and Σ_j n_j c_j V_j T / (k p̂_j) is unbiased for Σ_{window} c_j V_j
-//!    as long as every light with c_j ≠ 0 has p̂_j > 0, which both estimates guarantee. Only
-//!    the picked lights' contributions c_j are evaluated.
+//! 2. **The picks.** Within the window, with p̂_j an estimate of light j's unoccluded
+//!    contribution and T = Σ p̂_j, k picks by systematic sampling of the cumulative sums at
+//!    (u + i) T / k: light j is picked n_j times with E[n_j] = k p̂_j / T, and
+//!    Σ_j n_j c_j V_j T / (k p̂_j) is unbiased for Σ_{window} c_j V_j as long as every light
+//!    with c_j ≠ 0 has p̂_j > 0. Only the picked lights' contributions c_j are evaluated.
+//!    For points p̂ is `VplLanes::estimates` (power × the clamped geometry term, four at a
+//!    time, the BSDFs' shapes left out). For spheres it is `SphereLanes::estimates`, in the
+//!    contribution's units: both ends taken as Lambertian of their reflectance, each cosine
+//!    at its largest over the cone, which bounds a Lambertian pair's contribution from above
+//!    (a pick's weight is then at most T / k); where either end has a narrow glossy lobe
+//!    (GGX α below `NARROW_LOBE`, whose peak no such bound follows), the sphere's
+//!    contribution itself is evaluated as its p̂ and kept as its value, so its weight is
+//!    T / k exactly.
 //!
 //! A glossy sphere's cone integral is stochastic ([`super::spheres`]): an estimate ĉ_j with
-//! E[ĉ_j] = c_j, drawn after the pick from numbers that did not choose it, so the estimate
-//! stays unbiased; and only the k picked spheres pay for their integrals, not the m
-//! candidates (a tenth of the cost of `pir-vsl`'s gather on the glossy Cornell box, when every
-//! candidate's integral was drawn to serve as its p̂).
+//! E[ĉ_j] = c_j. Drawn after the pick, from numbers that did not choose it, or as the
+//! candidate's own p̂ and value (n_j ĉ_j T / (k ĉ_j), whose expectation given ĉ_j is ĉ_j), the
+//! estimate stays unbiased. Only the k picked spheres and the narrow-lobed candidates pay for
+//! their integrals, not all m candidates (`docs/measurements.md`: 3.3× fewer instructions for
+//! `pir-vsl` on the glossy Cornell box than when every candidate's integral was its p̂).
 //!
 //! Why it pays: an iteration can hold many more light paths than a full gather affords, since a
 //! receiver's cost is m kernel evaluations and k rays, not one ray per light; the light paths'

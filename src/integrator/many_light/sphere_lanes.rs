@@ -22,7 +22,6 @@ use std::f32::consts::PI;
 
 use super::lanes::{LANES, VplCoords};
 use super::light_paths::Vpl;
-use super::light_set::tree_light;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 
 /// [`LANES`] spheres, coordinate by coordinate.
@@ -30,9 +29,12 @@ use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 struct Chunk {
     /// The sphere's centre, normals and flux.
     vpl: VplCoords,
-    /// The light's power for [`SphereLanes::estimates`]: as a point light's
-    /// ([`super::light_set::tree_light`]).
-    power: Vec4,
+    /// Φ ∘ ρ̄ / π by channel, ρ̄ the BSDF's reflectance (albedo, plus the specular colour of a
+    /// glossy one), times the adjoint correction's |ω_in · n_s| / |ω_in · n_g|, for
+    /// [`SphereLanes::estimates`].
+    reflected: [Vec4; 3],
+    /// 1 where the sphere's BSDF has a narrow lobe ([`has_narrow_lobe`]), 0 elsewhere.
+    narrow: Vec4,
     radius: Vec4,
     /// π r² as the scalar code forms it, `(π · r) · r`.
     area: Vec4,
@@ -50,7 +52,8 @@ struct Chunk {
 
 const EMPTY_CHUNK: Chunk = Chunk {
     vpl: VplCoords::ZERO,
-    power: Vec4::ZERO,
+    reflected: [Vec4::ZERO; 3],
+    narrow: Vec4::ZERO,
     radius: Vec4::ZERO,
     area: Vec4::ZERO,
     ratio: Vec4::ZERO,
@@ -68,6 +71,28 @@ pub struct ReceiverEnd {
     /// Shading normal.
     n: Vec3,
     diffuse: Option<Vec3>,
+    /// ρ̄ / π of its BSDF, and whether it has a narrow lobe, for [`SphereLanes::estimates`].
+    reflected: Vec3,
+    narrow: bool,
+}
+
+/// GGX alphas below this make a lobe narrow: [`SphereLanes::estimates`] leaves the spheres it
+/// touches to their exact integrals.
+pub const NARROW_LOBE: f32 = 0.2;
+
+/// Whether `bsdf` has a lobe narrower than [`NARROW_LOBE`].
+fn has_narrow_lobe(bsdf: &Bsdf) -> bool {
+    matches!(*bsdf, Bsdf::Glossy { roughness, .. } if roughness < NARROW_LOBE)
+}
+
+/// A BSDF's reflectance ρ̄ by channel: its albedo, plus its specular colour if glossy (zero for
+/// delta BSDFs, which hold no VPL and gather nothing).
+fn reflectance(bsdf: &Bsdf) -> Vec3 {
+    match *bsdf {
+        Bsdf::Diffuse { albedo } => albedo,
+        Bsdf::Glossy { albedo, specular, .. } => albedo + specular,
+        Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
+    }
 }
 
 impl ReceiverEnd {
@@ -79,7 +104,14 @@ impl ReceiverEnd {
             Bsdf::Diffuse { albedo } if wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0 => Some(albedo),
             _ => None,
         };
-        ReceiverEnd { x, ng: g.ng, n, diffuse }
+        ReceiverEnd {
+            x,
+            ng: g.ng,
+            n,
+            diffuse,
+            reflected: reflectance(bsdf) / PI,
+            narrow: has_narrow_lobe(bsdf),
+        }
     }
 }
 
@@ -103,7 +135,15 @@ impl SphereLanes {
             }
             let r = radii[j];
             c.vpl.set(i, v);
-            c.power[i] = tree_light(v, &bsdfs[j], true, r).intensity;
+            // The light's adjoint shading-normal correction turns its shading cosine towards
+            // the receiver into the geometric one times |ω_in · n_s| / |ω_in · n_g|.
+            let correction = (v.w_in.dot(v.frame.n) / v.w_in.dot(v.ng)).abs();
+            let correction = if correction.is_finite() { correction } else { 0.0 };
+            let reflected = v.flux * reflectance(&bsdfs[j]) * (correction / PI);
+            for k in 0..3 {
+                c.reflected[k][i] = reflected[k];
+            }
+            c.narrow[i] = if has_narrow_lobe(&bsdfs[j]) { 1.0 } else { 0.0 };
             c.radius[i] = r;
             c.depth[i] = v.depth as f32;
             // The scalar closed form's conditions at the sphere.
@@ -128,17 +168,22 @@ impl SphereLanes {
     }
 
     /// A cheap estimate p̂ of each lane's contribution at the receiver `x`, for the resampled
-    /// gather ([`super::resample`]), as [`super::lanes::VplLanes::estimates`] is for point
-    /// lights: power × the largest shading cosine over the cone at each end × Ω / (π r²), the
-    /// factor by which the cone's solid angle Ω turns the sphere's radiance into irradiance
-    /// (1 / d² for a far sphere, 2 / r² around the receiver, so finite); zero for the spheres
-    /// with more than `max_depth` segments and where [`Self::without_sampling`] is done with a
-    /// zero (no cone, or no light in it). It leaves out the BSDFs' shapes, so it is not the
-    /// contribution, but it is positive wherever the contribution can be: where the cone
-    /// reaches in front of all four planes (each cosine is floored at a tiny positive number
-    /// in the margin that `no_light_in` leaves), which is all that unbiasedness needs.
+    /// gather ([`super::resample`]), in the contribution's units: the integral with both ends
+    /// taken as Lambertian of their reflectance ρ̄ and each cosine at its largest over the
+    /// cone, Σ over channels of Φ ∘ ρ̄_p / π ∘ ρ̄_x / π × cos_x × cos_p × Ω / (π r²) (Ω the
+    /// cone's solid angle: 1 / d² far away, 2 / r² around the receiver). For a Lambertian pair
+    /// it bounds the contribution from above (both cosines bounded, the rest exact), so a
+    /// pick's weight is at most T / k; a glossy end whose lobe is wider than [`NARROW_LOBE`]
+    /// exceeds it by a bounded factor (its peak over its reflectance). The spheres with a
+    /// narrower lobe at either end have no such bound and are returned in the mask (bit per
+    /// lane): the caller evaluates their contributions and uses those as p̂. Zero for the
+    /// spheres with more than `max_depth` segments and where [`Self::without_sampling`] is
+    /// done with a zero (no cone, or no light in it); positive wherever the contribution can
+    /// be, where the cone reaches in front of all four planes (each cosine is floored at a
+    /// tiny positive number in the margin that `no_light_in` leaves), which is all that
+    /// unbiasedness needs.
     #[inline]
-    pub fn estimates(&self, chunk: usize, x: &ReceiverEnd, max_depth: u32) -> Vec4 {
+    pub fn estimates(&self, chunk: usize, x: &ReceiverEnd, max_depth: u32) -> (Vec4, u32) {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         let d = [q.vpl.p[0] - s(x.x.x), q.vpl.p[1] - s(x.x.y), q.vpl.p[2] - s(x.x.z)];
@@ -163,7 +208,10 @@ impl SphereLanes {
         let solid =
             Vec4::select(inside, s(2.0) / (q.radius * q.radius), s(2.0) / (dist2 * (s(1.0) + cos_cone)));
         let floor = s(1e-6);
-        let g = widest(na).max(floor) * widest(sa).max(floor) * solid;
+        let rho = x.reflected;
+        let reflected = q.reflected[0] * s(rho.x) + q.reflected[1] * s(rho.y) + q.reflected[2] * s(rho.z);
+        // The receiver's shading cosine, the sphere's geometric one (the adjoint correction).
+        let p = reflected * widest(na).max(floor) * widest(ma).max(floor) * solid;
         // Where without_sampling returns zero; the same margin as no_light_in.
         let behind = -(sin_max + s(1e-4));
         let same_normal =
@@ -176,8 +224,8 @@ impl SphereLanes {
             | ma.cmplt(behind)
             | sa.cmplt(behind);
         let active = q.depth.cmple(s(max_depth as f32)) & !dark;
-        let p = q.power * g;
-        Vec4::select(active & p.is_finite_mask(), p, Vec4::ZERO)
+        let narrow = active & (q.narrow.cmpgt(Vec4::ZERO) | BVec4A::splat(x.narrow));
+        (Vec4::select(active & p.is_finite_mask(), p, Vec4::ZERO), narrow.bitmask())
     }
 
     /// Φ / (π r²) · ∫_cone f_x cos_x f_p cos_p dω of the spheres of chunk `chunk` with at most
@@ -408,40 +456,66 @@ mod tests {
 
     /// The resampled gather's estimates are positive wherever a sphere's contribution can be
     /// (so that no light with light to give is left out: unbiasedness), and zero for the
-    /// spheres beyond the depth, the inactive ones, and where the lanes are done with a zero
-    /// (the cases of [`Case`], each sampled sphere's contribution drawn with several seeds).
+    /// spheres beyond the depth, the inactive ones, and where the lanes are done with a zero;
+    /// they bound a Lambertian pair's contribution from above, and name exactly the spheres
+    /// with a narrow lobe at either end for exact evaluation (the cases of [`Case`], each
+    /// sampled sphere's contribution drawn with several seeds).
     #[test]
     fn estimates_are_positive_wherever_a_sphere_gives_light() {
         let mut s = Sampler::new(6, 0, Domain::LightPath, 0);
-        let (mut lit, mut dark) = (0, 0);
+        let (mut lit, mut dark, mut narrow_count) = (0, 0, 0);
         for round in 0..300 {
-            let case = Case::new(round, &mut s);
+            let mut case = Case::new(round, &mut s);
+            // Narrow lobes at some receivers and some spheres.
+            if round % 5 == 4
+                && let Bsdf::Glossy { ref mut roughness, .. } = case.bsdf_x
+            {
+                *roughness = 0.05;
+            }
+            for (j, b) in case.bsdfs.iter_mut().enumerate() {
+                if let Bsdf::Glossy { ref mut roughness, .. } = *b
+                    && j % 2 == 0
+                {
+                    *roughness = 0.1;
+                }
+            }
             let (lanes, end) = (case.lanes(), case.end());
             let max_depth = 2;
             for c in 0..lanes.chunks() {
-                let p = lanes.estimates(c, &end, max_depth);
+                let (p, narrow) = lanes.estimates(c, &end, max_depth);
                 let (_, done) = lanes.without_sampling(c, &end, max_depth);
                 for i in 0..LANES {
                     let j = c * LANES + i;
                     assert!(p[i] >= 0.0 && p[i].is_finite(), "{j}: {}", p[i]);
                     let beyond = case.vpls.get(j).is_none_or(|v| v.depth > max_depth);
                     if beyond || !case.emitting[j].is_active() {
-                        assert_eq!(p[i], 0.0, "{j}");
+                        assert_eq!((p[i], narrow >> i & 1), (0.0, 0), "{j}");
                         continue;
                     }
-                    let gives = (1..=8).any(|seed| case.scalar(j, seed).0 != Vec3::ZERO);
-                    if gives {
+                    let draws: Vec<Vec3> = (1..=8).map(|seed| case.scalar(j, seed).0).collect();
+                    if draws.iter().any(|&c| c != Vec3::ZERO) {
                         assert!(p[i] > 0.0, "{j}: lights the receiver but has no estimate");
                         lit += 1;
                     } else {
                         dark += 1;
                     }
-                    if done >> i & 1 == 1 && case.scalar(j, 1).0 == Vec3::ZERO {
+                    if done >> i & 1 == 1 && draws[0] == Vec3::ZERO {
                         assert_eq!(p[i], 0.0, "{j}: no light in its cone, yet an estimate");
+                    }
+                    let want_narrow =
+                        p[i] > 0.0 && (has_narrow_lobe(&case.bsdf_x) || has_narrow_lobe(&case.bsdfs[j]));
+                    assert_eq!(narrow >> i & 1 == 1, want_narrow, "{j}");
+                    narrow_count += usize::from(want_narrow);
+                    // A Lambertian pair's closed form stays below its estimate.
+                    if done >> i & 1 == 1 && draws[0] != Vec3::ZERO {
+                        assert!(draws[0].element_sum() <= p[i] * 1.0001, "{j}: {} > {}", draws[0], p[i]);
                     }
                 }
             }
         }
-        assert!(lit > 1000 && dark > 300, "{lit} lit, {dark} dark");
+        assert!(
+            lit > 1000 && dark > 300 && narrow_count > 100,
+            "{lit} lit, {dark} dark, {narrow_count} narrow"
+        );
     }
 }
