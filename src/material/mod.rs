@@ -96,6 +96,17 @@ pub struct BsdfSample {
 }
 
 impl Bsdf {
+    /// Its reflectance ρ̄ by channel, for the many-light methods' estimates: the albedo, plus
+    /// the specular colour of a glossy one (zero for delta BSDFs, which hold no VPL and
+    /// gather nothing).
+    pub fn reflectance(&self) -> Vec3 {
+        match *self {
+            Bsdf::Diffuse { albedo } => albedo,
+            Bsdf::Glossy { albedo, specular, .. } => albedo + specular,
+            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
+        }
+    }
+
     /// True for materials that have only delta lobes (mirror, glass).
     pub fn is_delta(&self) -> bool {
         matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })

@@ -291,20 +291,16 @@ impl SphereLights {
                     cands.push(block * LANES, p)
                 },
                 |j, factor, sampler| {
-                    let (chunk, lane) = (j / LANES, j % LANES);
                     let evaluated = exact.borrow().iter().find(|e| e.0 == j).map(|e| e.1);
                     let c = match evaluated {
                         Some(c) => c,
                         None => {
-                            let (rgb, done) = match chunk_done {
-                                Some((c, rgb, done)) if c == chunk => (rgb, done),
-                                _ => {
-                                    let (rgb, done) =
-                                        self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
-                                    chunk_done = Some((chunk, rgb, done));
-                                    (rgb, done)
-                                }
-                            };
+                            let (chunk, lane) = (j / LANES, j % LANES);
+                            if chunk_done.is_none_or(|(c, ..)| c != chunk) {
+                                let (rgb, done) = self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
+                                chunk_done = Some((chunk, rgb, done));
+                            }
+                            let (_, rgb, done) = chunk_done.expect("filled just above");
                             // A lane that is not done has an estimate only if the sphere is
                             // within the depth and active, so it is sampled as a whole gather
                             // would sample it.

@@ -174,12 +174,7 @@ impl Lights {
 /// (`active`). Either way the intensity is 0 only when every channel of Φ ∘ f_p is 0 in every
 /// direction: the light contributes nothing anywhere.
 pub fn tree_light(v: &Vpl, bsdf: &Bsdf, active: bool, radius: f32) -> TreeLight {
-    let reflectance = match *bsdf {
-        Bsdf::Diffuse { albedo } => albedo,
-        Bsdf::Glossy { albedo, specular, .. } => albedo + specular,
-        Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
-    };
-    let intensity = if active { (v.flux * reflectance).max(Vec3::ZERO).element_sum() } else { 0.0 };
+    let intensity = if active { (v.flux * bsdf.reflectance()).max(Vec3::ZERO).element_sum() } else { 0.0 };
     // Non-finite (never in practice): the largest intensity, still sampled.
     TreeLight { p: v.p, ng: v.ng, intensity: intensity.min(f32::MAX), depth: v.depth, radius }
 }

@@ -85,16 +85,6 @@ fn has_narrow_lobe(bsdf: &Bsdf) -> bool {
     matches!(*bsdf, Bsdf::Glossy { roughness, .. } if roughness < NARROW_LOBE)
 }
 
-/// A BSDF's reflectance ρ̄ by channel: its albedo, plus its specular colour if glossy (zero for
-/// delta BSDFs, which hold no VPL and gather nothing).
-fn reflectance(bsdf: &Bsdf) -> Vec3 {
-    match *bsdf {
-        Bsdf::Diffuse { albedo } => albedo,
-        Bsdf::Glossy { albedo, specular, .. } => albedo + specular,
-        Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
-    }
-}
-
 impl ReceiverEnd {
     /// The receiver at `x` (geometry `g`, BSDF `bsdf`, outgoing direction `wo`), whose BSDF
     /// reflects something towards `wo`.
@@ -109,7 +99,7 @@ impl ReceiverEnd {
             ng: g.ng,
             n,
             diffuse,
-            reflected: reflectance(bsdf) / PI,
+            reflected: bsdf.reflectance() / PI,
             narrow: has_narrow_lobe(bsdf),
         }
     }
@@ -135,11 +125,12 @@ impl SphereLanes {
             }
             let r = radii[j];
             c.vpl.set(i, v);
+            let (in_ns, in_ng) = (v.w_in.dot(v.frame.n), v.w_in.dot(v.ng));
             // The light's adjoint shading-normal correction turns its shading cosine towards
             // the receiver into the geometric one times |ω_in · n_s| / |ω_in · n_g|.
-            let correction = (v.w_in.dot(v.frame.n) / v.w_in.dot(v.ng)).abs();
+            let correction = (in_ns / in_ng).abs();
             let correction = if correction.is_finite() { correction } else { 0.0 };
-            let reflected = v.flux * reflectance(&bsdfs[j]) * (correction / PI);
+            let reflected = v.flux * bsdfs[j].reflectance() * (correction / PI);
             for k in 0..3 {
                 c.reflected[k][i] = reflected[k];
             }
@@ -147,7 +138,6 @@ impl SphereLanes {
             c.radius[i] = r;
             c.depth[i] = v.depth as f32;
             // The scalar closed form's conditions at the sphere.
-            let (in_ns, in_ng) = (v.w_in.dot(v.frame.n), v.w_in.dot(v.ng));
             if let Bsdf::Diffuse { albedo } = bsdfs[j]
                 && in_ns > 0.0
                 && in_ng > 0.0
