@@ -23,7 +23,7 @@ use pir::accel::{Backend, build_accelerator};
 use pir::integrator::many_light::light_set::LightSet;
 use pir::integrator::many_light::light_tree::LightTree;
 use pir::integrator::many_light::mis::Weighing;
-use pir::integrator::many_light::tree_gather::{Kernel, Pick, Receiver, stratified};
+use pir::integrator::many_light::tree_gather::{Kernel, Lobe, Pick, Receiver, stratified};
 use pir::integrator::many_light::{Vpl, trace_vpls};
 use pir::integrator::walker::Vertex;
 use pir::integrator::{Clamping, Counters, Gather, RenderContext, VirtualLights};
@@ -130,12 +130,13 @@ fn bench(c: &mut Criterion) {
     };
     let rxs: Vec<Receiver> = receivers
         .iter()
-        .map(|(sp, _)| Receiver {
+        .map(|(sp, wo)| Receiver {
             p: sp.p,
             ng: sp.ng,
             ns: sp.frame.n,
             max_depth: max_vpl_depth,
             kernel: Kernel::Point { bound },
+            lobe: Lobe::of(&scene.material(sp.material).bsdf, sp.frame.n, *wo),
         })
         .collect();
     let trees: Vec<(usize, LightTree)> = COUNTS

@@ -23,7 +23,7 @@ use super::mis::Weighing;
 use super::resample::resample;
 use super::shadow_batch::{ShadowBatch, with_shadow_batch};
 use super::spheres::{SphereLights, SphereReceiver};
-use super::tree_gather::{Kernel, Pick, Receiver};
+use super::tree_gather::{Kernel, Lobe, Pick, Receiver};
 use crate::geometry::OffsetPoint;
 use crate::integrator::direct::shadow_segment;
 use crate::integrator::walker::Vertex;
@@ -100,7 +100,14 @@ fn sample_lights(
         Lights::Points(p) => Kernel::Point { bound: p.bound },
         Lights::Spheres(_) => Kernel::Sphere,
     };
-    let rx = Receiver { p: sp.p, ng: sp.ng, ns: sp.frame.n, max_depth: max_vpl_depth, kernel };
+    let rx = Receiver {
+        p: sp.p,
+        ng: sp.ng,
+        ns: sp.frame.n,
+        max_depth: max_vpl_depth,
+        kernel,
+        lobe: Lobe::of(v.bsdf, sp.frame.n, v.wo),
+    };
     tree.sample_stratified(&rx, k, sampler, |p| picks.push(p));
     picks
 }
