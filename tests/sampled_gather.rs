@@ -95,26 +95,35 @@ fn resampled_spheres_converge_on_glossy_receivers() {
     assert_eq!(all.stats.dropped + sampled.stats.dropped, 0);
 }
 
-/// The light tree on glossy receivers, whose descents mix the geometric importance with the
-/// receiver's GGX lobe: `pir-clamp` and `pir-vsl` on the glossy Cornell box (GGX floor and
-/// boxes, α 0.22–0.24) with `--gather tree` converge to the exhaustive gather's image, as above
-/// (|t| < 4.5 per channel, 160 iterations for the skew of glossy picks' weights).
+/// The sampled gathers on glossy receivers, whose draws follow the receiver's GGX lobe (the
+/// tree's descents mix it with the geometric importance; the resampled gather's estimate of a
+/// point light includes it): `pir-clamp` (tree and resample) and `pir-vsl` (tree) on the glossy
+/// Cornell box (GGX floor and boxes, α 0.22–0.24) converge to the exhaustive gather's image,
+/// as above (|t| < 4.5 per channel, 160 iterations for the skew of glossy picks' weights).
 #[test]
-fn the_tree_converges_on_glossy_receivers() {
+fn sampled_gathers_converge_on_glossy_receivers() {
     let scene = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/glossy.toml")).unwrap();
     let job = Job { width: 32, height: 32, iterations: 160, seed: 8, ..Job::default() };
     let b1 = Clamping::default_bound(scene.bounds().diagonal());
-    for (name, lights) in [
-        ("pir-clamp", VirtualLights::Points(Clamping::progressive(b1))),
-        ("pir-vsl", VirtualLights::Spheres { radius: Radius::Density, alpha: Some(0.6) }),
-    ] {
+    let points = VirtualLights::Points(Clamping::progressive(b1));
+    let spheres = VirtualLights::Spheres { radius: Radius::Density, alpha: Some(0.6) };
+    let tree = Gather::Tree { samples: 4 };
+    let resample = Gather::Resampled { candidates: 16, samples: 4 };
+    for (name, lights, gathers) in
+        [("pir-clamp", points, vec![tree, resample]), ("pir-vsl", spheres, vec![tree])]
+    {
         let all = job.run(&scene, &mut InstantRadiosity::new(lights, 32));
-        let gather = Gather::Tree { samples: 4 };
-        let sampled = job.run(&scene, &mut InstantRadiosity::new(lights, 32).with_gather(gather));
-        let z = paired_z(&sampled, &all);
-        eprintln!("{name}: all {:?} tree {:?}, paired t {z:.2?}", all.image().mean(), sampled.image().mean());
-        assert!(z.iter().all(|z| z.abs() < 4.5), "{name}: t = {z:?}");
-        assert_eq!(all.stats.dropped + sampled.stats.dropped, 0, "{name}");
+        for gather in gathers {
+            let sampled = job.run(&scene, &mut InstantRadiosity::new(lights, 32).with_gather(gather));
+            let z = paired_z(&sampled, &all);
+            eprintln!(
+                "{name} {gather:?}: all {:?} sampled {:?}, paired t {z:.2?}",
+                all.image().mean(),
+                sampled.image().mean()
+            );
+            assert!(z.iter().all(|z| z.abs() < 4.5), "{name} {gather:?}: t = {z:?}");
+            assert_eq!(all.stats.dropped + sampled.stats.dropped, 0, "{name} {gather:?}");
+        }
     }
 }
 

@@ -19,11 +19,12 @@ use super::lanes::{DiffuseReceiver, LANES, LaneKind};
 use super::light_paths::Vpl;
 use super::light_set::{LightSet, Lights, PointLights, Selection};
 use super::light_tree::LightTree;
-use super::mis::Weighing;
+use super::lobe::Lobe;
+use super::mis::{Technique, Weighing};
 use super::resample::resample;
 use super::shadow_batch::{ShadowBatch, with_shadow_batch};
 use super::spheres::{SphereLights, SphereReceiver};
-use super::tree_gather::{Kernel, Lobe, Pick, Receiver};
+use super::tree_gather::{Kernel, Pick, Receiver};
 use crate::geometry::OffsetPoint;
 use crate::integrator::direct::shadow_segment;
 use crate::integrator::walker::Vertex;
@@ -59,7 +60,9 @@ impl LightSet {
                 }
                 (lights, Selection::Tree { tree, samples: k }) => {
                     let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-                    let picks = sample_lights(tree, *k, lights, v, fx.is_active(), max_vpl_depth, sampler);
+                    let lobe = receiver_lobe(v, weighing);
+                    let picks =
+                        sample_lights(tree, *k, lights, v, lobe, fx.is_active(), max_vpl_depth, sampler);
                     match lights {
                         Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, weighing, batch),
                         Lights::Spheres(s) => s.queue_sampled(v, &picks, *k, sampler, batch),
@@ -76,13 +79,25 @@ impl LightSet {
     }
 }
 
+/// The receiver's lobe at `v` for the sampled gathers' draws ([`Lobe`]), for the thesis' plain
+/// sum only: a weighed connection in a glossy lobe is mostly left to BSDF sampling, so its
+/// weighted value does not follow the lobe, and `pir-mis` and `pir-bdpt` draw as before.
+fn receiver_lobe(v: &Vertex, weighing: &Weighing) -> Option<Lobe> {
+    match weighing.technique {
+        Technique::Plain => Lobe::of(v.bsdf, v.sp.frame.n, v.wo),
+        _ => None,
+    }
+}
+
 /// Draws the k lights of the sampled gather at `v` (k numbers from `sampler`, always); none
 /// unless the receiver is `active` (reflects anything towards `v.wo`).
+#[allow(clippy::too_many_arguments)]
 fn sample_lights(
     tree: &LightTree,
     k: usize,
     lights: &Lights,
     v: &Vertex,
+    lobe: Option<Lobe>,
     active: bool,
     max_vpl_depth: u32,
     sampler: &mut Sampler,
@@ -100,14 +115,7 @@ fn sample_lights(
         Lights::Points(p) => Kernel::Point { bound: p.bound },
         Lights::Spheres(_) => Kernel::Sphere,
     };
-    let rx = Receiver {
-        p: sp.p,
-        ng: sp.ng,
-        ns: sp.frame.n,
-        max_depth: max_vpl_depth,
-        kernel,
-        lobe: Lobe::of(v.bsdf, sp.frame.n, v.wo),
-    };
+    let rx = Receiver { p: sp.p, ng: sp.ng, ns: sp.frame.n, max_depth: max_vpl_depth, kernel, lobe };
     tree.sample_stratified(&rx, k, sampler, |p| picks.push(p));
     picks
 }
@@ -162,6 +170,7 @@ impl PointLights {
         // The picked lights' contributions: Lambertian pairs by the four-wide kernel, a chunk
         // at a time (picks come in light order), the others one by one.
         let receiver = DiffuseReceiver::new(sp, &fx);
+        let lobe = receiver_lobe(v, weighing);
         let mut chunk_done: Option<(usize, [Vec3; LANES])> = None;
         resample(
             self.lanes.chunks(),
@@ -170,7 +179,15 @@ impl PointLights {
             fx.is_active(),
             sampler,
             |cands, chunk, _| {
-                let p = self.lanes.estimates(chunk, sp.p, sp.ng, sp.frame.n, self.bound, max_vpl_depth);
+                let p = self.lanes.estimates(
+                    chunk,
+                    sp.p,
+                    sp.ng,
+                    sp.frame.n,
+                    self.bound,
+                    max_vpl_depth,
+                    lobe.as_ref(),
+                );
                 cands.push(chunk * LANES, p);
             },
             |j, factor, _| {

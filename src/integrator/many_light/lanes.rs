@@ -17,6 +17,7 @@ use glam::{Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 
 use super::light_paths::Vpl;
+use super::lobe::Lobe;
 use crate::geometry::OffsetPoint;
 use crate::material::{PreparedBsdf, PreparedDiffuse, TransportMode, shading_correction};
 use crate::scene::SurfacePoint;
@@ -173,12 +174,26 @@ impl VplLanes {
     /// normal `ng` and shading normal `ns`, for the resampled gather
     /// ([`super::resample`]): power × min(G, `bound`), with G = cos_x cos_p / d² from the
     /// shading normals, where both shading and both geometric cosines are positive and the
-    /// light has at most `max_depth` segments; zero elsewhere. It leaves out the BSDFs' shapes
-    /// (a glossy lobe, the adjoint correction), so it is not the contribution, but it is
-    /// positive wherever the contribution is (every BSDF of a VPL or a receiver reflects only
-    /// into the hemisphere of both its normals), which is all that unbiasedness needs.
+    /// light has at most `max_depth` segments; zero elsewhere. With a receiver's `lobe`
+    /// ([`Lobe`]) the receiver's f enters: power × (ρ_d/π · min(G, `bound`) + ρ_s D(θ/2) /
+    /// (4 cos θ_o) · min(cos_p / d², `bound`)), θ the angle between the direction to the light
+    /// and the mirror direction, the lobe's bound on f · cos θ_i (unclamped, an upper bound of
+    /// the receiver's side). It leaves out the VPL's BSDF shape (its lobe, the adjoint
+    /// correction), so it is not the contribution, but it is positive wherever the
+    /// contribution is (every BSDF of a VPL or a receiver reflects only into the hemisphere of
+    /// both its normals), which is all that unbiasedness needs.
     #[inline]
-    pub fn estimates(&self, chunk: usize, x: Vec3, ng: Vec3, ns: Vec3, bound: f32, max_depth: u32) -> Vec4 {
+    #[allow(clippy::too_many_arguments)]
+    pub fn estimates(
+        &self,
+        chunk: usize,
+        x: Vec3,
+        ng: Vec3,
+        ns: Vec3,
+        bound: f32,
+        max_depth: u32,
+        lobe: Option<&Lobe>,
+    ) -> Vec4 {
         let q = &self.chunks[chunk];
         let s = Vec4::splat;
         let zero = Vec4::ZERO;
@@ -192,13 +207,24 @@ impl VplLanes {
         let p_ng = -(dx * q.vpl.ng[0] + dy * q.vpl.ng[1] + dz * q.vpl.ng[2]);
         let p_ns = -(dx * q.vpl.ns[0] + dy * q.vpl.ns[1] + dz * q.vpl.ns[2]);
         let g = (x_ns * p_ns / (dist2 * dist2)).min(s(bound));
+        let value = match lobe {
+            None => g,
+            Some(l) => {
+                // Inactive lanes (dist2 = 0 among them) are masked below.
+                let dist = Vec4::new(dist2.x.sqrt(), dist2.y.sqrt(), dist2.z.sqrt(), dist2.w.sqrt());
+                let r = l.mirror();
+                let cos_r = (dx * s(r.x) + dy * s(r.y) + dz * s(r.z)) / dist;
+                let g1 = (p_ns / (dist2 * dist)).min(s(bound));
+                s(l.diffuse()) * g + l.bound4(cos_r.clamp(s(-1.0), s(1.0))) * g1
+            }
+        };
         let active = q.any_depth.cmple(s(max_depth as f32))
             & x_ng.cmpgt(zero)
             & x_ns.cmpgt(zero)
             & p_ng.cmpgt(zero)
             & p_ns.cmpgt(zero)
             & dist2.cmpgt(zero);
-        Vec4::select(active, q.power * g, zero)
+        Vec4::select(active, q.power * value, zero)
     }
 
     /// VPL `j`'s end of its shadow rays.
@@ -409,11 +435,12 @@ mod tests {
             let (ng, frame) = normals(&mut s);
             let bsdf_x =
                 if round % 2 == 0 { glossy(Vec3::splat(0.3)) } else { Bsdf::Diffuse { albedo: Vec3::ONE } };
-            let fx =
-                PreparedBsdf::new(bsdf_x, LocalGeometry { ng, frame }, unit(&mut s), TransportMode::Radiance);
+            let wo = unit(&mut s);
+            let fx = PreparedBsdf::new(bsdf_x, LocalGeometry { ng, frame }, wo, TransportMode::Radiance);
+            let lobe = Lobe::of(&bsdf_x, frame.n, wo);
             let bound = [f32::INFINITY, 1.0][round % 2];
             for c in 0..lanes.chunks() {
-                let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2);
+                let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2, lobe.as_ref());
                 for i in 0..LANES {
                     let j = c * LANES + i;
                     if j >= n {

@@ -50,6 +50,7 @@ pub mod lanes;
 pub mod light_paths;
 pub mod light_set;
 pub mod light_tree;
+pub mod lobe;
 pub mod mis;
 pub mod resample;
 pub mod schedule;

@@ -68,15 +68,9 @@
 //! - l = I · ρ_s D'(θ_c / 2) / (4 cos θ_o) · G̃₁ where cos_x > 0 (else 0): ρ_s the mean
 //!   specular reflectance, θ_c the angle between r and the direction to the box centre, G̃₁
 //!   the G̃ above with the receiver's cosine set to 1, and D' the GGX distribution widened by
-//!   the node's angular radius θ_b, α' = min(1, α + [`SPREAD`] · tan(θ_b / 2)) (α' = 1 is
+//!   the node's angular radius θ_b, α' = min(1, α + [`SPREAD`](super::lobe::SPREAD) · tan(θ_b / 2)) (α' = 1 is
 //!   uniform); inside the box's sphere, D' is uniform. At a point light's leaf θ_b = 0: the
-//!   light's own direction and the receiver's α. Why this shape: the specular part of
-//!   f · cos θ_i is at most ρ_s D(h) / (4 cos θ_o), since G1 ≤ 1 and the scene format's glossy
-//!   lobe has no Fresnel; and for ω_i at angle θ from r the half vector h lies at least θ/2
-//!   from the normal n, since ω_i = −H_h ω_o and r = −H_n ω_o (H the reflection through the
-//!   plane normal to h or n), so r = H_n H_h ω_i, a rotation by 2∠(h, n), which moves no
-//!   direction by more than that angle. D of a half angle is in closed form:
-//!   cos² (θ/2) = (1 + cos θ)/2.
+//!   light's own direction and the receiver's α. (Why D of half the angle from r: [`Lobe`].)
 //!
 //! A node's importance is w = ½ g / g_root + ½ l / l_root, each part normalized by its value at
 //! the root for this receiver. Were the importances sums over their leaves, a leaf's probability
@@ -103,13 +97,10 @@
 //!
 //! Everything else is viable and gets at least ε/2 at its branch.
 
-use std::f32::consts::PI;
-
 use glam::Vec3;
 
 use super::light_tree::{LightTree, Node};
-use crate::material::Bsdf;
-use crate::material::ggx::Ggx;
+pub use super::lobe::Lobe;
 use crate::sampling::Sampler;
 
 /// The weight ε of the uniform choice mixed into every branch (see the module docs).
@@ -145,59 +136,6 @@ pub struct Receiver {
     pub kernel: Kernel,
     /// The receiver's glossy lobe ([`Lobe::of`]); `None` for a Lambertian receiver.
     pub lobe: Option<Lobe>,
-}
-
-/// How much a node's angular radius widens the lobe it is weighed by: α' = α + [`SPREAD`] ·
-/// tan(θ_b / 2) (chosen among 0.25, 0.5 and 1 by the relative MSE of `pir-clamp` and
-/// `pir-vsl --gather tree` on the glossy scenes, four seeds each: `docs/measurements.md`).
-pub const SPREAD: f32 = 0.25;
-
-/// A glossy receiver's specular lobe as the importance weighs it (the module docs, "The
-/// receiver's lobe").
-#[derive(Clone, Copy, Debug)]
-pub struct Lobe {
-    /// The unit mirror direction of ω_o about the shading normal.
-    mirror: Vec3,
-    /// GGX α of the receiver.
-    alpha: f32,
-    /// ρ_s / (π cos θ_o): with 4 / (α'² t²) the lobe's ρ_s D'(θ/2) / (4 cos θ_o).
-    scale: f32,
-}
-
-impl Lobe {
-    /// The lobe of `bsdf` at a receiver with unit shading normal `ns`, seen from the unit
-    /// direction `wo`; `None` when the BSDF has no specular lobe (a Lambertian receiver weighs
-    /// every node alike) or `wo` is not above the shading horizon (the receiver reflects
-    /// nothing).
-    pub fn of(bsdf: &Bsdf, ns: Vec3, wo: Vec3) -> Option<Lobe> {
-        let Bsdf::Glossy { specular, roughness, .. } = *bsdf else {
-            return None;
-        };
-        let cos_o = ns.dot(wo);
-        let rho_s = specular.max(Vec3::ZERO).element_sum() / 3.0;
-        if !(cos_o > 0.0 && rho_s > 0.0) {
-            return None;
-        }
-        let scale = rho_s / (PI * cos_o);
-        scale.is_finite().then(|| Lobe {
-            mirror: (2.0 * cos_o * ns - wo).normalize_or(ns),
-            alpha: Ggx::new(roughness).alpha(),
-            scale,
-        })
-    }
-
-    /// ρ_s D'(θ/2) / (4 cos θ_o) towards a direction at angle θ from the mirror direction,
-    /// cos θ = `c`, for a node of angular radius θ_b, tan(θ_b / 2) = `tan_half`: D' is GGX of
-    /// α' = min(1, α + [`SPREAD`] · tan(θ_b / 2)) (α' = 1 is the uniform distribution, 1/π),
-    /// and with cos² (θ/2) = (1 + c)/2, sin² (θ/2) = (1 − c)/2,
-    /// D' = 1 / (π α'² (sin²/α'² + cos²)²) = 4 / (π α'² ((1 − c)/α'² + 1 + c)²).
-    #[inline(always)]
-    fn value(&self, c: f32, tan_half: f32) -> f32 {
-        let a = (self.alpha + SPREAD * tan_half).min(1.0);
-        let a2 = a * a;
-        let t = (1.0 - c) / a2 + 1.0 + c;
-        self.scale / (a2 * t * t)
-    }
 }
 
 /// cos(θ_a − θ_b) for θ_a − θ_b clamped at 0 (from the sines and cosines; pbrt-v4's form).
@@ -330,12 +268,12 @@ impl Prepared {
             let cos_x = cos_sub_clamped(safe_sqrt(1.0 - cos_i * cos_i), cos_i, sin_b, cos_b);
             // The lobe towards the box centre, widened by the node's angular radius.
             let spec = match &self.lobe {
-                Some(l) => l.value(l.mirror.dot(w), sin_b / (1.0 + cos_b)),
+                Some(l) => l.widened(l.mirror().dot(w), sin_b / (1.0 + cos_b)),
                 None => 0.0,
             };
             (cos_x.max(0.0), cos_p.max(0.0), spec)
         } else {
-            (1.0, 1.0, self.lobe.map_or(0.0, |l| l.value(1.0, f32::INFINITY)))
+            (1.0, 1.0, self.lobe.map_or(0.0, |l| l.widened(1.0, f32::INFINITY)))
         };
         // The distance to the box's centre, at least its half-diagonal (Conty and Kulla; pbrt-v4
         // floors it likewise): a leaf gets its light's exact G, and a node around or near the
