@@ -172,14 +172,16 @@ impl VplLanes {
 
     /// A cheap estimate p̂ of each lane's contribution at a receiver at `x` with geometric
     /// normal `ng` and shading normal `ns`, for the resampled gather
-    /// ([`super::resample`]): power × min(G, `bound`), with G = cos_x cos_p / d² from the
-    /// shading normals, where both shading and both geometric cosines are positive and the
-    /// light has at most `max_depth` segments; zero elsewhere. With a receiver's `lobe`
+    /// ([`super::resample`]): power × min(G, `bound`), with G = cos_x cos_p / d², cos_x from
+    /// the receiver's shading normal and cos_p from the light's geometric one (power holds the
+    /// light's adjoint correction factor, [`super::light_set::tree_light`]: together the
+    /// light's side is exact for a Lambertian VPL), where both shading and both geometric
+    /// cosines are positive and the light has at most `max_depth` segments; zero elsewhere. With a receiver's `lobe`
     /// ([`Lobe`]) the receiver's f enters: power × (ρ_d/π · min(G, `bound`) + ρ_s D(θ/2) /
     /// (4 cos θ_o) · min(cos_p / d², `bound`)), θ the angle between the direction to the light
     /// and the mirror direction, the lobe's bound on f · cos θ_i (unclamped, an upper bound of
-    /// the receiver's side). It leaves out the VPL's BSDF shape (its lobe, the adjoint
-    /// correction), so it is not the contribution, but it is positive wherever the
+    /// the receiver's side). It leaves out the shape of a glossy VPL's BSDF, so it is not the
+    /// contribution, but it is positive wherever the
     /// contribution is (every BSDF of a VPL or a receiver reflects only into the hemisphere of
     /// both its normals), which is all that unbiasedness needs.
     #[inline]
@@ -206,7 +208,9 @@ impl VplLanes {
         let x_ns = dx * s(ns.x) + dy * s(ns.y) + dz * s(ns.z);
         let p_ng = -(dx * q.vpl.ng[0] + dy * q.vpl.ng[1] + dz * q.vpl.ng[2]);
         let p_ns = -(dx * q.vpl.ns[0] + dy * q.vpl.ns[1] + dz * q.vpl.ns[2]);
-        let g = (x_ns * p_ns / (dist2 * dist2)).min(s(bound));
+        // The light's shading cosine times its adjoint correction is its geometric cosine
+        // times the correction's constant factor, which `power` holds.
+        let g = (x_ns * p_ng / (dist2 * dist2)).min(s(bound));
         let value = match lobe {
             None => g,
             Some(l) => {
@@ -214,7 +218,7 @@ impl VplLanes {
                 let dist = Vec4::new(dist2.x.sqrt(), dist2.y.sqrt(), dist2.z.sqrt(), dist2.w.sqrt());
                 let r = l.mirror();
                 let cos_r = (dx * s(r.x) + dy * s(r.y) + dz * s(r.z)) / dist;
-                let g1 = (p_ns / (dist2 * dist)).min(s(bound));
+                let g1 = (p_ng / (dist2 * dist)).min(s(bound));
                 s(l.diffuse()) * g + l.bound4(cos_r.clamp(s(-1.0), s(1.0))) * g1
             }
         };
@@ -462,5 +466,73 @@ mod tests {
             }
         }
         assert!(nonzero > 200 && zero > 200, "{nonzero} {zero}");
+    }
+
+    /// For Lambertian VPLs with tilted shading normals and a white Lambertian receiver, the
+    /// estimate with the tree's power (which holds the light's adjoint correction factor) is
+    /// the contribution's channel sum times π² exactly, unclamped and clamped: the light's
+    /// side of the estimate is exact, so a resampled pick's weight does not grow with the
+    /// correction (it did when the estimate took the light's shading cosine without it).
+    #[test]
+    fn the_estimate_is_exact_for_lambertian_lights() {
+        let mut s = Sampler::new(9, 0, Domain::LightPath, 0);
+        let mut checked = 0;
+        for round in 0..1000 {
+            let bsdf = Bsdf::Diffuse { albedo: Vec3::new(0.7, 0.2, s.next_f32()) };
+            let vpls: Vec<Vpl> = (0..8)
+                .map(|j| {
+                    let (ng, frame) = normals(&mut s);
+                    Vpl {
+                        p: 2.0 * unit(&mut s),
+                        ng,
+                        frame,
+                        // Incoming light near the face's plane: corrections far from 1.
+                        w_in: (unit(&mut s) + 3.0 * s.next_f32() * ng).normalize(),
+                        material: 0,
+                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
+                        depth: (j % 2) as u32,
+                        arrival: 1.0,
+                        survival: 1.0,
+                        nee_pdf: 0.0,
+                        mis: Default::default(),
+                    }
+                })
+                .collect();
+            let emitting: Vec<PreparedBsdf> = vpls
+                .iter()
+                .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
+                .collect();
+            let power: Vec<f32> = vpls
+                .iter()
+                .zip(&emitting)
+                .map(|(v, e)| super::super::light_set::tree_light(v, &bsdf, e.is_active(), 0.0).intensity)
+                .collect();
+            let lanes = VplLanes::new(&vpls, &emitting, &power);
+            let (ng, frame) = normals(&mut s);
+            let white = Bsdf::Diffuse { albedo: Vec3::ONE };
+            let fx =
+                PreparedBsdf::new(white, LocalGeometry { ng, frame }, unit(&mut s), TransportMode::Radiance);
+            let bound = [f32::INFINITY, 0.5][round % 2];
+            for c in 0..lanes.chunks() {
+                let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2, None);
+                for i in 0..LANES {
+                    let j = c * LANES + i;
+                    let want = point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], bound)
+                        .element_sum()
+                        * std::f32::consts::PI
+                        * std::f32::consts::PI;
+                    if want == 0.0 {
+                        continue;
+                    }
+                    assert!(
+                        (est[i] - want).abs() <= 1e-4 * want,
+                        "round {round} light {j}: estimate {} against {want}",
+                        est[i]
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 400, "{checked}");
     }
 }

@@ -168,13 +168,26 @@ impl Lights {
     }
 }
 
+/// The largest adjoint correction factor [`tree_light`] counts (a weight only: larger ones are
+/// as likely to be drawn as this).
+const CORRECTION_CAP: f32 = 1e6;
+
 /// VPL `v` as the tree sees it: position, geometric normal, depth, `radius` (0 for points),
 /// and the intensity Σ over RGB of Φ × the reflectance of its BSDF (diffuse albedo, plus the
-/// specular colour of a glossy one), or 0 when its BSDF is inactive for its incoming direction
-/// (`active`). Either way the intensity is 0 only when every channel of Φ ∘ f_p is 0 in every
-/// direction: the light contributes nothing anywhere.
+/// specular colour of a glossy one) × its adjoint shading-normal correction's constant
+/// factor |ω_in · n_s| / |ω_in · n_g| (which turns the shading cosine towards a receiver into
+/// the geometric one, as the importance and the estimates take it, at most [`CORRECTION_CAP`]: 1 on flat-shaded
+/// surfaces, unbounded where light grazes a face whose shading normal it does not graze), or 0
+/// when its BSDF is inactive for its incoming direction (`active`). Either way the intensity
+/// is 0 only when every channel of Φ ∘ f_p is 0 in every direction: the light contributes
+/// nothing anywhere.
 pub fn tree_light(v: &Vpl, bsdf: &Bsdf, active: bool, radius: f32) -> TreeLight {
-    let intensity = if active { (v.flux * bsdf.reflectance()).max(Vec3::ZERO).element_sum() } else { 0.0 };
+    // Where |ω_in · n_g| is 0 the correction, and so the light, is 0 everywhere; the cap keeps
+    // the estimates finite without making a contributing light's zero.
+    let (in_ns, in_ng) = (v.w_in.dot(v.frame.n).abs(), v.w_in.dot(v.ng).abs());
+    let correction = if in_ng > 0.0 { (in_ns / in_ng).min(CORRECTION_CAP) } else { 0.0 };
+    let intensity =
+        if active { (v.flux * bsdf.reflectance()).max(Vec3::ZERO).element_sum() * correction } else { 0.0 };
     // Non-finite (never in practice): the largest intensity, still sampled.
     TreeLight { p: v.p, ng: v.ng, intensity: intensity.min(f32::MAX), depth: v.depth, radius }
 }
