@@ -100,6 +100,11 @@ study cornell-glossy-thesis-resample "${cornell_glossy[@]}" 30 "${thesis_resampl
 study glossy-thesis-resample "${near_mirror[@]}" 20 "${thesis_resample[@]}"
 study corner-glossy-thesis-resample "${corner[@]}" 10 "${thesis_resample[@]}"
 study slit-thesis-resample "${slit[@]}" 20 "${thesis_resample[@]}"
+# Issue 12's bars as it states them (256x256, 30 s): the glossy scenes, pt against the
+# methods that weigh their connections (the knob's study below is at 256x256 already).
+study cornell-glossy-256 scenes/cornell-box/glossy.toml scenes/cornell-box/reference-glossy-256.exr 30 --methods pt,pir-bdpt,pir-mis
+study glossy-256 scenes/stress/glossy/scene.toml scenes/stress/glossy/reference-256.exr 30 --methods pt,pir-bdpt,pir-mis
+study corner-glossy-256 scenes/stress/corner/scene.toml scenes/stress/corner/reference-256.exr 30 --methods pt,pir-bdpt,pir-mis
 # The Mori knob (issue 12's glossy scene; its mesh is in ../shared) at 256x256 for 30 s.
 if [ -f "$shared/scenes/mori-knob/testObj.obj" ]; then
     study mori-knob-mis "${mori[@]}" 30 --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
