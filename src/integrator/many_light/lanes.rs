@@ -208,9 +208,11 @@ impl VplLanes {
         let x_ns = dx * s(ns.x) + dy * s(ns.y) + dz * s(ns.z);
         let p_ng = -(dx * q.vpl.ng[0] + dy * q.vpl.ng[1] + dz * q.vpl.ng[2]);
         let p_ns = -(dx * q.vpl.ns[0] + dy * q.vpl.ns[1] + dz * q.vpl.ns[2]);
-        // The light's shading cosine times its adjoint correction is its geometric cosine
-        // times the correction's constant factor, which `power` holds.
-        let g = (x_ns * p_ng / (dist2 * dist2)).min(s(bound));
+        // The geometry term as the contribution clamps it, with the shading cosines; the
+        // light's shading cosine times its adjoint correction is its geometric cosine times
+        // the correction's constant factor, which `power` holds, so the clamped term is
+        // scaled by cos_g / cos_s at the light (exactly 1 where the normals agree).
+        let g = (x_ns * p_ns / (dist2 * dist2)).min(s(bound)) * (p_ng / p_ns);
         let value = match lobe {
             None => g,
             Some(l) => {
@@ -218,7 +220,9 @@ impl VplLanes {
                 let dist = Vec4::new(dist2.x.sqrt(), dist2.y.sqrt(), dist2.z.sqrt(), dist2.w.sqrt());
                 let r = l.mirror();
                 let cos_r = (dx * s(r.x) + dy * s(r.y) + dz * s(r.z)) / dist;
-                let g1 = (p_ng / (dist2 * dist)).min(s(bound));
+                // The lobe's bound holds the receiver's cosine (f · cos θ_x): the clamped
+                // term without it, g / cos θ_x, so that the bound holds when clamped too.
+                let g1 = g * dist / x_ns;
                 s(l.diffuse()) * g + l.bound4(cos_r.clamp(s(-1.0), s(1.0))) * g1
             }
         };
@@ -437,12 +441,20 @@ mod tests {
             let power: Vec<f32> = emitting.iter().map(|e| if e.is_active() { 1.0 } else { 0.0 }).collect();
             let lanes = VplLanes::new(&vpls, &emitting, &power);
             let (ng, frame) = normals(&mut s);
-            let bsdf_x =
-                if round % 2 == 0 { glossy(Vec3::splat(0.3)) } else { Bsdf::Diffuse { albedo: Vec3::ONE } };
+            let bsdf_x = match round % 4 {
+                0 => glossy(Vec3::splat(0.3)),
+                // Near-mirror, down to GGX's smallest α.
+                2 => Bsdf::Glossy {
+                    albedo: Vec3::ZERO,
+                    specular: Vec3::ONE,
+                    roughness: [0.01, 0.0][round / 4 % 2],
+                },
+                _ => Bsdf::Diffuse { albedo: Vec3::ONE },
+            };
             let wo = unit(&mut s);
             let fx = PreparedBsdf::new(bsdf_x, LocalGeometry { ng, frame }, wo, TransportMode::Radiance);
             let lobe = Lobe::of(&bsdf_x, frame.n, wo);
-            let bound = [f32::INFINITY, 1.0][round % 2];
+            let bound = [f32::INFINITY, 1.0, 0.05][round % 3];
             for c in 0..lanes.chunks() {
                 let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2, lobe.as_ref());
                 for i in 0..LANES {
@@ -476,7 +488,7 @@ mod tests {
     #[test]
     fn the_estimate_is_exact_for_lambertian_lights() {
         let mut s = Sampler::new(9, 0, Domain::LightPath, 0);
-        let mut checked = 0;
+        let (mut checked, mut clamped) = (0, 0);
         for round in 0..1000 {
             let bsdf = Bsdf::Diffuse { albedo: Vec3::new(0.7, 0.2, s.next_f32()) };
             let vpls: Vec<Vpl> = (0..8)
@@ -512,7 +524,8 @@ mod tests {
             let white = Bsdf::Diffuse { albedo: Vec3::ONE };
             let fx =
                 PreparedBsdf::new(white, LocalGeometry { ng, frame }, unit(&mut s), TransportMode::Radiance);
-            let bound = [f32::INFINITY, 0.5][round % 2];
+            // G ≤ 1/4 at distance 2: a bound of 0.05 clamps most lights it is used for.
+            let bound = [f32::INFINITY, 0.05][round % 2];
             for c in 0..lanes.chunks() {
                 let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2, None);
                 for i in 0..LANES {
@@ -524,6 +537,9 @@ mod tests {
                     if want == 0.0 {
                         continue;
                     }
+                    let unclamped =
+                        point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], f32::INFINITY);
+                    clamped += usize::from(unclamped.element_sum() * 9.8696 > want * 1.01);
                     assert!(
                         (est[i] - want).abs() <= 1e-4 * want,
                         "round {round} light {j}: estimate {} against {want}",
@@ -533,6 +549,72 @@ mod tests {
                 }
             }
         }
-        assert!(checked > 400, "{checked}");
+        assert!(checked > 400 && clamped > 100, "{checked} {clamped}");
+    }
+
+    /// For a grey glossy receiver and Lambertian VPLs with tilted shading normals, the
+    /// estimate with the tree's power bounds π times the contribution's channel sum from
+    /// above, clamped or not, at every roughness: the receiver's side is its Lambertian part
+    /// plus the lobe's bound ([`Lobe`]), and the light's side is exact. (The bound failed
+    /// when clamped while the lobe's term took the clamp without the receiver's cosine.)
+    #[test]
+    fn the_estimate_bounds_a_glossy_receivers_contribution() {
+        let mut s = Sampler::new(13, 0, Domain::LightPath, 0);
+        let (mut checked, mut clamped) = (0, 0);
+        for round in 0..1500 {
+            let bsdf = Bsdf::Diffuse { albedo: Vec3::new(0.7, 0.2, s.next_f32()) };
+            let vpls: Vec<Vpl> = (0..8)
+                .map(|j| {
+                    let (ng, frame) = normals(&mut s);
+                    Vpl {
+                        p: (0.5 + 1.5 * s.next_f32()) * unit(&mut s),
+                        ng,
+                        frame,
+                        w_in: (unit(&mut s) + 3.0 * s.next_f32() * ng).normalize(),
+                        material: 0,
+                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
+                        depth: (j % 2) as u32,
+                        arrival: 1.0,
+                        survival: 1.0,
+                        nee_pdf: 0.0,
+                        mis: Default::default(),
+                    }
+                })
+                .collect();
+            let emitting: Vec<PreparedBsdf> = vpls
+                .iter()
+                .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
+                .collect();
+            let power: Vec<f32> = vpls
+                .iter()
+                .zip(&emitting)
+                .map(|(v, e)| super::super::light_set::tree_light(v, &bsdf, e.is_active(), 0.0).intensity)
+                .collect();
+            let lanes = VplLanes::new(&vpls, &emitting, &power);
+            let (ng, frame) = normals(&mut s);
+            let roughness = [0.05, 0.2, 0.6][round % 3];
+            let grey = Bsdf::Glossy { albedo: Vec3::splat(0.3), specular: Vec3::splat(0.6), roughness };
+            let wo = unit(&mut s);
+            let fx = PreparedBsdf::new(grey, LocalGeometry { ng, frame }, wo, TransportMode::Radiance);
+            let Some(lobe) = Lobe::of(&grey, frame.n, wo) else { continue };
+            let bound = [f32::INFINITY, 0.2][round % 2];
+            for c in 0..lanes.chunks() {
+                let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2, Some(&lobe));
+                for i in 0..LANES {
+                    let j = c * LANES + i;
+                    let got = point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], bound);
+                    let want = got.element_sum() * std::f32::consts::PI;
+                    if want == 0.0 {
+                        continue;
+                    }
+                    assert!(est[i] >= want * (1.0 - 1e-4), "round {round} light {j}: {} < {want}", est[i]);
+                    let full =
+                        point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], f32::INFINITY);
+                    clamped += usize::from(full.element_sum() > got.element_sum() * 1.01);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000 && clamped > 200, "{checked} {clamped}");
     }
 }

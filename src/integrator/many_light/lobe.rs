@@ -27,6 +27,12 @@ use crate::material::ggx::Ggx;
 /// `docs/measurements.md`).
 pub const SPREAD: f32 = 0.25;
 
+/// The smallest cos θ_o the lobe's scale ρ_s / (π cos θ_o) takes. With it the scale stays
+/// below 3.2e3 and the bound below 1e11 (α at `Ggx`'s floor of 1e-4) per unit of the light's
+/// geometry term over cos θ_x, so a receiver's estimates cannot overflow (and drop a light
+/// that contributes) at grazing ω_o, where G1(ω_o) takes the lobe itself to zero.
+const COS_O_FLOOR: f32 = 1e-4;
+
 /// A glossy receiver's lobe: its mirror direction, roughness and reflectances.
 #[derive(Clone, Copy, Debug)]
 pub struct Lobe {
@@ -55,7 +61,9 @@ impl Lobe {
         if !(cos_o > 0.0 && rho_s > 0.0) {
             return None;
         }
-        let scale = rho_s / (PI * cos_o);
+        // (cos θ_o floored, so that the bound stays finite at grazing ω_o, where it only
+        // shapes the draw: G1(ω_o) takes the lobe to zero there.)
+        let scale = rho_s / (PI * cos_o.max(COS_O_FLOOR));
         let diffuse = albedo.max(Vec3::ZERO).element_sum() / (3.0 * PI);
         (scale.is_finite() && diffuse.is_finite()).then(|| Lobe {
             mirror: (2.0 * cos_o * ns - wo).normalize_or(ns),
@@ -84,6 +92,8 @@ impl Lobe {
     /// D' = 1 / (π α'² (sin²/α'² + cos²)²) = 4 / (π α'² ((1 − c)/α'² + 1 + c)²).
     #[inline(always)]
     pub fn widened(&self, c: f32, tan_half: f32) -> f32 {
+        // (A product of unit vectors can exceed 1 by an ulp, which a small α would magnify.)
+        let c = c.clamp(-1.0, 1.0);
         let a = (self.alpha + SPREAD * tan_half).min(1.0);
         let a2 = a * a;
         let t = (1.0 - c) / a2 + 1.0 + c;
@@ -163,5 +173,19 @@ mod tests {
         assert!(checked > 10_000 && tight > 100, "{checked} directions, {tight} mirrors");
         let diffuse = Bsdf::Diffuse { albedo: Vec3::ONE };
         assert!(Lobe::of(&diffuse, Vec3::Z, Vec3::Z).is_none());
+    }
+
+    /// At GGX's smallest α, a cosine an ulp above 1 (as a product of unit vectors can give)
+    /// weighs as the mirror direction itself, and a grazing ω_o keeps the bound finite.
+    #[test]
+    fn extreme_inputs_stay_finite() {
+        let mirror = Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::ONE, roughness: 0.0 };
+        let lobe = Lobe::of(&mirror, Vec3::Z, Vec3::new(0.6, 0.0, 0.8)).unwrap();
+        let peak = lobe.widened(1.0, 0.0);
+        assert!(peak.is_finite() && peak > 0.0);
+        assert_eq!(lobe.widened(1.0 + f32::EPSILON, 0.0), peak);
+        let grazing = Vec3::new(1.0, 0.0, 1e-30).normalize();
+        let lobe = Lobe::of(&mirror, Vec3::Z, grazing).unwrap();
+        assert!(lobe.bound4(Vec4::ONE).x.is_finite() && lobe.widened(1.0, 0.0) * 1e20 < f32::MAX);
     }
 }

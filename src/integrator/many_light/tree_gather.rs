@@ -75,8 +75,13 @@
 //! A node's importance is w = ½ g / g_root + ½ l / l_root, each part normalized by its value at
 //! the root for this receiver. Were the importances sums over their leaves, a leaf's probability
 //! would be exactly ½ P_g + ½ P_l, the average of the two draws: a defensive mixture, in which
-//! no light gets much less than half the probability it has without the lobe, and the lobes'
-//! lights get about half of what the lobe alone would give them. The lobe is not trusted
+//! no light gets less than half the probability it has without the lobe, and the lobes'
+//! lights get half of what the lobe alone would give them. They are not (a node's importance
+//! is a bound at its box, not its lights' sum), so this holds only as a tendency: the parts
+//! are normalized at the root, where the receiver usually lies inside the root's sphere and
+//! the lobe part is uniform, and further down l / l_root can outgrow g / g_root by up to
+//! about 1/α'², so near the leaves the draw may follow mostly the lobe. Only the floor of
+//! ε/2 per viable branch is guaranteed, which is all unbiasedness needs. The lobe is not trusted
 //! alone because a node's estimate is not its lights': at the top of the tree a node whose
 //! sphere holds r claims the lobe's light whether or not any of its lights lie in the lobe.
 //! (Tried and not kept: the lobe alone, at the angle nearest r within the node's sphere, had
