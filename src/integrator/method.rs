@@ -153,7 +153,8 @@ pub struct MethodParams {
     pub gather_samples: Option<usize>,
     /// --gather resample: candidate VPLs per camera vertex (m), a random window of the
     /// iteration's light paths whose unoccluded contributions choose the k that get shadow
-    /// rays; 1 to 1024 [default: 64 for pir-mis and pir-bdpt, 128 otherwise].
+    /// rays (every VPL when the iteration has at most 2m); 1 to 1024 [default: 64 for
+    /// pir-mis and pir-bdpt, 128 otherwise].
     #[arg(long, value_name = "M")]
     #[serde(default)]
     pub gather_candidates: Option<usize>,
