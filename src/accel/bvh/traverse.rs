@@ -204,7 +204,12 @@ fn push_sorted<const N: usize>(
 /// a leaf's first pack and a half) on trees large enough to profit (`Bvh::prefetch`). Called
 /// from the AVX2 versions only, where it was measured to pay; the intrinsic, and so this
 /// function, is safe to call only where the target features are enabled, as in those versions.
+///
+/// A build whose own target already has AVX2 (`RUSTFLAGS="-C target-cpu=native"` on such a
+/// CPU) does not prefetch: `multiversion` then compiles the traversal once, without a
+/// `#[target_feature]` context, from which the intrinsic cannot be called in safe code.
 #[cfg(target_arch = "x86_64")]
+#[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "sse")]
 #[inline]
 fn prefetch_child(bvh: &Bvh, c: ChildRef) {
@@ -231,7 +236,12 @@ fn prefetch_child(bvh: &Bvh, c: ChildRef) {
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
     let pf = match_target! {
-        "x86_64+avx2" => |c: ChildRef| prefetch_child(bvh, c),
+        "x86_64+avx2" => |c: ChildRef| {
+            #[cfg(not(target_feature = "avx2"))]
+            prefetch_child(bvh, c);
+            #[cfg(target_feature = "avx2")]
+            let _ = (bvh, c);
+        },
         _ => |_: ChildRef| {},
     };
     match bvh.closest_hit_with::<STACK>(ray, &pf) {
@@ -244,7 +254,12 @@ fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn any_hit_dispatch(bvh: &Bvh, ray: &Ray) -> bool {
     let pf = match_target! {
-        "x86_64+avx2" => |c: ChildRef| prefetch_child(bvh, c),
+        "x86_64+avx2" => |c: ChildRef| {
+            #[cfg(not(target_feature = "avx2"))]
+            prefetch_child(bvh, c);
+            #[cfg(target_feature = "avx2")]
+            let _ = (bvh, c);
+        },
         _ => |_: ChildRef| {},
     };
     match bvh.any_hit_with::<STACK>(ray, &pf) {
