@@ -167,11 +167,10 @@ impl PointLights {
         let sp = &v.sp;
         let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
         let x = OffsetPoint::new(sp.p, sp.ng);
-        // The picked lights' contributions: Lambertian pairs by the four-wide kernel, a chunk
-        // at a time (picks come in light order), the others one by one.
-        let receiver = DiffuseReceiver::new(sp, &fx);
+        // The picked lights' contributions one by one: a pick is rarely in the chunk of the
+        // one before, and one light's scalar evaluation costs less than the four-wide kernel's
+        // of its chunk (the same numbers bit for bit: `lanes.rs`'s tests).
         let lobe = receiver_lobe(v, weighing);
-        let mut chunk_done: Option<(usize, [Vec3; LANES])> = None;
         resample(
             self.lanes.chunks(),
             m,
@@ -191,25 +190,8 @@ impl PointLights {
                 cands.push(chunk * LANES, p);
             },
             |j, factor, _| {
-                let c = match (&receiver, self.lanes.kind(j)) {
-                    (Some(r), LaneKind::Diffuse) => {
-                        let chunk = j / LANES;
-                        let lanes = match chunk_done {
-                            Some((done, lanes)) if done == chunk => lanes,
-                            _ => self.lanes.diffuse_contributions(chunk, r, self.bound, max_vpl_depth),
-                        };
-                        chunk_done = Some((chunk, lanes));
-                        lanes[j % LANES]
-                    }
-                    _ => point_contribution(
-                        sp.p,
-                        sp.frame.n,
-                        &fx,
-                        &self.vpls[j],
-                        &self.emitting[j],
-                        self.bound,
-                    ),
-                };
+                let c =
+                    point_contribution(sp.p, sp.frame.n, &fx, &self.vpls[j], &self.emitting[j], self.bound);
                 if c != Vec3::ZERO {
                     let c = weighing.apply(sp.p, &self.vpls[j], &self.emitting[j], c);
                     batch.push(shadow_segment(&x, self.lanes.end(j)), c * factor);
