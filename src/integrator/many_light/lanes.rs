@@ -324,6 +324,7 @@ mod tests {
     use crate::integrator::many_light::gather::point_contribution;
     use crate::material::{Bsdf, LocalGeometry};
     use crate::sampling::{Domain, Sampler};
+    use std::f32::consts::PI;
 
     fn unit(s: &mut Sampler) -> Vec3 {
         let v = Vec3::new(s.next_f32() - 0.5, s.next_f32() - 0.5, s.next_f32() - 0.5);
@@ -480,6 +481,45 @@ mod tests {
         assert!(nonzero > 200 && zero > 200, "{nonzero} {zero}");
     }
 
+    /// Eight VPLs of the Lambertian `bsdf` at `position`s, with tilted shading normals and
+    /// incoming light near their faces' planes (adjoint corrections far from 1), their
+    /// emitting BSDFs, and their lanes with the tree's power.
+    fn grazing_lambertian_lights(
+        s: &mut Sampler,
+        bsdf: Bsdf,
+        mut position: impl FnMut(&mut Sampler) -> Vec3,
+    ) -> (Vec<Vpl>, Vec<PreparedBsdf>, VplLanes) {
+        let vpls: Vec<Vpl> = (0..8)
+            .map(|j| {
+                let (ng, frame) = normals(s);
+                Vpl {
+                    p: position(s),
+                    ng,
+                    frame,
+                    w_in: (unit(s) + 3.0 * s.next_f32() * ng).normalize(),
+                    material: 0,
+                    flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
+                    depth: (j % 2) as u32,
+                    arrival: 1.0,
+                    survival: 1.0,
+                    nee_pdf: 0.0,
+                    mis: Default::default(),
+                }
+            })
+            .collect();
+        let emitting: Vec<PreparedBsdf> = vpls
+            .iter()
+            .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
+            .collect();
+        let power: Vec<f32> = vpls
+            .iter()
+            .zip(&emitting)
+            .map(|(v, e)| super::super::light_set::tree_light(v, &bsdf, e.is_active(), 0.0).intensity)
+            .collect();
+        let lanes = VplLanes::new(&vpls, &emitting, &power);
+        (vpls, emitting, lanes)
+    }
+
     /// For Lambertian VPLs with tilted shading normals and a white Lambertian receiver, the
     /// estimate with the tree's power (which holds the light's adjoint correction factor) is
     /// the contribution's channel sum times π² exactly, unclamped and clamped: the light's
@@ -491,35 +531,7 @@ mod tests {
         let (mut checked, mut clamped) = (0, 0);
         for round in 0..1000 {
             let bsdf = Bsdf::Diffuse { albedo: Vec3::new(0.7, 0.2, s.next_f32()) };
-            let vpls: Vec<Vpl> = (0..8)
-                .map(|j| {
-                    let (ng, frame) = normals(&mut s);
-                    Vpl {
-                        p: 2.0 * unit(&mut s),
-                        ng,
-                        frame,
-                        // Incoming light near the face's plane: corrections far from 1.
-                        w_in: (unit(&mut s) + 3.0 * s.next_f32() * ng).normalize(),
-                        material: 0,
-                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
-                        depth: (j % 2) as u32,
-                        arrival: 1.0,
-                        survival: 1.0,
-                        nee_pdf: 0.0,
-                        mis: Default::default(),
-                    }
-                })
-                .collect();
-            let emitting: Vec<PreparedBsdf> = vpls
-                .iter()
-                .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
-                .collect();
-            let power: Vec<f32> = vpls
-                .iter()
-                .zip(&emitting)
-                .map(|(v, e)| super::super::light_set::tree_light(v, &bsdf, e.is_active(), 0.0).intensity)
-                .collect();
-            let lanes = VplLanes::new(&vpls, &emitting, &power);
+            let (vpls, emitting, lanes) = grazing_lambertian_lights(&mut s, bsdf, |s| 2.0 * unit(s));
             let (ng, frame) = normals(&mut s);
             let white = Bsdf::Diffuse { albedo: Vec3::ONE };
             let fx =
@@ -532,14 +544,14 @@ mod tests {
                     let j = c * LANES + i;
                     let want = point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], bound)
                         .element_sum()
-                        * std::f32::consts::PI
-                        * std::f32::consts::PI;
+                        * PI
+                        * PI;
                     if want == 0.0 {
                         continue;
                     }
                     let unclamped =
                         point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], f32::INFINITY);
-                    clamped += usize::from(unclamped.element_sum() * 9.8696 > want * 1.01);
+                    clamped += usize::from(unclamped.element_sum() * PI * PI > want * 1.01);
                     assert!(
                         (est[i] - want).abs() <= 1e-4 * want,
                         "round {round} light {j}: estimate {} against {want}",
@@ -563,34 +575,8 @@ mod tests {
         let (mut checked, mut clamped) = (0, 0);
         for round in 0..1500 {
             let bsdf = Bsdf::Diffuse { albedo: Vec3::new(0.7, 0.2, s.next_f32()) };
-            let vpls: Vec<Vpl> = (0..8)
-                .map(|j| {
-                    let (ng, frame) = normals(&mut s);
-                    Vpl {
-                        p: (0.5 + 1.5 * s.next_f32()) * unit(&mut s),
-                        ng,
-                        frame,
-                        w_in: (unit(&mut s) + 3.0 * s.next_f32() * ng).normalize(),
-                        material: 0,
-                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
-                        depth: (j % 2) as u32,
-                        arrival: 1.0,
-                        survival: 1.0,
-                        nee_pdf: 0.0,
-                        mis: Default::default(),
-                    }
-                })
-                .collect();
-            let emitting: Vec<PreparedBsdf> = vpls
-                .iter()
-                .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
-                .collect();
-            let power: Vec<f32> = vpls
-                .iter()
-                .zip(&emitting)
-                .map(|(v, e)| super::super::light_set::tree_light(v, &bsdf, e.is_active(), 0.0).intensity)
-                .collect();
-            let lanes = VplLanes::new(&vpls, &emitting, &power);
+            let (vpls, emitting, lanes) =
+                grazing_lambertian_lights(&mut s, bsdf, |s| (0.5 + 1.5 * s.next_f32()) * unit(s));
             let (ng, frame) = normals(&mut s);
             let roughness = [0.05, 0.2, 0.6][round % 3];
             let grey = Bsdf::Glossy { albedo: Vec3::splat(0.3), specular: Vec3::splat(0.6), roughness };
@@ -603,7 +589,7 @@ mod tests {
                 for i in 0..LANES {
                     let j = c * LANES + i;
                     let got = point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], bound);
-                    let want = got.element_sum() * std::f32::consts::PI;
+                    let want = got.element_sum() * PI;
                     if want == 0.0 {
                         continue;
                     }
