@@ -12,6 +12,9 @@ use glam::{Vec2, Vec3};
 use crate::sampling::{AliasTable, uniform_triangle};
 use crate::scene::Scene;
 
+/// The weight of the number that refines a point's first coordinate: one unit of its 24th bit.
+const LOW_BITS: f64 = 1.0 / (1u32 << 24) as f64;
+
 pub struct Emitters {
     /// Emitting triangles, in scene order.
     prims: Vec<u32>,
@@ -78,11 +81,18 @@ impl Emitters {
         self.pdf_area[prim as usize]
     }
 
-    /// Picks an emitter triangle by power (`u_select`) and a uniform point on it (`u`).
+    /// Picks an emitter triangle by power and a uniform point on it. The first coordinate of
+    /// `u` does both: its integer part among the triangles picks one and the rest is the
+    /// point's first number (sample reuse), `u_select` supplying the bits below its 24 so
+    /// that the rest keeps full precision. Why: a stratified `u` then stays stratified over
+    /// every triangle of a light, where a separate number for the choice made each
+    /// triangle's points a random subset of the stratified set.
     #[inline]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
-        let prim = self.prims[self.dist.sample(u_select)];
-        let (p, ng) = scene.point_at(prim, uniform_triangle(u));
+        let x = u.x as f64 + u_select as f64 * LOW_BITS;
+        let (i, rest) = self.dist.sample_reuse(x.min(1.0 - f64::EPSILON / 2.0));
+        let prim = self.prims[i];
+        let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(rest as f32, u.y)));
         EmitterSample {
             point: EmitterPoint { p, ng, prim },
             radiance: scene.material_of(prim).emission,
@@ -96,4 +106,75 @@ impl Emitters {
 #[inline]
 pub fn emitted(emission: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     if ng.dot(w) > 0.0 { emission } else { Vec3::ZERO }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::{Bsdf, Material};
+    use crate::scene::{Camera, Geometry, RenderDefaults};
+
+    /// Two square lights in the plane z = 0, facing +z: the unit square (two triangles) at
+    /// radiance 1, and a square of side 2 beside it at radiance 0.5 (twice the power).
+    fn two_lights() -> Scene {
+        let square = |x0: f32, s: f32| {
+            [
+                Vec3::new(x0, 0.0, 0.0),
+                Vec3::new(x0 + s, 0.0, 0.0),
+                Vec3::new(x0 + s, s, 0.0),
+                Vec3::new(x0, s, 0.0),
+            ]
+        };
+        let positions = [square(0.0, 1.0), square(2.0, 2.0)].concat();
+        let geometry = Geometry {
+            normals: vec![Vec3::ZERO; positions.len()],
+            positions,
+            indices: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]],
+            tri_material: vec![0, 0, 1, 1],
+            degenerate_dropped: 0,
+        };
+        let light = |e: f32| Material {
+            name: "light".into(),
+            bsdf: Bsdf::Diffuse { albedo: Vec3::ZERO },
+            emission: Vec3::splat(e),
+        };
+        let camera =
+            Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };
+        Scene::new("t.toml".into(), camera, RenderDefaults::default(), geometry, vec![light(1.0), light(0.5)])
+            .unwrap()
+    }
+
+    /// Points are uniform over each light with the lights' powers as weights, and the
+    /// triangle is chosen by the point's first number, not by `u_select`: a regular grid of
+    /// points puts equal counts into equal cells of the lights whatever `u_select` is.
+    #[test]
+    fn a_grid_of_numbers_covers_the_lights_evenly() {
+        let scene = two_lights();
+        let emitters = Emitters::new(&scene).unwrap();
+        for u_select in [0.0, 0.37, 0.999_999] {
+            let n = 1024;
+            // Cells of side 1/4 on both squares: 16 on the first, 64 on the second.
+            let mut cells = std::collections::HashMap::<(i32, i32), usize>::new();
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    let s = emitters.sample(&scene, u_select, u);
+                    assert_eq!(s.pdf_area, if s.point.p.x < 1.5 { 1.0 / 3.0 } else { 1.0 / 6.0 });
+                    assert_eq!(s.point.ng, Vec3::Z);
+                    let cell = ((s.point.p.x * 4.0).floor() as i32, (s.point.p.y * 4.0).floor() as i32);
+                    *cells.entry(cell).or_default() += 1;
+                }
+            }
+            assert_eq!(cells.len(), 16 + 64);
+            // A cell of the first square has 1/48 of the power, of the second 1/96 (up to
+            // the grid's discreteness near the triangles' corners).
+            for (cell, &c) in &cells {
+                let expected = (n * n) as f64 / if cell.0 < 4 { 48.0 } else { 96.0 };
+                assert!(
+                    (c as f64 - expected).abs() < 0.05 * expected,
+                    "{u_select}: cell {cell:?} has {c}, not {expected}"
+                );
+            }
+        }
+    }
 }

