@@ -1,7 +1,7 @@
 //! Direct lighting from the real emitters: next-event estimation with multiple importance
 //! sampling against BSDF sampling (power heuristic), shared by every method.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::{Counters, RenderContext};
 use crate::geometry::{OffsetPoint, Ray, offset_origin};
@@ -89,6 +89,21 @@ pub fn sample_emitters_weighted(
 ) -> Vec3 {
     let u_select = sampler.next_f32();
     let u = sampler.next_2d();
+    sample_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters, weight)
+}
+
+/// [`sample_emitters_weighted`] with its numbers given: `u_select` and `u` as
+/// [`Emitters::sample`](crate::light::Emitters::sample) takes them.
+#[inline]
+pub fn sample_emitters_at(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    (u_select, u): (f32, Vec2),
+    counters: &mut Counters,
+    weight: impl FnOnce(LightSample) -> f32,
+) -> Vec3 {
     let es = ctx.emitters.sample(ctx.scene, u_select, u);
     let d = es.point.p - sp.p;
     let dist2 = d.length_squared();

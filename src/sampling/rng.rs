@@ -238,6 +238,39 @@ impl Sampler<'_> {
             glam::Vec2::new(self.next_f32(), self.next_f32())
         }
     }
+
+    /// `out.len()` points of one dimension that are stratified among themselves as well as
+    /// over the iterations: with Sobol points, the sample's own aligned block of `n` =
+    /// `out.len()` (rounded up to a power of two) consecutive points of the dimension's
+    /// sequence, point `index · n + j` for the j-th, so that the blocks of the first
+    /// iterations together are the sequence's first points; independent points otherwise.
+    /// For several samples taken at one vertex (next-event estimation's light samples),
+    /// where a dimension per sample would stratify each over the iterations only. One point
+    /// is [`Sampler::next_2d`]'s.
+    pub fn next_2d_block(&mut self, out: &mut [glam::Vec2]) {
+        if out.len() <= 1 {
+            if let Some(p) = out.first_mut() {
+                *p = self.next_2d();
+            }
+            return;
+        }
+        let h = self.next_u64();
+        if self.sobol {
+            let k = out.len().next_power_of_two().trailing_zeros();
+            // The reversed bits of index · 2^k + j: the index's reversed bits moved down by k,
+            // j's reversed above them. (The shuffle is the sample's own, for any dimension.)
+            for (j, p) in out.iter_mut().enumerate() {
+                let rindex = self.index >> k | (j as u32).reverse_bits();
+                *p = glam::Vec2::from(sobol::point_2d(rindex, h));
+            }
+        } else {
+            for (j, p) in out.iter_mut().enumerate() {
+                let x = mix64(h ^ (j as u64 + 1).wrapping_mul(GAMMA));
+                let unit = |bits: u64| (bits & 0xFF_FFFF) as f32 * (1.0 / (1u64 << 24) as f32);
+                *p = glam::Vec2::new(unit(x >> 40), unit(x >> 8));
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -324,6 +357,50 @@ mod tests {
         let independent = Streams::camera(SamplerKind::Independent, 5, 2);
         let (mut a, mut b) = (independent.sampler(3), Sampler::new(5, 2, Domain::Camera, 3));
         assert_eq!([a.next_u64(), a.next_u64()], [b.next_u64(), b.next_u64()]);
+    }
+
+    /// A pixel's blocks of four over its first 16 iterations are the 64 first points of the
+    /// dimension's sequence (a net), and each block alone is one too; after other draws,
+    /// with three points (a block of four cut short), and at the table's last dimension and
+    /// beyond it. Independent samplers give distinct points.
+    #[test]
+    fn blocks_of_points_stratify_within_and_across_iterations() {
+        for (before, n) in [(0, 4), (3, 4), (TABLE_DIMS - 1, 4), (TABLE_DIMS + 5, 4), (2, 3)] {
+            let block = |kind, i| {
+                let streams = Streams::camera(kind, 5, i);
+                let mut s = streams.sampler(7);
+                for _ in 0..before {
+                    s.next_f32();
+                }
+                let mut out = [glam::Vec2::ZERO; 4];
+                s.next_2d_block(&mut out[..n]);
+                assert_eq!(s.dimension(), before as u64 + 1);
+                out[..n].to_vec()
+            };
+            if n == 4 {
+                let first: Vec<_> = (1..=16).flat_map(|i| block(SamplerKind::Sobol, i)).collect();
+                assert!(is_net(&first), "{before} draws before");
+                assert!((1..=16).all(|i| is_net(&block(SamplerKind::Sobol, i))));
+                let next: Vec<_> = (17..=32).flat_map(|i| block(SamplerKind::Sobol, i)).collect();
+                assert!(is_net(&next) && next != first);
+            } else {
+                // The first three of the block of four.
+                let b = block(SamplerKind::Sobol, 9);
+                assert_eq!(b.len(), 3);
+                assert!(b.iter().all(|p| p.cmpge(glam::Vec2::ZERO).all() && p.cmplt(glam::Vec2::ONE).all()));
+            }
+            let independent = block(SamplerKind::Independent, 3);
+            assert!(
+                independent.iter().all(|p| p.cmpge(glam::Vec2::ZERO).all() && p.cmplt(glam::Vec2::ONE).all())
+            );
+            assert!((1..n).all(|j| independent[j] != independent[j - 1]));
+        }
+        // One point is `next_2d`'s.
+        let streams = Streams::camera(SamplerKind::Sobol, 5, 3);
+        let (mut a, mut b) = (streams.sampler(7), streams.sampler(7));
+        let mut one = [glam::Vec2::ZERO];
+        a.next_2d_block(&mut one);
+        assert_eq!(one[0], b.next_2d());
     }
 
     #[test]
