@@ -9,11 +9,9 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::sampling::reuse::{refined, to_unit_f32};
 use crate::sampling::{AliasTable, uniform_triangle};
 use crate::scene::Scene;
-
-/// The weight of the number that refines a point's first coordinate: one unit of its 24th bit.
-const LOW_BITS: f64 = 1.0 / (1u32 << 24) as f64;
 
 pub struct Emitters {
     /// Emitting triangles, in scene order.
@@ -89,10 +87,9 @@ impl Emitters {
     /// triangle's points a random subset of the stratified set.
     #[inline]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
-        let x = u.x as f64 + u_select as f64 * LOW_BITS;
-        let (i, rest) = self.dist.sample_reuse(x.min(1.0 - f64::EPSILON / 2.0));
+        let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
         let prim = self.prims[i];
-        let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(rest as f32, u.y)));
+        let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(to_unit_f32(rest), u.y)));
         EmitterSample {
             point: EmitterPoint { p, ng, prim },
             radiance: scene.material_of(prim).emission,

@@ -9,6 +9,8 @@
 //!
 //! Sampling is a one-sample mixture: the specular lobe with probability
 //! p_s = mean(specular) / (mean(specular) + mean(albedo)), the cosine lobe otherwise. The
+//! lobe is chosen by the point's first number, whose rest places the direction (sample reuse,
+//! [`crate::sampling::reuse`]), so that stratified points stay stratified within each lobe. The
 //! specular lobe samples a visible normal m (Heitz 2018) and reflects `wo` about it, so its
 //! density is D_wo(h) / (4 |wo·h|) = G1(wo, h) D(h) / (4 cos θo); the returned pdf is the
 //! mixture's. Directions reflected below the horizon are rejected (the sample fails), so the
@@ -19,6 +21,7 @@
 use glam::{Vec2, Vec3};
 
 use super::{diffuse, ggx::Ggx};
+use crate::sampling::reuse::{choose, refined};
 
 #[derive(Clone, Copy, Debug)]
 pub struct Glossy {
@@ -91,7 +94,10 @@ impl Glossy {
         if wo.z <= 0.0 || self.is_black() {
             return None;
         }
-        let wi = if u_lobe < self.p_spec {
+        // The lobe from the point's first number, `u_lobe` refining it (sample reuse).
+        let (specular, x) = choose(refined(u.x, u_lobe), self.p_spec);
+        let u = Vec2::new(x, u.y);
+        let wi = if specular {
             let m = self.ggx.sample_visible(wo, u);
             2.0 * wo.dot(m) * m - wo
         } else {

@@ -3,8 +3,7 @@
 //! part) and the bin's own outcome or its alias (its fractional part against the bin's
 //! threshold); each outcome's total probability over the bins is exactly its weight's share.
 
-/// The largest `f64` below 1.
-const ONE_BELOW: f64 = 1.0 - f64::EPSILON / 2.0;
+use super::reuse::ONE_BELOW;
 
 /// One bin: keep index `i` when the fraction is below `keep`, else take `alias`.
 #[derive(Clone, Copy, Debug)]

@@ -2,6 +2,7 @@
 //! (seed, iteration, domain, index, dimension): see [`Sampler`].
 
 mod alias;
+pub mod reuse;
 mod rng;
 mod sobol;
 mod warp;
