@@ -119,9 +119,9 @@ impl FromStr for Method {
 #[derive(Args, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
-    /// vertex).
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_PATHS)]
-    pub vpls: usize,
+    /// vertex) [default: 32; 64 for pir-bdpt].
+    #[arg(long, value_name = "N")]
+    pub vpls: Option<usize>,
     /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis, pir-bdpt: b_1 of
     /// the bound on the weighted connection, in the same units [default: 100 / scene
     /// diagonal², the G of facing surfaces a tenth of the scene apart].
@@ -199,6 +199,18 @@ pub const MAX_GATHER_SAMPLES: usize = 64;
 /// 1.02, 1, 0.89: none clearly better (`docs/measurements.md`, "Bidirectional weights").
 pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64);
 
+/// The gather of `pir-bdpt` when not given: resampled, 4 of 128 candidates, with
+/// [`BDPT_PATHS`] light paths per iteration. Against [`MIS_GATHER`] with 32 paths
+/// (2026-12-04, `docs/measurements.md`, "Light paths and candidates of `pir-bdpt`"):
+/// relative MSE × time level on six scenes (0.97–1.06, three seeds), and HDR-FLIP at equal
+/// time 9 % lower on the Cornell box (four seeds, 20 s), 4–12 % lower in the slit room and on
+/// the glossy Cornell box (two seeds, 10 s): twice the VPLs per iteration, each seen by the
+/// receivers whose window holds it, leave less of the error in blotches shared by many
+/// pixels.
+pub const BDPT_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 128);
+/// Light paths per iteration of `pir-bdpt` when `--vpls` is not given (see [`BDPT_GATHER`]).
+pub const BDPT_PATHS: usize = 64;
+
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
 /// given: of 64, 128 and 256 candidates with 4 or 8 picks and 32 to 256 light paths, 128
 /// candidates with 4 picks and 256 paths had the lowest variance × time per iteration on
@@ -208,7 +220,7 @@ pub const DEFAULT_GATHER_CANDIDATES: usize = 128;
 impl Default for MethodParams {
     fn default() -> Self {
         MethodParams {
-            vpls: DEFAULT_PATHS,
+            vpls: None,
             clamp: None,
             radius: None,
             alpha: DEFAULT_ALPHA,
@@ -243,8 +255,10 @@ pub const MAX_LIGHT_SAMPLES: u32 = 64;
 impl MethodParams {
     /// Checks every parameter; the error names the flag.
     pub fn validate(&self) -> Result<()> {
-        if self.vpls == 0 || self.vpls > MAX_VPLS {
-            bail!("--vpls {}: must be 1 to {MAX_VPLS}", self.vpls);
+        if let Some(n) = self.vpls
+            && !(1..=MAX_VPLS).contains(&n)
+        {
+            bail!("--vpls {n}: must be 1 to {MAX_VPLS}");
         }
         if let Some(n) = self.light_samples
             && !(1..=MAX_LIGHT_SAMPLES).contains(&n)
@@ -373,7 +387,8 @@ impl MethodConfig {
     pub fn gather_parameters(&self) -> (GatherKind, usize, usize) {
         let p = &self.params;
         let (kind, k, m) = match self.method {
-            Method::PirMis | Method::PirBdpt => MIS_GATHER,
+            Method::PirMis => MIS_GATHER,
+            Method::PirBdpt => BDPT_GATHER,
             _ => (GatherKind::All, DEFAULT_GATHER_SAMPLES, DEFAULT_GATHER_CANDIDATES),
         };
         (p.gather.unwrap_or(kind), p.gather_samples.unwrap_or(k), p.gather_candidates.unwrap_or(m))
@@ -390,7 +405,14 @@ impl MethodConfig {
 
     /// Light paths traced per iteration: `--vpls` for the VPL methods, 0 for the path tracer.
     pub fn light_paths(&self) -> usize {
-        if self.method.uses_vpls() { self.params.vpls } else { 0 }
+        if self.method.uses_vpls() { self.paths() } else { 0 }
+    }
+
+    /// `--vpls`, or the method's default ([`BDPT_PATHS`] for `pir-bdpt`, [`DEFAULT_PATHS`]
+    /// for the others).
+    fn paths(&self) -> usize {
+        let default = if self.method == Method::PirBdpt { BDPT_PATHS } else { DEFAULT_PATHS };
+        self.params.vpls.unwrap_or(default)
     }
 
     /// The configuration as it decides the image, for a scene whose bounding box has this
@@ -405,7 +427,8 @@ impl MethodConfig {
         MethodConfig {
             method: m,
             params: MethodParams {
-                vpls: if m.uses_vpls() { p.vpls } else { default.vpls },
+                // (The path tracer's is the old fixed default, so that its checkpoints resume.)
+                vpls: Some(if m.uses_vpls() { self.paths() } else { DEFAULT_PATHS }),
                 clamp: m
                     .uses_clamp()
                     .then(|| p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal))),
@@ -425,7 +448,7 @@ impl MethodConfig {
     pub fn integrator(&self, scene_diagonal: f32) -> Box<dyn Integrator> {
         let p = &self.params;
         let bound = p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal));
-        let paths = p.vpls;
+        let paths = self.paths();
         let lights = match self.method {
             Method::Pt => return Box::new(PathTracer),
             Method::Ir => VirtualLights::Points(Clamping::None),
@@ -459,7 +482,8 @@ mod tests {
     fn names_round_trip_and_integrators_carry_them() {
         for m in Method::ALL {
             assert_eq!(m.name().parse::<Method>(), Ok(m));
-            let c = MethodConfig { method: m, params: MethodParams { vpls: 4, ..MethodParams::default() } };
+            let c =
+                MethodConfig { method: m, params: MethodParams { vpls: Some(4), ..MethodParams::default() } };
             assert_eq!(c.integrator(3.0).name(), m.name());
         }
         assert!("photon".parse::<Method>().unwrap_err().contains("pir-vsl"));
@@ -470,7 +494,7 @@ mod tests {
         let ok = MethodParams::default();
         assert!(ok.validate().is_ok());
         for (bad, flag) in [
-            (MethodParams { vpls: 0, ..ok }, "--vpls 0"),
+            (MethodParams { vpls: Some(0), ..ok }, "--vpls 0"),
             (MethodParams { clamp: Some(-2.0), ..ok }, "--clamp -2"),
             (MethodParams { radius: Some(f32::NAN), ..ok }, "--radius NaN"),
             (MethodParams { alpha: 1.0, ..ok }, "--alpha 1"),
@@ -489,7 +513,7 @@ mod tests {
         let mut a = MethodConfig::new(Method::Pt);
         let mut b = a;
         b.params.alpha = 0.3;
-        b.params.vpls = 9;
+        b.params.vpls = Some(9);
         assert_eq!(a.identity(2.0), b.identity(2.0));
         a.method = Method::PirClamp;
         let c = a.identity(2.0);
@@ -517,7 +541,7 @@ mod tests {
                     clamp: Some(v),
                     radius: Some(v.abs()),
                     alpha: v,
-                    vpls: 7,
+                    vpls: Some(7),
                     gather: Some(GatherKind::Resample),
                     gather_samples: Some(5),
                     gather_candidates: Some(77),

@@ -13,7 +13,8 @@
 //! | `pir-bdpt` | point, connected from a full path tracer's camera path, every technique weighed against the others, weighted connection bounded by b_i | vanishes: consistent (none without the bound) | pir's own ([`bidirectional`]) |
 //!
 //! Parameters (flags of `pir render`):
-//! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]). Each leaves a virtual
+//! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]; `pir-bdpt`
+//!   [`BDPT_PATHS`](crate::integrator::method::BDPT_PATHS)). Each leaves a virtual
 //!   light at every non-delta vertex.
 //! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default
 //!   ([`Clamping::default_bound`]): 100 / diagonal², the G of two facing surfaces a tenth of
