@@ -14,7 +14,7 @@
 //!
 //! Parameters (flags of `pir render`):
 //! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]; `pir-bdpt`
-//!   [`BDPT_PATHS`](crate::integrator::method::BDPT_PATHS)). Each leaves a virtual
+//!   [`BDPT_PATHS`](crate::integrator::BDPT_PATHS)). Each leaves a virtual
 //!   light at every non-delta vertex.
 //! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default
 //!   ([`Clamping::default_bound`]): 100 / diagonal², the G of two facing surfaces a tenth of
