@@ -561,7 +561,16 @@ fn degenerate_inputs_give_no_nan() {
                     assert!(e.is_finite() && p.is_finite() && e.min_element() >= 0.0 && p >= 0.0, "{bsdf:?}");
                 }
             }
-            for u in [Vec2::ZERO, Vec2::splat(0.999_999), Vec2::new(0.0, 0.999_999), Vec2::new(0.5, 0.25)] {
+            // (u.x picks the glossy lobe: 0.25 and 0.499_999 reach the specular one of the
+            // half-and-half material above the bottom of its range, 0.5 the diffuse one.)
+            for u in [
+                Vec2::ZERO,
+                Vec2::splat(0.999_999),
+                Vec2::new(0.0, 0.999_999),
+                Vec2::new(0.5, 0.25),
+                Vec2::new(0.25, 0.5),
+                Vec2::new(0.499_999, 0.75),
+            ] {
                 for ul in [0.0, 0.5, 0.999_999] {
                     for mode in [R, I] {
                         if let Some(s) = bsdf.sample(&g, wo, ul, u, mode) {

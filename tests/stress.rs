@@ -161,27 +161,25 @@ fn corner_glossy_floor_spikes_point_lights_but_not_spherical_lights() {
 /// the thesis spikes, constant clamp or not; spherical lights do not, and the progressive
 /// radius darkens the image less than the constant one. Weighed connections (`pir-mis`,
 /// `pir-bdpt`) have no spikes beyond the path tracer's own fireflies (light reflected by the
-/// floor into a diffuse surface, which only BSDF sampling finds): their worst pixel stays
-/// within twice `pt`'s at equal iterations (measured at 32 iterations, seeds 1 to 6: 0.4–1.7×,
-/// while `ir-clamp`'s ranged from 1.8× to 19× `pt`'s, too close to its fireflies to be told
-/// apart by one run's worst pixel).
+/// floor into a diffuse surface, which only BSDF sampling finds): the worse of their worst
+/// pixels over two seeds stays within three times `pt`'s (measured at 32 iterations, seeds 1
+/// to 6: 0.4–1.9× for either seed alone, while `ir-clamp`'s ranged from 1.8× to 19× `pt`'s,
+/// too close to its fireflies to be told apart by one run's worst pixel).
 #[test]
 fn glossy_floor_spikes_every_point_light_method_and_no_spherical_one() {
     let d = stress("glossy");
-    let rows = study(
-        &d.join("scene.toml"),
-        &d.join("reference-128.exr"),
-        "pt,ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis,pir-bdpt",
-        32,
-    );
+    let (scene, reference) = (d.join("scene.toml"), d.join("reference-128.exr"));
+    let rows = study(&scene, &reference, "pt,ir,ir-clamp,pir-clamp,vsl,pir-vsl,pir-mis,pir-bdpt", 32);
     for spiky in ["ir", "ir-clamp", "pir-clamp"] {
         assert_spikes(&rows, spiky, "vsl");
         assert_spikes(&rows, spiky, "pir-vsl");
     }
-    let pt = last(&rows, "pt").max_rel_se;
+    let more = study_seed(&scene, &reference, "pt,pir-mis,pir-bdpt", 32, 6);
+    let worst = |label: &str| last(&rows, label).max_rel_se.max(last(&more, label).max_rel_se);
+    let pt = worst("pt");
     for weighed in ["pir-mis", "pir-bdpt"] {
-        let w = last(&rows, weighed).max_rel_se;
-        assert!(w < 2.0 * pt, "{weighed}'s worst pixel {w:.3e} must stay below twice pt's {pt:.3e}");
+        let w = worst(weighed);
+        assert!(w < 3.0 * pt, "{weighed}'s worst pixel {w:.3e} must stay below three times pt's {pt:.3e}");
     }
     let (vsl, pvsl) = (last(&rows, "vsl").mean_rel_diff, last(&rows, "pir-vsl").mean_rel_diff);
     assert!(vsl < pvsl, "the constant radius must darken more: vsl {vsl:+.4}, pir-vsl {pvsl:+.4}");

@@ -154,7 +154,7 @@ pub struct MethodParams {
     /// --gather resample: candidate VPLs per camera vertex (m), a random window of the
     /// iteration's light paths whose unoccluded contributions choose the k that get shadow
     /// rays (every VPL when the iteration has at most 2m); 1 to 1024 [default: 64 for
-    /// pir-mis and pir-bdpt, 128 otherwise].
+    /// pir-mis, 128 otherwise].
     #[arg(long, value_name = "M")]
     #[serde(default)]
     pub gather_candidates: Option<usize>,
@@ -194,7 +194,7 @@ pub const MAX_GATHER_SAMPLES: usize = 64;
 /// box, the glossy floor and the glossy corner (`docs/results.md`, "Weighed connections"):
 /// the resampled gather is 1.6–3× as efficient as the exhaustive one for `pir-mis` on every
 /// one of them, and k = 4 of m = 64 is within the noise of the best (k, m) on each. `pir-bdpt`
-/// takes it too: on the Cornell box (single runs, loaded machine), relative MSE × CPU time with k = 2, 4, 8 was 1.16, 1,
+/// took it too until 2026-12-04 ([`BDPT_GATHER`]): on the Cornell box (single runs, loaded machine), relative MSE × CPU time with k = 2, 4, 8 was 1.16, 1,
 /// 1.17 (m = 64), with m = 32, 64, 128 1.41, 1, 0.98 (k = 4), with 16, 32, 64 light paths
 /// 1.02, 1, 0.89: none clearly better (`docs/measurements.md`, "Bidirectional weights").
 pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64);
@@ -383,7 +383,8 @@ impl MethodConfig {
     }
 
     /// How the method gathers, k and m: the flags, else the method's defaults ([`MIS_GATHER`]
-    /// for `pir-mis` and `pir-bdpt`; every VPL, k = 8, m = 128 for the thesis' methods).
+    /// for `pir-mis`, [`BDPT_GATHER`] for `pir-bdpt`; every VPL, k = 8, m = 128 for the
+    /// thesis' methods).
     pub fn gather_parameters(&self) -> (GatherKind, usize, usize) {
         let p = &self.params;
         let (kind, k, m) = match self.method {
@@ -427,7 +428,7 @@ impl MethodConfig {
         MethodConfig {
             method: m,
             params: MethodParams {
-                // (The path tracer's is the old fixed default, so that its checkpoints resume.)
+                // (The path tracer traces none; its identity keeps the common default.)
                 vpls: Some(if m.uses_vpls() { self.paths() } else { DEFAULT_PATHS }),
                 clamp: m
                     .uses_clamp()
@@ -521,6 +522,37 @@ mod tests {
         assert_eq!(c.integrator(2.0).parameters(), a.integrator(2.0).parameters());
         b.method = Method::PirClamp;
         assert_ne!(a.identity(2.0), b.identity(2.0));
+    }
+
+    /// Light paths and gather by method when the flags are not given: `pir-bdpt` its own
+    /// ([`BDPT_PATHS`], [`BDPT_GATHER`]), the others the common ones; the identity holds the
+    /// resolved count, so giving the default explicitly is the same job, and a job stored
+    /// with a plain count (as before `--vpls` became optional) reads back as that count.
+    #[test]
+    fn light_paths_and_gathers_default_by_method() {
+        for m in Method::ALL {
+            let c = MethodConfig::new(m);
+            let (paths, gather) = match m {
+                Method::Pt => (0, None),
+                Method::PirBdpt => (BDPT_PATHS, Some(BDPT_GATHER)),
+                Method::PirMis => (DEFAULT_PATHS, Some(MIS_GATHER)),
+                _ => (DEFAULT_PATHS, None),
+            };
+            assert_eq!(c.light_paths(), paths, "{m:?}");
+            if let Some(g) = gather {
+                assert_eq!(c.gather_parameters(), g, "{m:?}");
+            }
+            let mut explicit = c;
+            explicit.params.vpls = Some(paths.max(DEFAULT_PATHS));
+            assert_eq!(c.identity(2.0), explicit.identity(2.0), "{m:?}");
+            let mut other = c;
+            other.params.vpls = Some(5);
+            assert_eq!(m == Method::Pt, c.identity(2.0) == other.identity(2.0), "{m:?}");
+        }
+        let mut stored = serde_json::to_value(MethodParams::default()).unwrap();
+        stored["vpls"] = serde_json::json!(32);
+        let back: MethodParams = serde_json::from_value(stored).unwrap();
+        assert_eq!(back.vpls, Some(32));
     }
 
     #[test]

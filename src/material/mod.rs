@@ -153,7 +153,9 @@ impl Bsdf {
         if p.is_finite() { p.max(0.0) } else { 0.0 }
     }
 
-    /// Samples `wi` given `wo`; `u_lobe` chooses between lobes, `u` places the direction.
+    /// Samples `wi` given `wo`; `u_lobe` chooses between glass' reflection and refraction,
+    /// `u` places the direction (and chooses the glossy material's lobe by its first number,
+    /// `u_lobe` refining that number's low bits: [`crate::sampling::reuse`]).
     ///
     /// `None` when `wo` is below the (geometric or shading) surface of a reflective material,
     /// in the plane of a glass interface, when the sampled direction is rejected (below either

@@ -104,8 +104,10 @@ const STATE_KEY: &str = "pir.job.state";
 /// The layout this pir writes and reads; format 1 stored the job as formatted text, format 2
 /// came before the gather's defaults depended on the method and before light paths decided
 /// Russian roulette from the flux arriving at a vertex (which changes the VPLs of a seed),
-/// format 3 before the sampler was chosen (its renders drew independent numbers).
-const FORMAT: &str = "4";
+/// format 3 before the sampler was chosen (its renders drew independent numbers), format 4
+/// before light samples picked the emitter's triangle from their point's own number (which
+/// changes every method's image of a seed, so a resume would no longer be exact).
+const FORMAT: &str = "5";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -228,7 +230,7 @@ pub fn read_state(path: &Path) -> Result<Saved> {
     };
     match get(FORMAT_KEY)? {
         FORMAT => {}
-        old @ ("1" | "2" | "3") => bail!(
+        old @ ("1" | "2" | "3" | "4") => bail!(
             "{}: written by an older pir (resumable-state format {old}), which this pir cannot resume or \
              merge (it reads format {FORMAT}): render it again with this pir",
             path.display()

@@ -3,7 +3,7 @@
 //! part) and the bin's own outcome or its alias (its fractional part against the bin's
 //! threshold); each outcome's total probability over the bins is exactly its weight's share.
 
-use super::reuse::ONE_BELOW;
+use super::reuse::{ONE_BELOW, split};
 
 /// One bin: keep index `i` when the fraction is below `keep`, else take `alias`.
 #[derive(Clone, Copy, Debug)]
@@ -80,23 +80,16 @@ impl AliasTable {
     /// number in `[0, 1)`, uniform given the index when `x` is uniform, and monotone in `x`
     /// within each bin's part for the index, so that stratified `x` stay stratified in it
     /// (pbrt-v4's sample reuse). It has the bits of `x` below the bins', so `x` needs more
-    /// than an `f32`'s 24 bits when there are many bins.
+    /// than an `f32`'s 24 bits when there are many bins. (It compares in `f64`, so exactly at
+    /// a threshold it may pick otherwise than [`AliasTable::sample`], which compares in `f32`.)
     #[inline]
     pub fn sample_reuse(&self, x: f64) -> (usize, f64) {
         let n = self.bins.len();
         let scaled = x * n as f64;
         let i = (scaled as u32 as usize).min(n - 1);
         let bin = self.bins[i];
-        let f = (scaled - i as f64).clamp(0.0, 1.0);
-        let keep = bin.keep as f64;
-        let (index, rest) = if f < keep {
-            (i, f / keep)
-        } else if keep < 1.0 {
-            (bin.alias as usize, (f - keep) / (1.0 - keep))
-        } else {
-            (i, ONE_BELOW)
-        };
-        (index, rest.clamp(0.0, ONE_BELOW))
+        let (kept, rest) = split((scaled - i as f64).clamp(0.0, ONE_BELOW), bin.keep as f64);
+        (if kept { i } else { bin.alias as usize }, rest)
     }
 
     /// The probability of drawing `i`.

@@ -26,7 +26,14 @@ pub fn refined(u: f32, low: f32) -> f64 {
 /// uniform, and increasing in `x` within it.
 #[inline]
 pub fn choose(x: f64, p: f32) -> (bool, f32) {
-    let p = p as f64;
+    let (first, rest) = split(x, p as f64);
+    (first, to_unit_f32(rest))
+}
+
+/// [`choose`] in `f64`: whether `x < p`, and the rest of `x` in `[0, 1)` (the alias table's
+/// bins use it too).
+#[inline]
+pub fn split(x: f64, p: f64) -> (bool, f64) {
     let (first, rest) = if x < p {
         (true, x / p)
     } else if p < 1.0 {
@@ -34,7 +41,7 @@ pub fn choose(x: f64, p: f32) -> (bool, f32) {
     } else {
         (true, ONE_BELOW)
     };
-    (first, to_unit_f32(rest.max(0.0)))
+    (first, rest.clamp(0.0, ONE_BELOW))
 }
 
 #[cfg(test)]

@@ -177,9 +177,11 @@ impl InstantRadiosity {
     }
 
     /// The same method taking `n` light samples at the camera path's first vertex (for
-    /// [`VirtualLights::Bidirectional`]; the others take one).
+    /// [`VirtualLights::Bidirectional`]; the others take one), 1 to
+    /// [`MAX_LIGHT_SAMPLES`](crate::integrator::MAX_LIGHT_SAMPLES).
     pub fn with_light_samples(self, n: u32) -> Self {
-        InstantRadiosity { light_samples: n.max(1), ..self }
+        let n = n.clamp(1, crate::integrator::MAX_LIGHT_SAMPLES);
+        InstantRadiosity { light_samples: n, ..self }
     }
 
     /// Point lights with the given clamping.
