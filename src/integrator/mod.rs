@@ -28,7 +28,7 @@ pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, 
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
 pub use method::{
     BDPT_GATHER, BDPT_PATHS, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES, GatherKind, MAX_GATHER_SAMPLES,
-    MAX_LIGHT_SAMPLES, MAX_VPLS, Method, MethodConfig, MethodParams, Parameter,
+    MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method, MethodConfig, MethodParams, Parameter,
 };
 pub use path::PathTracer;
 
