@@ -428,8 +428,7 @@ impl MethodConfig {
         MethodConfig {
             method: m,
             params: MethodParams {
-                // (The path tracer traces none; its identity keeps the common default.)
-                vpls: Some(if m.uses_vpls() { self.paths() } else { DEFAULT_PATHS }),
+                vpls: m.uses_vpls().then(|| self.paths()),
                 clamp: m
                     .uses_clamp()
                     .then(|| p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal))),

@@ -64,28 +64,17 @@ impl AliasTable {
         self.bins.is_empty()
     }
 
-    /// Draws an index with probability proportional to its weight from `u` in `[0, 1)`.
-    #[inline]
-    pub fn sample(&self, u: f32) -> usize {
-        let n = self.bins.len();
-        let x = u as f64 * n as f64;
-        // `new` keeps n ≤ u32::MAX, so x < 2³² and the u32 conversion (a shorter saturating
-        // sequence than usize's) gives the same index.
-        let i = (x as u32 as usize).min(n - 1);
-        let bin = self.bins[i];
-        if ((x - i as f64) as f32) < bin.keep { i } else { bin.alias as usize }
-    }
-
-    /// [`AliasTable::sample`] from `x` in `[0, 1)`, also returning what is left of `x`: a
-    /// number in `[0, 1)`, uniform given the index when `x` is uniform, and monotone in `x`
-    /// within each bin's part for the index, so that stratified `x` stay stratified in it
-    /// (pbrt-v4's sample reuse). It has the bits of `x` below the bins', so `x` needs more
-    /// than an `f32`'s 24 bits when there are many bins. (It compares in `f64`, so exactly at
-    /// a threshold it may pick otherwise than [`AliasTable::sample`], which compares in `f32`.)
+    /// Draws an index with probability proportional to its weight from `x` in `[0, 1)`, and
+    /// returns what is left of `x` too: a number in `[0, 1)`, uniform given the index when
+    /// `x` is uniform, and monotone in `x` within each bin's part for the index, so that
+    /// stratified `x` stay stratified in it (pbrt-v4's sample reuse). It has the bits of `x`
+    /// below the bins', so `x` needs more than an `f32`'s 24 bits when there are many bins.
     #[inline]
     pub fn sample_reuse(&self, x: f64) -> (usize, f64) {
         let n = self.bins.len();
         let scaled = x * n as f64;
+        // `new` keeps n ≤ u32::MAX, so scaled < 2³² and the u32 conversion (a shorter
+        // saturating sequence than usize's) gives the same index.
         let i = (scaled as u32 as usize).min(n - 1);
         let bin = self.bins[i];
         let (kept, rest) = split((scaled - i as f64).clamp(0.0, ONE_BELOW), bin.keep as f64);
@@ -111,7 +100,7 @@ mod tests {
             let n = 1 << 16;
             let mut counts = vec![0usize; weights.len()];
             for k in 0..n {
-                counts[t.sample((k as f32 + 0.5) / n as f32)] += 1;
+                counts[t.sample_reuse((k as f64 + 0.5) / n as f64).0] += 1;
             }
             for (i, w) in weights.iter().enumerate() {
                 let p = w / total;

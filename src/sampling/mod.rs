@@ -8,5 +8,5 @@ mod sobol;
 mod warp;
 
 pub use alias::AliasTable;
-pub use rng::{Domain, Sampler, SamplerKind, Streams};
+pub use rng::{Block, Domain, Sampler, SamplerKind, Streams};
 pub use warp::*;

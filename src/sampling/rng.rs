@@ -239,37 +239,60 @@ impl Sampler<'_> {
         }
     }
 
-    /// `out.len()` points of one dimension that are stratified among themselves as well as
-    /// over the iterations: with Sobol points, the sample's own aligned block of `n` =
-    /// `out.len()` (rounded up to a power of two) consecutive points of the dimension's
-    /// sequence, point `index · n + j` for the j-th, so that the blocks of the first
-    /// iterations together are the sequence's first points; independent points otherwise.
-    /// For several samples taken at one vertex (next-event estimation's light samples),
-    /// where a dimension per sample would stratify each over the iterations only. One point
-    /// is [`Sampler::next_2d`]'s.
-    pub fn next_2d_block(&mut self, out: &mut [glam::Vec2]) {
-        if out.len() <= 1 {
-            if let Some(p) = out.first_mut() {
-                *p = self.next_2d();
-            }
-            return;
+    /// `n` points of one dimension that are stratified among themselves as well as over the
+    /// iterations: with Sobol points, the sample's own aligned block of `n` (rounded up to a
+    /// power of two) consecutive points of the dimension's sequence, point `index · n + j`
+    /// for the j-th, so that the blocks of the first iterations together are the sequence's
+    /// first points; independent points otherwise. For several samples taken at one vertex
+    /// (next-event estimation's light samples), where a dimension per sample would stratify
+    /// each over the iterations only. One point is [`Sampler::next_2d`]'s. The points are
+    /// computed as the block is read.
+    pub fn next_2d_block(&mut self, n: u32) -> Block {
+        let (one, h) = if n == 1 { (Some(self.next_2d()), 0) } else { (None, self.next_u64()) };
+        let k = n.next_power_of_two().trailing_zeros();
+        Block { one, h, index: self.index, k, sobol: self.sobol, next: 0, n }
+    }
+}
+
+/// The points of [`Sampler::next_2d_block`], in order.
+#[derive(Clone, Debug)]
+pub struct Block {
+    /// A block of one: [`Sampler::next_2d`]'s point.
+    one: Option<glam::Vec2>,
+    /// The dimension's hash: the Sobol points' shuffle and shifts, or the independent
+    /// points' key.
+    h: u64,
+    /// The sample's reversed index, and log2 of the block's size.
+    index: u32,
+    k: u32,
+    sobol: bool,
+    next: u32,
+    n: u32,
+}
+
+impl Iterator for Block {
+    type Item = glam::Vec2;
+
+    #[inline]
+    fn next(&mut self) -> Option<glam::Vec2> {
+        if self.next >= self.n {
+            return None;
         }
-        let h = self.next_u64();
-        if self.sobol {
-            let k = out.len().next_power_of_two().trailing_zeros();
+        let j = self.next;
+        self.next += 1;
+        if let Some(p) = self.one {
+            return Some(p);
+        }
+        Some(if self.sobol {
             // The reversed bits of index · 2^k + j: the index's reversed bits moved down by k,
             // j's reversed above them. (The shuffle is the sample's own, for any dimension.)
-            for (j, p) in out.iter_mut().enumerate() {
-                let rindex = self.index >> k | (j as u32).reverse_bits();
-                *p = glam::Vec2::from(sobol::point_2d(rindex, h));
-            }
+            let rindex = self.index >> self.k | j.reverse_bits();
+            glam::Vec2::from(sobol::point_2d(rindex, self.h))
         } else {
-            for (j, p) in out.iter_mut().enumerate() {
-                let x = mix64(h ^ (j as u64 + 1).wrapping_mul(GAMMA));
-                let unit = |bits: u64| (bits & 0xFF_FFFF) as f32 * (1.0 / (1u64 << 24) as f32);
-                *p = glam::Vec2::new(unit(x >> 40), unit(x >> 8));
-            }
-        }
+            let x = mix64(self.h ^ (j as u64 + 1).wrapping_mul(GAMMA));
+            let unit = |bits: u64| (bits & 0xFF_FFFF) as f32 * (1.0 / (1u64 << 24) as f32);
+            glam::Vec2::new(unit(x >> 40), unit(x >> 8))
+        })
     }
 }
 
@@ -372,10 +395,9 @@ mod tests {
                 for _ in 0..before {
                     s.next_f32();
                 }
-                let mut out = [glam::Vec2::ZERO; 4];
-                s.next_2d_block(&mut out[..n]);
+                let out: Vec<_> = s.next_2d_block(n as u32).collect();
                 assert_eq!(s.dimension(), before as u64 + 1);
-                out[..n].to_vec()
+                out
             };
             if n == 4 {
                 let first: Vec<_> = (1..=16).flat_map(|i| block(SamplerKind::Sobol, i)).collect();
@@ -398,9 +420,8 @@ mod tests {
         // One point is `next_2d`'s.
         let streams = Streams::camera(SamplerKind::Sobol, 5, 3);
         let (mut a, mut b) = (streams.sampler(7), streams.sampler(7));
-        let mut one = [glam::Vec2::ZERO];
-        a.next_2d_block(&mut one);
-        assert_eq!(one[0], b.next_2d());
+        let one: Vec<_> = a.next_2d_block(1).collect();
+        assert_eq!(one, [b.next_2d()]);
     }
 
     #[test]

@@ -76,7 +76,7 @@
 //! Cost: a path tracer's rays plus a gather at each non-delta vertex of the camera path
 //! (the resampled gather: k shadow rays of m candidates).
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use super::Gather;
@@ -84,7 +84,6 @@ use super::light_paths::Vpl;
 use super::light_set::LightSet;
 use super::mis::{Technique, Weighing};
 use crate::geometry::{Ray, offset_origin};
-use crate::integrator::MAX_LIGHT_SAMPLES;
 use crate::integrator::direct::{LightSample, sample_emitters_at};
 use crate::integrator::scatter::{scatter, survives_roulette};
 use crate::integrator::walker::{RR_DEPTH, Vertex};
@@ -382,11 +381,8 @@ pub fn walk(
         if !bsdf.is_delta() {
             // The samples' points: one block of the sequence, stratified among themselves.
             let u_select = sampler.next_f32();
-            let mut points = [Vec2::ZERO; MAX_LIGHT_SAMPLES as usize];
-            let points = &mut points[..n as usize];
-            sampler.next_2d_block(points);
             let mut direct = Vec3::ZERO;
-            for &u in points.iter() {
+            for u in sampler.next_2d_block(n) {
                 direct += sample_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                     let previous = connect.at(depth - 1);
@@ -523,17 +519,9 @@ mod tests {
                 let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
                 let w_in = y.dir(&z[t + 2]);
                 let vpl = Vpl {
-                    p: y.p,
-                    ng: y.g.ng,
-                    frame: y.g.frame,
-                    w_in,
-                    material: 0,
-                    flux: Vec3::ONE,
-                    depth: (k - t - 1) as u32,
                     arrival: 0.0,
-                    survival: 1.0,
-                    nee_pdf: 0.0,
                     mis: light_state(z, t + 1, pdf_area, paths),
+                    ..Vpl::for_test(y.p, y.g.ng, y.g.frame, w_in, Vec3::ONE, (k - t - 1) as u32)
                 };
                 let wo = x.dir(&z[t - 1]);
                 let fx = PreparedBsdf::new(bx, x.g, wo, TransportMode::Radiance);

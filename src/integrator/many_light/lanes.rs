@@ -353,19 +353,15 @@ mod tests {
                         1 => 1e-3 * unit(&mut s),
                         _ => 2.0 * unit(&mut s),
                     };
-                    Vpl {
+                    let w_in = unit(&mut s);
+                    Vpl::for_test(
                         p,
                         ng,
                         frame,
-                        w_in: unit(&mut s),
-                        material: 0,
-                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.0),
-                        depth: (j % 4) as u32,
-                        arrival: 1.0,
-                        survival: 1.0,
-                        nee_pdf: 0.0,
-                        mis: Default::default(),
-                    }
+                        w_in,
+                        Vec3::new(s.next_f32(), s.next_f32(), 0.0),
+                        (j % 4) as u32,
+                    )
                 })
                 .collect();
             let albedo = Vec3::new(0.7, 0.2, s.next_f32());
@@ -420,19 +416,16 @@ mod tests {
             let vpls: Vec<Vpl> = (0..n)
                 .map(|j| {
                     let (ng, frame) = normals(&mut s);
-                    Vpl {
-                        p: if j % 9 == 0 { 1e-3 * unit(&mut s) } else { 2.0 * unit(&mut s) },
+                    let p = if j % 9 == 0 { 1e-3 * unit(&mut s) } else { 2.0 * unit(&mut s) };
+                    let w_in = unit(&mut s);
+                    Vpl::for_test(
+                        p,
                         ng,
                         frame,
-                        w_in: unit(&mut s),
-                        material: 0,
-                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.1),
-                        depth: (j % 4) as u32,
-                        arrival: 1.0,
-                        survival: 1.0,
-                        nee_pdf: 0.0,
-                        mis: Default::default(),
-                    }
+                        w_in,
+                        Vec3::new(s.next_f32(), s.next_f32(), 0.1),
+                        (j % 4) as u32,
+                    )
                 })
                 .collect();
             let emitting: Vec<PreparedBsdf> = vpls
@@ -492,19 +485,9 @@ mod tests {
         let vpls: Vec<Vpl> = (0..8)
             .map(|j| {
                 let (ng, frame) = normals(s);
-                Vpl {
-                    p: position(s),
-                    ng,
-                    frame,
-                    w_in: (unit(s) + 3.0 * s.next_f32() * ng).normalize(),
-                    material: 0,
-                    flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
-                    depth: (j % 2) as u32,
-                    arrival: 1.0,
-                    survival: 1.0,
-                    nee_pdf: 0.0,
-                    mis: Default::default(),
-                }
+                let p = position(s);
+                let w_in = (unit(s) + 3.0 * s.next_f32() * ng).normalize();
+                Vpl::for_test(p, ng, frame, w_in, Vec3::new(s.next_f32(), s.next_f32(), 0.5), (j % 2) as u32)
             })
             .collect();
         let emitting: Vec<PreparedBsdf> = vpls

@@ -58,6 +58,25 @@ pub struct Vpl {
 }
 
 impl Vpl {
+    /// A VPL for unit tests: material 0, reached with density 1, continuing with
+    /// probability 1, not lit directly, the bidirectional sums zero.
+    #[cfg(test)]
+    pub(crate) fn for_test(p: Vec3, ng: Vec3, frame: Frame, w_in: Vec3, flux: Vec3, depth: u32) -> Vpl {
+        Vpl {
+            p,
+            ng,
+            frame,
+            w_in,
+            material: 0,
+            flux,
+            depth,
+            arrival: 1.0,
+            survival: 1.0,
+            nee_pdf: 0.0,
+            mis: MisState::default(),
+        }
+    }
+
     pub fn geometry(&self) -> LocalGeometry {
         LocalGeometry { ng: self.ng, frame: self.frame }
     }

@@ -336,19 +336,15 @@ mod tests {
                     };
                     let (ng, frame) = normals((x - p).normalize_or(Vec3::Z), s);
                     let (ng, frame) = if j % 9 == 3 { (ngx, Frame::from_normal(ngx)) } else { (ng, frame) };
-                    Vpl {
+                    let w_in = (ng + 0.8 * unit(s)).normalize_or(ng);
+                    Vpl::for_test(
                         p,
                         ng,
                         frame,
-                        w_in: (ng + 0.8 * unit(s)).normalize_or(ng),
-                        material: 0,
-                        flux: Vec3::new(s.next_f32(), s.next_f32(), 0.5),
-                        depth: (j % 4) as u32,
-                        arrival: 1.0,
-                        survival: 1.0,
-                        nee_pdf: 0.0,
-                        mis: Default::default(),
-                    }
+                        w_in,
+                        Vec3::new(s.next_f32(), s.next_f32(), 0.5),
+                        (j % 4) as u32,
+                    )
                 })
                 .collect();
             let bsdfs: Vec<Bsdf> = (0..n)

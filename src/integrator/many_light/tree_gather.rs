@@ -519,19 +519,10 @@ mod tests {
                     1 => (Vec3::new(0.0, s.next_f32(), s.next_f32()), Vec3::X),
                     _ => (Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()), unit(s)),
                 };
-                Vpl {
-                    p,
-                    ng,
-                    frame: Frame::from_normal(tilted(ng, 0.3, s)),
-                    w_in: tilted(ng, 1.5, s),
-                    material: 0,
-                    flux: Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 0.01,
-                    depth: 1 + (j % 3) as u32,
-                    arrival: 1.0,
-                    survival: 1.0,
-                    nee_pdf: 0.0,
-                    mis: Default::default(),
-                }
+                let frame = Frame::from_normal(tilted(ng, 0.3, s));
+                let w_in = tilted(ng, 1.5, s);
+                let flux = Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 0.01;
+                Vpl::for_test(p, ng, frame, w_in, flux, 1 + (j % 3) as u32)
             })
             .collect()
     }
