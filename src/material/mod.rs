@@ -112,6 +112,18 @@ impl Bsdf {
         matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })
     }
 
+    /// Whether light that arrives from `w` (a unit direction away from the surface) can
+    /// leave again by a non-delta lobe in any direction: `w` in front of the geometric
+    /// normal and above the shading horizon, a non-delta BSDF, a non-zero reflectance.
+    /// Where it is false, [`Bsdf::eval`] with `w` as either direction is zero for every
+    /// other direction, so a virtual light there adds nothing to any receiver.
+    pub fn reflects_from(&self, g: &LocalGeometry, w: Vec3) -> bool {
+        !self.is_delta()
+            && w.dot(g.ng) > 0.0
+            && w.dot(g.frame.n) > 0.0
+            && self.reflectance().max_element() > 0.0
+    }
+
     /// f(wo, wi) · |cos θi| for the non-delta part; zero for delta materials.
     ///
     /// Zero unless `wo` and `wi` are both in front of the geometric normal and above the
@@ -309,6 +321,48 @@ fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Opt
 mod tests {
     use super::*;
     use crate::sampling::{Domain, Sampler};
+
+    /// `reflects_from` is false exactly where every evaluation with that direction is zero:
+    /// checked against `eval` over many other directions, both modes, for tilted shading
+    /// normals, black and delta materials included.
+    #[test]
+    fn reflects_from_is_false_exactly_where_nothing_is_reflected() {
+        let mut rng = Sampler::new(9, 0, Domain::Iteration, 0);
+        let dir = |rng: &mut Sampler| {
+            let u = rng.next_2d();
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * u.y;
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        };
+        let bsdfs = [
+            Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.5, 0.2) },
+            Bsdf::Diffuse { albedo: Vec3::ZERO },
+            Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.5), roughness: 0.3 },
+            Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::ZERO, roughness: 0.3 },
+            Bsdf::Mirror { specular: Vec3::ONE },
+            Bsdf::Glass { ior: 1.5 },
+        ];
+        let (mut reflecting, mut not) = (0, 0);
+        for bsdf in bsdfs {
+            for _ in 0..300 {
+                let ng = dir(&mut rng);
+                let ns = (ng + 0.3 * dir(&mut rng)).normalize();
+                let g = LocalGeometry { ng, frame: Frame::from_normal(ns) };
+                let w = dir(&mut rng);
+                let any = (0..200).any(|_| {
+                    let other = dir(&mut rng);
+                    [TransportMode::Radiance, TransportMode::Importance].into_iter().any(|mode| {
+                        bsdf.eval(&g, w, other, mode) != Vec3::ZERO
+                            || bsdf.eval(&g, other, w, mode) != Vec3::ZERO
+                    })
+                });
+                assert_eq!(bsdf.reflects_from(&g, w), any, "{bsdf:?}, ng {ng}, ns {ns}, w {w}");
+                if any { reflecting += 1 } else { not += 1 }
+            }
+        }
+        assert!(reflecting > 200 && not > 200, "{reflecting} reflecting, {not} not");
+    }
 
     /// The Lambertian fast paths give what the general paths give: the evaluation bit for bit,
     /// the sample up to rounding (both or neither, except at grazing angles), for shading

@@ -106,8 +106,10 @@ const STATE_KEY: &str = "pir.job.state";
 /// Russian roulette from the flux arriving at a vertex (which changes the VPLs of a seed),
 /// format 3 before the sampler was chosen (its renders drew independent numbers), format 4
 /// before light samples picked the emitter's triangle from their point's own number (which
-/// changes every method's image of a seed, so a resume would no longer be exact).
-const FORMAT: &str = "5";
+/// changes every method's image of a seed, so a resume would no longer be exact), format 5
+/// before light paths left no VPL where they arrive behind a surface (which changes the VPL
+/// methods' images of a seed).
+const FORMAT: &str = "6";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -230,7 +232,7 @@ pub fn read_state(path: &Path) -> Result<Saved> {
     };
     match get(FORMAT_KEY)? {
         FORMAT => {}
-        old @ ("1" | "2" | "3" | "4") => bail!(
+        old @ ("1" | "2" | "3" | "4" | "5") => bail!(
             "{}: written by an older pir (resumable-state format {old}), which this pir cannot resume or \
              merge (it reads format {FORMAT}): render it again with this pir",
             path.display()

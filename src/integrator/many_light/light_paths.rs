@@ -4,11 +4,17 @@
 //! at a uniform point, leaves in a cosine-distributed direction, and at every hit samples the
 //! BSDF in importance mode (with the adjoint shading-normal correction), continuing under
 //! Russian roulette (the continuation of [`crate::integrator::scatter`], shared with the
-//! camera walker). Every non-delta vertex gets a VPL that stores what its own BSDF needs
-//! later (position, normals, incoming direction, material) and the path's throughput Φ
-//! divided by N, the number of light PATHS traced (not of VPLs). Delta vertices (mirror,
-//! glass) get none, but the path continues through them: that is how caustics reach diffuse
-//! surfaces.
+//! camera walker). Every non-delta vertex that can reflect the light it receives gets a VPL
+//! that stores what its own BSDF needs later (position, normals, incoming direction,
+//! material) and the path's throughput Φ divided by N, the number of light PATHS traced (not
+//! of VPLs). Delta vertices (mirror, glass) get none, but the path continues through them:
+//! that is how caustics reach diffuse surfaces. Nor do vertices where the light arrives from
+//! behind the surface or the material is black ([`crate::material::Bsdf::reflects_from`]):
+//! such a VPL adds exactly nothing to any receiver, and where light enters through an
+//! opening most light paths end on the outside of the wall around it (in the slit room, 85 %
+//! of the VPLs of an iteration of 64 paths were such; every one took a candidate's place in
+//! the resampled gather's window; the exhaustive gather evaluated them all and traced no
+//! shadow ray to them).
 //!
 //! Path `k` of iteration `i` draws its numbers from sampler k of `Streams::light_paths(sampler,
 //! seed, i)` (with Sobol points, point k of the iteration's own scrambled sequence), and paths are traced in parallel but collected in path order, so the VPL set is a function
@@ -167,7 +173,11 @@ fn trace_path(
             d if d >= RR_DEPTH => (beta.max_element() / beta0).min(MAX_SURVIVAL),
             _ => 1.0,
         };
-        if !bsdf.is_delta() {
+        // Only where light can be reflected: a vertex on the back of a surface (light paths
+        // that miss an opening and strike the wall around it from outside) or on a black
+        // material would add nothing to any receiver, yet take a place in every gather's
+        // window. The path ends there all the same ([`scatter`] finds no direction).
+        if bsdf.reflects_from(&sp.geometry(), w_in) {
             out.push(Vpl {
                 p: sp.p,
                 ng: sp.ng,
