@@ -20,6 +20,7 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec2;
 use pir::accel::{Backend, build_accelerator};
+use pir::integrator::many_light::bidirectional::Counts;
 use pir::integrator::many_light::light_set::LightSet;
 use pir::integrator::many_light::light_tree::LightTree;
 use pir::integrator::many_light::mis::Weighing;
@@ -50,7 +51,7 @@ fn bench(c: &mut Criterion) {
     let vpls_of = |n: usize| -> Vec<Vpl> {
         let mut paths = n / 2 + 1;
         loop {
-            let (mut v, _) = trace_vpls(&ctx, 1, paths, paths as f32, max_vpl_depth);
+            let (mut v, _) = trace_vpls(&ctx, 1, paths, Counts::uniform(paths as f32), max_vpl_depth);
             if v.len() >= n {
                 v.truncate(n);
                 return v;

@@ -107,8 +107,8 @@ const STATE_KEY: &str = "pir.job.state";
 /// format 3 before the sampler was chosen (its renders drew independent numbers), format 4
 /// before light samples picked the emitter's triangle from their point's own number (which
 /// changes every method's image of a seed, so a resume would no longer be exact), format 5
-/// before light paths left no VPL where they arrive behind a surface (which changes the VPL
-/// methods' images of a seed).
+/// before light paths left no VPL where they arrive behind a surface and `pir-bdpt` counted
+/// its connections by their ends (which change the VPL methods' images of a seed).
 const FORMAT: &str = "6";
 
 /// What `pir.job.state` holds.

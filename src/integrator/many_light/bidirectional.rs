@@ -12,13 +12,14 @@
 //!   by n;
 //! - t ≤ k − 2: the camera vertex z_t connects to the VPL that light tracing left at z_{t+1}
 //!   (its light path came from the emitter through z_k … z_{t+2}); the iteration's N light
-//!   paths give N samples, so this technique's density is N times its path density.
+//!   paths give N samples, so this technique's density is N times its path density (a
+//!   sampled gather counts fewer where an end is glossy: [`Counts`]).
 //!
 //! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}; the hit is
 //! always possible. Every technique reaches every path length up to `max_depth`, so the set
 //! of techniques is the same for every path of a given shape and the balance heuristic's
-//! weights p_t n_t / Σ_u p_u n_u (n_u = N for connections, the light samples for
-//! next-event estimation, 1 for the hit) sum to one: without
+//! weights p_t n_t / Σ_u p_u n_u (n_u for a connection as [`Counts`] says from its two
+//! ends, the light samples for next-event estimation, 1 for the hit) sum to one: without
 //! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests).
 //!
 //! **The emitter techniques: the power heuristic among themselves.** The weights are
@@ -44,7 +45,10 @@
 //! hit finishes the sum with its own end's densities. pir's changes: no light tracing to the
 //! camera (the camera subpath starts at zero), and the counts n_u: the light subpath's sums
 //! start divided by N (the two emitter techniques it carries count once, not N times), and
-//! the camera subpath's sums count N when next-event estimation or a hit weighs them.
+//! the camera subpath's sums count N when next-event estimation or a hit weighs them. A
+//! connection whose count is not N enters either subpath's sums times its count relative to
+//! N ([`Scatter::count`], [`Vpl::count_out`], [`CameraEnd::count_in`]), and a connection's
+//! own weight divides the others by its count, so every technique keeps its own count.
 //! Russian roulette is left out of the densities: the weights still sum to one (every
 //! technique is weighed with the same densities), only a little less well balanced.
 //!
@@ -92,22 +96,67 @@ use crate::light::emitted;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
-/// How many light paths the weights count for an iteration of `paths` light paths gathered
-/// as `gather` says: all of them for the exhaustive gather, whose N connections per vertex
-/// are N samples of the technique; at most 2k for a sampled gather, whose k shadow rays go
-/// to VPLs picked by their light, so that the technique's samples are fewer than N but
-/// better placed. Any positive count keeps the weights of every path summing to one (both
-/// subpaths use the same); this one balances the path tracer's techniques better against
-/// the connections: measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional
-/// weights"), 8 rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its
-/// worst pixel by 20 %, the near-mirror floor's by 8 % and 54 %, level on the Cornell box;
-/// 4 was worse on the Cornell box (+10 %).
-pub fn counted_paths(paths: usize, gather: Gather) -> f32 {
-    let n = paths as f32;
-    match gather {
-        Gather::All => n,
-        Gather::Tree { samples } | Gather::Resampled { samples, .. } => n.min(2.0 * samples as f32),
+/// How many samples the weights count for a connection technique: a function of the
+/// iteration's light paths, the gather, and the connection's two ends.
+///
+/// Any positive counts keep the weights of every path summing to one, as long as both
+/// subpaths use the same count for the same connection (the running sums carry each
+/// connection's factor from where it is folded in). The counts only balance the techniques:
+/// - **The exhaustive gather** makes N connections per vertex, N samples of the technique:
+///   every connection counts N.
+/// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
+///   contribution) counts N for a connection between two Lambertian ends, whose estimate
+///   is the unoccluded contribution itself but for the albedos' colours (power × the
+///   geometry term, [`super::resample`]): every one of the N light paths is a candidate and
+///   the picks go where its light is, so the k picks estimate the N connections' sum with
+///   only visibility left to chance. A connection with a glossy end counts at most 2k: the
+///   estimate leaves the lobe out, so the picks are no better placed than k samples of it.
+///   Measured with k = 4 and 32 paths, when every connection counted alike
+///   (`docs/measurements.md`, "Bidirectional weights"): 8 rather than 32 lowered the glossy
+///   Cornell box's relative MSE by 4 % and its worst pixel by 20 %, the near-mirror floor's
+///   by 8 % and 54 %; and with 64 paths, 64 rather than 8 raised the glossy corner's by
+///   72 % and the near-mirror floor's by 17 % while the Lambertian Cornell box gained 4 %.
+///   Where light comes through an opening the Lambertian count is what lets the many light
+///   paths that reach the room take the paths over from the path tracer's techniques:
+///   `docs/measurements.md`, "Connections counted by their ends".
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Counts {
+    /// N: the count of a connection between two Lambertian ends (of every connection for the
+    /// exhaustive gather); the emitter techniques count once against it.
+    pub paths: f32,
+    /// The count of a connection with a glossy end, relative to `paths` (in (0, 1]).
+    pub glossy: f32,
+}
+
+impl Counts {
+    /// The counts of an iteration of `paths` light paths gathered as `gather` says.
+    pub fn new(paths: usize, gather: Gather) -> Counts {
+        let n = (paths as f32).max(1.0);
+        let glossy = match gather {
+            Gather::All => n,
+            Gather::Tree { samples } | Gather::Resampled { samples, .. } => n.min(2.0 * samples as f32),
+        };
+        Counts { paths: n, glossy: (glossy / n).clamp(f32::MIN_POSITIVE, 1.0) }
     }
+
+    /// Every connection counted as `paths` (the tests' weights, and [`Gather::All`]).
+    pub fn uniform(paths: f32) -> Counts {
+        Counts { paths, glossy: 1.0 }
+    }
+
+    /// The count of the connection between a vertex of BSDF `a` and one of BSDF `b`,
+    /// relative to [`Counts::paths`].
+    #[inline]
+    pub fn factor(&self, a: &Bsdf, b: &Bsdf) -> f32 {
+        if lambertian(a) && lambertian(b) { 1.0 } else { self.glossy }
+    }
+}
+
+/// Whether a connection at a vertex of this BSDF is picked as well as a Lambertian one
+/// ([`Counts`]): a diffuse material.
+#[inline]
+fn lambertian(b: &Bsdf) -> bool {
+    matches!(b, Bsdf::Diffuse { .. })
 }
 
 /// The running sums of one subpath's MIS weights (see the module docs).
@@ -159,7 +208,7 @@ impl MisState {
             self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
         } else {
             let k = s.cos_out / s.pdf;
-            let dvcm = if s.fold { self.dvcm } else { 0.0 };
+            let dvcm = if s.fold { self.dvcm * s.count } else { 0.0 };
             let emitter = if s.emitter { self.dvcm } else { 0.0 };
             self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
             self.dvc_emitter = finite(k * (self.dvc_emitter * s.pdf_rev + emitter));
@@ -177,21 +226,36 @@ pub struct Scatter {
     pub delta: bool,
     pub fold: bool,
     pub emitter: bool,
+    /// The count of the technique `dvcm` stands for, relative to [`Counts::paths`] (1 for
+    /// next-event estimation): what it is weighed with once folded into `dvc`.
+    pub count: f32,
 }
 
 impl Scatter {
     /// A camera subpath's sample at its vertex of `depth` segments, `connect` saying which
-    /// vertices connect: the previous vertex's connection counts if that vertex connects.
+    /// vertices connect: the previous vertex's connection counts if that vertex connects,
+    /// `count` times ([`Counts::factor`] of the previous vertex and this one).
     #[inline]
-    pub fn camera(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, connect: Connect, depth: u32) -> Self {
-        Scatter { pdf, pdf_rev, cos_out, delta, fold: connect.at(depth - 1), emitter: false }
+    pub fn camera(
+        pdf: f32,
+        pdf_rev: f32,
+        cos_out: f32,
+        delta: bool,
+        connect: Connect,
+        depth: u32,
+        count: f32,
+    ) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: connect.at(depth - 1), emitter: false, count }
     }
 
     /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
-    /// first, the technique `dvcm` stands for is next-event estimation.
+    /// first, the technique `dvcm` stands for is next-event estimation; further on, the
+    /// connection of this vertex (as a camera vertex) to the previous one's VPL, which counts
+    /// `count` times ([`Counts::factor`] of this vertex and the previous one).
     #[inline]
-    pub fn light(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, depth: u32) -> Self {
-        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1 }
+    pub fn light(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, depth: u32, count: f32) -> Self {
+        let count = if depth == 1 { 1.0 } else { count };
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count }
     }
 }
 
@@ -258,8 +322,9 @@ pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, l
 
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
 /// the density of the vertex's BSDF sampling back along the camera path from the light's
-/// direction, `cos_receiver` the cosine at the vertex towards the light;
-/// `previous_connects` whether the camera vertex before it connects to VPLs;
+/// direction, `cos_receiver` the cosine at the vertex towards the light; `previous` the
+/// count of the connection from the camera vertex before it to this one, relative to
+/// `paths` ([`Counts::factor`]), 0 when that vertex does not connect to VPLs;
 /// `light_samples` the light samples taken at the vertex (the technique's count: each
 /// sample's estimate is divided by it).
 #[inline]
@@ -269,7 +334,7 @@ pub fn light_weight(
     pdf_rev: f32,
     cos_receiver: f32,
     paths: f32,
-    previous_connects: bool,
+    previous: f32,
     light_samples: f32,
 ) -> f32 {
     if light.pdf_light.is_nan() || light.pdf_light <= 0.0 {
@@ -278,7 +343,7 @@ pub fn light_weight(
     // The other techniques' densities relative to all the light samples' (exact for one).
     let hit = light.pdf_bsdf / (light_samples * light.pdf_light);
     let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
-    let dvcm = if previous_connects { state.dvcm } else { 0.0 };
+    let dvcm = state.dvcm * previous;
     emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev) / light_samples)
 }
 
@@ -296,6 +361,11 @@ pub struct CameraEnd<'a> {
     /// into the light subpath).
     pub connect: Connect,
     pub depth: u32,
+    /// The connections' counts, and the count of the connection from the camera vertex
+    /// before this one to this one (relative to [`Counts::paths`]; any value where the
+    /// sums are zero).
+    pub counts: Counts,
+    pub count_in: f32,
 }
 
 /// The weight of the connection from the camera vertex `x` (at `p`) to `vpl`, whose BSDF is
@@ -318,15 +388,20 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 };
     let w_camera = if x.state.dvcm > 0.0 || x.state.dvc > 0.0 {
         let camera_rev = if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 };
-        emitting.pdf(-w) * cos_x / dist2 * (x.state.dvcm + x.state.dvc * camera_rev)
+        emitting.pdf(-w) * cos_x / dist2 * (x.state.dvcm * x.count_in + x.state.dvc * camera_rev)
     } else {
         0.0
     };
     // One vertex further: next-event estimation at the VPL (lit directly) or a connection
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
-    let one = if vpl.depth == 1 || x.connect.at(x.depth + 1) { vpl.mis.dvcm } else { 0.0 };
+    let one = match vpl.depth {
+        1 => vpl.mis.dvcm,
+        _ if x.connect.at(x.depth + 1) => vpl.mis.dvcm * vpl.count_out,
+        _ => 0.0,
+    };
     let w_light = camera_pdf * (one + more * light_rev);
-    weight(w_light + w_camera)
+    // All of them relative to this connection's count.
+    weight((w_light + w_camera) / x.counts.factor(x.bsdf, bsdf_y))
 }
 
 /// Radiance arriving along the camera ray `ray` (unit direction): the full camera walk with
@@ -339,11 +414,12 @@ pub fn walk(
     set: &LightSet,
     connect: Connect,
     light_samples: u32,
-    paths: f32,
+    counts: Counts,
     bound: f32,
     sampler: &mut Sampler,
     counters: &mut Counters,
 ) -> Vec3 {
+    let paths = counts.paths;
     let mut radiance = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut eta_scale = 1.0f32;
@@ -352,6 +428,8 @@ pub fn walk(
     let mut depth = 0u32;
     // Light samples at the vertex the ray left (for the weight of an emitter it hits).
     let mut left_samples = 1.0f32;
+    // The BSDF of the vertex the ray left (none at the camera).
+    let mut previous: Option<&Bsdf> = None;
     loop {
         counters.rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
@@ -374,6 +452,8 @@ pub fn walk(
 
         let bsdf = &material.bsdf;
         let geometry = sp.geometry();
+        // The count of the connection from the previous camera vertex to this one.
+        let count_in = previous.map_or(1.0, |b| counts.factor(b, bsdf));
         // ---- Next-event estimation: `light_samples` samples at the first vertex.
         let n = if depth == 1 { light_samples } else { 1 };
         let count = n as f32;
@@ -385,7 +465,7 @@ pub fn walk(
             for u in sampler.next_2d_block(n) {
                 direct += sample_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
-                    let previous = connect.at(depth - 1);
+                    let previous = if connect.at(depth - 1) { count_in } else { 0.0 };
                     light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous, count)
                 });
             }
@@ -393,7 +473,7 @@ pub fn walk(
             // ---- The connections to the VPLs.
             if connect.at(depth) {
                 let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
-                let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth };
+                let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth, counts, count_in };
                 let weighing =
                     Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound };
                 let v = Vertex { sp, wo, bsdf, depth };
@@ -412,7 +492,8 @@ pub fn walk(
             (false, false) => 0.0,
         };
         let cos_out = sp.ng.dot(s.wi).abs();
-        state.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, connect, depth));
+        state.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, connect, depth, count_in));
+        previous = Some(bsdf);
         if depth >= RR_DEPTH && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler) {
             break;
         }
@@ -452,30 +533,42 @@ mod tests {
         (a.p - b.p).length_squared()
     }
 
+    /// The count of the connection between `a` and `b` (1 where either is delta: no
+    /// connection touches it).
+    fn factor(counts: Counts, a: &Node, b: &Node) -> f32 {
+        match (&a.bsdf, &b.bsdf) {
+            (Some(a), Some(b)) => counts.factor(a, b),
+            _ => 1.0,
+        }
+    }
+
     /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
-    fn camera_state(z: &[Node], t: usize, connect: Connect) -> MisState {
+    fn camera_state(z: &[Node], t: usize, connect: Connect, counts: Counts) -> MisState {
         let mut s = MisState::CAMERA;
         for j in 1..=t {
             s.arrive(dist2(&z[j - 1], &z[j]), z[j].cos(&z[j - 1]));
             if j < t {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
                 let delta = z[j].bsdf.is_none();
-                s.scatter(Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, j as u32));
+                let count = if j > 1 { factor(counts, &z[j - 1], &z[j]) } else { 1.0 };
+                let scatter = Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, j as u32, count);
+                s.scatter(scatter);
             }
         }
         s
     }
 
     /// The light subpath's sums on arriving at z[t] from the emitter z[k].
-    fn light_state(z: &[Node], t: usize, pdf_area: f32, paths: f32) -> MisState {
+    fn light_state(z: &[Node], t: usize, pdf_area: f32, counts: Counts) -> MisState {
         let k = z.len() - 1;
-        let mut s = MisState::light(pdf_area, z[k].cos(&z[k - 1]), paths);
+        let mut s = MisState::light(pdf_area, z[k].cos(&z[k - 1]), counts.paths);
         for j in (t..k).rev() {
             s.arrive(dist2(&z[j + 1], &z[j]), z[j].cos(&z[j + 1]));
             if j > t {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
-                s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, (k - j) as u32));
+                let count = factor(counts, &z[j], &z[j + 1]);
+                s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, (k - j) as u32, count));
             }
         }
         s
@@ -487,16 +580,18 @@ mod tests {
     fn weights(
         z: &[Node],
         pdf_area: f32,
-        paths: f32,
+        counts: Counts,
         connect: Connect,
         light_samples: u32,
     ) -> Vec<Option<f32>> {
         let k = z.len() - 1;
+        let paths = counts.paths;
         let samples_at = |t: usize| if t == 1 { light_samples as f32 } else { 1.0 };
         let mut w = Vec::new();
         for t in 1..=k {
-            let cam = camera_state(z, t, connect);
+            let cam = camera_state(z, t, connect, counts);
             let x = &z[t];
+            let count_in = if t > 1 { factor(counts, &z[t - 1], x) } else { 1.0 };
             w.push(if t == k {
                 Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
             } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
@@ -511,7 +606,7 @@ mod tests {
                     dist2: d2,
                     wi: x.dir(e),
                 };
-                let previous = connect.at(t as u32 - 1);
+                let previous = if connect.at(t as u32 - 1) { count_in } else { 0.0 };
                 let n = samples_at(t);
                 Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, n))
             } else {
@@ -520,14 +615,25 @@ mod tests {
                 let w_in = y.dir(&z[t + 2]);
                 let vpl = Vpl {
                     arrival: 0.0,
-                    mis: light_state(z, t + 1, pdf_area, paths),
+                    mis: light_state(z, t + 1, pdf_area, counts),
+                    count_out: if t + 2 < k { factor(counts, y, &z[t + 2]) } else { 1.0 },
                     ..Vpl::for_test(y.p, y.g.ng, y.g.frame, w_in, Vec3::ONE, (k - t - 1) as u32)
                 };
                 let wo = x.dir(&z[t - 1]);
                 let fx = PreparedBsdf::new(bx, x.g, wo, TransportMode::Radiance);
                 let emitting = PreparedBsdf::new(by, y.g, w_in, TransportMode::Importance);
-                let end =
-                    CameraEnd { fx: &fx, bsdf: &bx, geometry: x.g, wo, state: cam, connect, depth: t as u32 };
+                let depth = t as u32;
+                let end = CameraEnd {
+                    fx: &fx,
+                    bsdf: &bx,
+                    geometry: x.g,
+                    wo,
+                    state: cam,
+                    connect,
+                    depth,
+                    counts,
+                    count_in,
+                };
                 Some(connection_weight(&end, x.p, &vpl, &by, &emitting))
             });
         }
@@ -587,7 +693,7 @@ mod tests {
             let pdf_bsdf = x.pdf(&z[0], e);
             // With n light samples, the power heuristic with counts: (n p_l)² / ((n p_l)² + p_b²).
             for n in [1, 3] {
-                let w = weights(&z, pdf_area, 32.0, Connect::First, n);
+                let w = weights(&z, pdf_area, Counts { paths: 32.0, glossy: 0.25 }, Connect::First, n);
                 let nee = crate::integrator::direct::power_heuristic(n as f32 * pdf_light, pdf_bsdf);
                 assert!((w[0].unwrap() - nee).abs() < 1e-4, "n {n}: {w:?} against {nee}");
                 assert!((w[1].unwrap() - (1.0 - nee)).abs() < 1e-4, "n {n}: {w:?} against {}", 1.0 - nee);
@@ -620,17 +726,20 @@ mod tests {
                 (Connect::First, 4),
                 (Connect::All, 3),
             ] {
-                let w = weights(&z, 0.37, 32.0, connect, light_samples);
-                let sum: f32 = w.iter().flatten().sum();
-                if w.iter().flatten().all(|w| w.is_finite()) {
-                    assert!(
-                        (sum - 1.0).abs() < 2e-3,
-                        "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples: weights {w:?} sum to {sum}"
-                    );
-                    checked += 1;
+                // Every connection counted alike, and a glossy end counted a quarter.
+                for counts in [Counts::uniform(32.0), Counts { paths: 32.0, glossy: 0.25 }] {
+                    let w = weights(&z, 0.37, counts, connect, light_samples);
+                    let sum: f32 = w.iter().flatten().sum();
+                    if w.iter().flatten().all(|w| w.is_finite()) {
+                        assert!(
+                            (sum - 1.0).abs() < 2e-3,
+                            "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}: weights {w:?} sum to {sum}"
+                        );
+                        checked += 1;
+                    }
                 }
             }
         }
-        assert!(checked > 1500, "only {checked} paths checked");
+        assert!(checked > 3000, "only {checked} paths checked");
     }
 }

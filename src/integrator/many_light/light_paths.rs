@@ -23,7 +23,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::bidirectional::{MisState, Scatter};
+use super::bidirectional::{Counts, MisState, Scatter};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
@@ -61,6 +61,10 @@ pub struct Vpl {
     /// The light subpath's running sums for the bidirectional weights of `pir-bdpt`
     /// ([`super::bidirectional`]), at this vertex.
     pub mis: MisState,
+    /// The count of the connection from this vertex, as a camera vertex, to the VPL at the
+    /// light path's previous vertex, relative to the paths the weights count
+    /// ([`Counts::factor`]); 1 for a vertex lit directly.
+    pub count_out: f32,
 }
 
 impl Vpl {
@@ -80,6 +84,7 @@ impl Vpl {
             survival: 1.0,
             nee_pdf: 0.0,
             mis: MisState::default(),
+            count_out: 1.0,
         }
     }
 
@@ -96,13 +101,12 @@ const MAX_SURVIVAL: f32 = 0.95;
 
 /// Traces `paths` light paths for `iteration` and returns their VPLs, in path order. Only
 /// vertices within `max_vpl_depth` segments of the emitter are traced.
-/// `counted` is the number of light paths the bidirectional weights count
-/// ([`super::bidirectional::counted_paths`]).
+/// `counts` are the bidirectional weights' counts ([`Counts`]).
 pub fn trace_vpls(
     ctx: &RenderContext,
     iteration: u64,
     paths: usize,
-    counted: f32,
+    counts: Counts,
     max_vpl_depth: u32,
 ) -> (Vec<Vpl>, u64) {
     const CHUNK: usize = 64;
@@ -114,7 +118,7 @@ pub fn trace_vpls(
             let mut rays = 0u64;
             for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
                 let mut sampler = streams.sampler(k as u64);
-                rays += trace_path(ctx, &mut sampler, paths as f32, counted, max_vpl_depth, &mut vpls);
+                rays += trace_path(ctx, &mut sampler, paths as f32, counts, max_vpl_depth, &mut vpls);
             }
             (vpls, rays)
         })
@@ -128,7 +132,7 @@ fn trace_path(
     ctx: &RenderContext,
     sampler: &mut Sampler,
     n_paths: f32,
-    counted: f32,
+    counts: Counts,
     max_depth: u32,
     out: &mut Vec<Vpl>,
 ) -> u64 {
@@ -154,7 +158,9 @@ fn trace_path(
     let mut from = es.point.p;
     let mut density = n_paths * local.z * std::f32::consts::FRAC_1_PI;
     let emitter_point = (es.point.p, es.pdf_area, local.z);
-    let mut mis = MisState::light(es.pdf_area, local.z, counted);
+    let mut mis = MisState::light(es.pdf_area, local.z, counts.paths);
+    // The BSDF of the light path's previous vertex (none at the emitter).
+    let mut previous: Option<&crate::material::Bsdf> = None;
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;
@@ -195,6 +201,7 @@ fn trace_path(
                     0.0
                 },
                 mis,
+                count_out: previous.map_or(1.0, |b| counts.factor(bsdf, b)),
             });
         }
         if depth == max_depth {
@@ -202,7 +209,9 @@ fn trace_path(
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
-        mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth));
+        let count = previous.map_or(1.0, |b| counts.factor(bsdf, b));
+        mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count));
+        previous = Some(bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;
         }

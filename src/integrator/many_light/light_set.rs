@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 
+use super::bidirectional::Counts;
 use super::lanes::VplLanes;
 use super::light_paths::Vpl;
 use super::light_tree::{LightTree, TreeLight};
@@ -25,9 +26,9 @@ pub struct LightSet {
 /// What the weighed connections of [`super::mis`] need from the iteration.
 #[derive(Clone, Copy, Debug)]
 pub struct Mis {
-    /// Light paths traced this iteration (`pir-mis`), or as many as the bidirectional weights
-    /// count ([`super::bidirectional::counted_paths`]).
-    pub paths: f32,
+    /// Light paths traced this iteration (`pir-mis`: every connection counts them all), or
+    /// the bidirectional weights' counts ([`Counts`]).
+    pub counts: Counts,
     /// The bound on the weighted connection ([`super::mis::Weighing::apply`]).
     pub bound: f32,
 }
@@ -108,12 +109,11 @@ impl LightSet {
     ) -> Self {
         let mis = match *lights {
             VirtualLights::WeighedPoints(clamping) => {
-                Some(Mis { paths: paths as f32, bound: clamping.bound(iteration) })
+                Some(Mis { counts: Counts::uniform(paths as f32), bound: clamping.bound(iteration) })
             }
-            VirtualLights::Bidirectional(clamping, _) => Some(Mis {
-                paths: super::bidirectional::counted_paths(paths, gather),
-                bound: clamping.bound(iteration),
-            }),
+            VirtualLights::Bidirectional(clamping, _) => {
+                Some(Mis { counts: Counts::new(paths, gather), bound: clamping.bound(iteration) })
+            }
             _ => None,
         };
         let lights = match *lights {

@@ -230,7 +230,7 @@ impl VertexHook for LightSet {
     ) -> Option<Vec3> {
         let mis = self.mis.as_ref()?;
         let bounce = how.pdf / (v.sp.p - how.from).length_squared();
-        let path = |light| EmitterPath { bounce, paths: mis.paths, light };
+        let path = |light| EmitterPath { bounce, paths: mis.counts.paths, light };
         let direct =
             sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| path(s).light_weight());
         let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: mis.bound };
@@ -325,8 +325,8 @@ impl Integrator for InstantRadiosity {
     fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
         // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-        let counted = bidirectional::counted_paths(self.paths, self.gather);
-        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counted, max_vpl_depth);
+        let counts = bidirectional::Counts::new(self.paths, self.gather);
+        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counts, max_vpl_depth);
         counters.light_rays += rays;
         counters.vpls += vpls.len() as u64;
         self.set = LightSet::new(ctx, &self.lights, vpls, self.paths, iteration, self.gather);
@@ -342,7 +342,7 @@ impl Integrator for InstantRadiosity {
         match (&self.lights, &self.set.mis) {
             (&VirtualLights::Bidirectional(_, connect), Some(mis)) => {
                 let n = self.light_samples;
-                bidirectional::walk(ctx, ray, &self.set, connect, n, mis.paths, mis.bound, sampler, counters)
+                bidirectional::walk(ctx, ray, &self.set, connect, n, mis.counts, mis.bound, sampler, counters)
             }
             _ => walk(ctx, ray, &self.set, sampler, counters),
         }
