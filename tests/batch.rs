@@ -58,6 +58,34 @@ fn resumed_render_equals_uninterrupted_render_bit_for_bit() {
     assert_eq!(a.film.sums_of_squares(), b.film.sums_of_squares());
 }
 
+/// `pir-bdpt` chooses its light paths by the scene (a pilot before the first iteration):
+/// in the slit room, where it traces many more than its fewest, a resumed render still
+/// equals the uninterrupted one, and the summary says how many.
+#[test]
+fn light_paths_chosen_by_the_scene_resume_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let slit = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/stress/slit/scene.toml");
+    let slit = slit.to_string_lossy();
+    let run = |extra: &[&str]| {
+        let args = [&["render", &slit, "--method", "pir-bdpt", "--resolution", "24", "20"], extra].concat();
+        let o = pir(&args, d);
+        assert!(o.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let summary = run(&["--spp", "5", "--checkpoint", "1000", "--out", "full.exr"]);
+    let paths: u64 = summary
+        .split(" VPLs per iteration from ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no light paths in the summary: {summary}"));
+    assert!(paths >= 4 * pir::integrator::BDPT_PATHS as u64, "{paths} light paths per iteration");
+    run(&["--spp", "2", "--checkpoint", "1000", "--out", "part.exr", "-q"]);
+    run(&["--spp", "5", "--resume", "part.exr", "-q"]);
+    assert_eq!(pixels(&d.join("part.exr")), pixels(&d.join("full.exr")));
+}
+
 #[test]
 fn killed_render_resumes_from_its_last_checkpoint() {
     let dir = tempfile::tempdir().unwrap();

@@ -8,9 +8,15 @@ mod common;
 
 use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
+use pir::accel::{Backend, build_accelerator};
+use pir::integrator::many_light::AutoPaths;
 use pir::integrator::many_light::bidirectional::Connect;
-use pir::integrator::{Clamping, Gather, InstantRadiosity, PathTracer, VirtualLights};
+use pir::integrator::{
+    BDPT_MAX_PATHS, BDPT_PATHS, Clamping, Gather, InstantRadiosity, PathTracer, RenderContext, VirtualLights,
+};
+use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
+use pir::sampling::SamplerKind;
 use pir::scene::Scene;
 
 const Z: f64 = 4.5;
@@ -168,4 +174,41 @@ fn bidirectional_gather_does_not_depend_on_the_thread_count() {
             .image()
     };
     assert!(run(1).pixels == run(2).pixels, "pir-bdpt differs between 1 and 2 threads");
+}
+
+/// The light paths `pir-bdpt` chooses by the scene's yield of VPLs
+/// (`src/integrator/many_light/path_count.rs`): where every light path leaves VPLs (a closed
+/// cube) the fewest; in the slit room, where one path in eight gets through the opening, about
+/// eight times as many; the same count in pools of one and two threads, with either sampler.
+#[test]
+fn light_paths_follow_the_scenes_yield_of_vpls() {
+    let auto = AutoPaths { vpls: BDPT_PATHS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
+    let slit = pir::scene::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/stress/slit/scene.toml"
+    )))
+    .unwrap();
+    let cube = closed_cube(diffuse(0.5, 1.0));
+    let resolve = |scene: &Scene, sampler: SamplerKind, threads: usize| {
+        let accel =
+            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+        let emitters = Emitters::new(scene).unwrap();
+        let ctx = RenderContext {
+            scene,
+            accel: accel.as_ref(),
+            emitters: &emitters,
+            max_depth: 6,
+            seed: 3,
+            sampler,
+        };
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| auto.resolve(&ctx, 4))
+    };
+    for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
+        assert_eq!(resolve(&cube, sampler, 2), BDPT_PATHS, "{sampler:?}");
+        let n = resolve(&slit, sampler, 1);
+        eprintln!("slit room, {sampler:?}: {n} light paths per iteration");
+        assert_eq!(resolve(&slit, sampler, 2), n, "{sampler:?}");
+        assert!((4 * BDPT_PATHS..=16 * BDPT_PATHS).contains(&n), "{sampler:?}: {n} light paths");
+    }
 }

@@ -287,10 +287,12 @@ fn print_summary(plan: &Plan, renderer: &Renderer, stats: &RenderStats, image: &
     );
     let mean = image.mean();
     eprintln!("pir: image mean RGB {:.5} {:.5} {:.5}", mean[0], mean[1], mean[2]);
-    if stats.counters.vpls > 0 {
+    if stats.counters.light_paths > 0 {
+        let per_iteration = |n: u64| n as f64 / stats.rendered.max(1) as f64;
         eprintln!(
-            "pir: {:.0} VPLs per iteration; light tracing {:.2} s, gathering {:.2} s at {:.2} M shadow rays/s",
-            stats.counters.vpls as f64 / stats.rendered.max(1) as f64,
+            "pir: {:.0} VPLs per iteration from {:.0} light paths; light tracing {:.2} s, gathering {:.2} s at {:.2} M shadow rays/s",
+            per_iteration(stats.counters.vpls),
+            per_iteration(stats.counters.light_paths),
             stats.prepare_time.as_secs_f64(),
             stats.pixel_time.as_secs_f64(),
             stats.shadow_rays_per_second() / 1e6

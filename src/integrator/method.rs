@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
+use super::many_light::AutoPaths;
 use super::many_light::bidirectional::Connect;
 use super::many_light::resample::MAX_CANDIDATES;
 use super::schedule::DEFAULT_ALPHA;
@@ -119,7 +120,8 @@ impl FromStr for Method {
 #[derive(Args, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
-    /// vertex) [default: 32; 64 for pir-bdpt].
+    /// vertex) [default: 32; for pir-bdpt 64, or as many more as leave 64 VPLs where light
+    /// paths seldom reach a surface that reflects them, chosen by a pilot, at most 4096].
     #[arg(long, value_name = "N")]
     pub vpls: Option<usize>,
     /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis, pir-bdpt: b_1 of
@@ -208,8 +210,15 @@ pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64)
 /// receivers whose window holds it, leave less of the error in blotches shared by many
 /// pixels.
 pub const BDPT_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 128);
-/// Light paths per iteration of `pir-bdpt` when `--vpls` is not given (see [`BDPT_GATHER`]).
+/// The fewest light paths per iteration of `pir-bdpt` when `--vpls` is not given (see
+/// [`BDPT_GATHER`]), and the fewest VPLs: more paths where they leave fewer VPLs than that,
+/// up to [`BDPT_MAX_PATHS`] ([`MethodConfig::auto_paths`]).
 pub const BDPT_PATHS: usize = 64;
+/// The most light paths per iteration `pir-bdpt` chooses by itself: 64 times
+/// [`BDPT_PATHS`], for scenes where one light path in 64 or fewer reaches what the camera
+/// sees (an iteration of 4,096 paths that each leave no VPL costs 4,096 rays, a few
+/// hundredths of a 128 × 128 image's camera paths).
+pub const BDPT_MAX_PATHS: usize = 64 * BDPT_PATHS;
 
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
 /// given: of 64, 128 and 256 candidates with 4 or 8 picks and 32 to 256 light paths, 128
@@ -404,9 +413,25 @@ impl MethodConfig {
         }
     }
 
-    /// Light paths traced per iteration: `--vpls` for the VPL methods, 0 for the path tracer.
+    /// Light paths traced per iteration, at most: `--vpls` for the VPL methods (or the most
+    /// [`MethodConfig::auto_paths`] may choose), 0 for the path tracer.
     pub fn light_paths(&self) -> usize {
-        if self.method.uses_vpls() { self.paths() } else { 0 }
+        match self.auto_paths() {
+            Some(auto) => auto.at_most,
+            None if self.method.uses_vpls() => self.paths(),
+            None => 0,
+        }
+    }
+
+    /// Light paths chosen by the scene when `--vpls` is not given: `pir-bdpt` traces
+    /// [`BDPT_PATHS`] per iteration, or more where they leave fewer VPLs than that (up to
+    /// [`BDPT_MAX_PATHS`], [`AutoPaths`]). `None` for a fixed count.
+    pub fn auto_paths(&self) -> Option<AutoPaths> {
+        (self.method == Method::PirBdpt && self.params.vpls.is_none()).then_some(AutoPaths {
+            vpls: BDPT_PATHS,
+            at_least: BDPT_PATHS,
+            at_most: BDPT_MAX_PATHS,
+        })
     }
 
     /// `--vpls`, or the method's default ([`BDPT_PATHS`] for `pir-bdpt`, [`DEFAULT_PATHS`]
@@ -428,7 +453,8 @@ impl MethodConfig {
         MethodConfig {
             method: m,
             params: MethodParams {
-                vpls: m.uses_vpls().then(|| self.paths()),
+                // A count chosen by the scene is the scene's: the same for the same scene and seed.
+                vpls: (m.uses_vpls() && self.auto_paths().is_none()).then(|| self.paths()),
                 clamp: m
                     .uses_clamp()
                     .then(|| p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal))),
@@ -468,9 +494,12 @@ impl MethodConfig {
             }
         };
         let light_samples = p.light_samples.unwrap_or(DEFAULT_LIGHT_SAMPLES);
-        Box::new(
-            InstantRadiosity::new(lights, paths).with_gather(self.gather()).with_light_samples(light_samples),
-        )
+        let ir =
+            InstantRadiosity::new(lights, paths).with_gather(self.gather()).with_light_samples(light_samples);
+        Box::new(match self.auto_paths() {
+            Some(auto) => ir.with_auto_paths(auto),
+            None => ir,
+        })
     }
 }
 
@@ -524,26 +553,30 @@ mod tests {
     }
 
     /// Light paths and gather by method when the flags are not given: `pir-bdpt` its own
-    /// ([`BDPT_PATHS`], [`BDPT_GATHER`]), the others the common ones; the identity holds the
-    /// resolved count, so giving the default explicitly is the same job, and a job stored
-    /// with a plain count (as before `--vpls` became optional) reads back as that count.
+    /// ([`BDPT_PATHS`] or more, chosen by the scene, [`BDPT_GATHER`]), the others the common
+    /// ones; the identity holds the resolved count, so giving the default explicitly is the
+    /// same job, except for `pir-bdpt`, whose count chosen by the scene is not a given one;
+    /// and a job stored with a plain count (as before `--vpls` became optional) reads back
+    /// as that count.
     #[test]
     fn light_paths_and_gathers_default_by_method() {
         for m in Method::ALL {
             let c = MethodConfig::new(m);
             let (paths, gather) = match m {
                 Method::Pt => (0, None),
-                Method::PirBdpt => (BDPT_PATHS, Some(BDPT_GATHER)),
+                Method::PirBdpt => (BDPT_MAX_PATHS, Some(BDPT_GATHER)),
                 Method::PirMis => (DEFAULT_PATHS, Some(MIS_GATHER)),
                 _ => (DEFAULT_PATHS, None),
             };
             assert_eq!(c.light_paths(), paths, "{m:?}");
+            assert_eq!(c.auto_paths().is_some(), m == Method::PirBdpt, "{m:?}");
             if let Some(g) = gather {
                 assert_eq!(c.gather_parameters(), g, "{m:?}");
             }
             let mut explicit = c;
-            explicit.params.vpls = Some(paths.max(DEFAULT_PATHS));
-            assert_eq!(c.identity(2.0), explicit.identity(2.0), "{m:?}");
+            explicit.params.vpls = Some(if m == Method::PirBdpt { BDPT_PATHS } else { DEFAULT_PATHS });
+            assert_eq!(m != Method::PirBdpt, c.identity(2.0) == explicit.identity(2.0), "{m:?}");
+            assert_eq!(explicit.auto_paths(), None, "{m:?}");
             let mut other = c;
             other.params.vpls = Some(5);
             assert_eq!(m == Method::Pt, c.identity(2.0) == other.identity(2.0), "{m:?}");

@@ -27,8 +27,9 @@ pub mod walker;
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
 pub use method::{
-    BDPT_GATHER, BDPT_PATHS, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES, GatherKind, MAX_GATHER_SAMPLES,
-    MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method, MethodConfig, MethodParams, Parameter,
+    BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES, GatherKind,
+    MAX_GATHER_SAMPLES, MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method, MethodConfig, MethodParams,
+    Parameter,
 };
 pub use path::PathTracer;
 
@@ -61,6 +62,8 @@ pub struct Counters {
     pub shadow_rays: u64,
     /// Closest-hit queries of light paths (VPL tracing).
     pub light_rays: u64,
+    /// Light paths traced (VPL tracing).
+    pub light_paths: u64,
     /// Virtual lights created.
     pub vpls: u64,
 }
@@ -70,6 +73,7 @@ impl std::ops::AddAssign for Counters {
         self.rays += o.rays;
         self.shadow_rays += o.shadow_rays;
         self.light_rays += o.light_rays;
+        self.light_paths += o.light_paths;
         self.vpls += o.vpls;
     }
 }
@@ -83,6 +87,11 @@ pub trait Integrator: Send + Sync {
     fn parameters(&self) -> Vec<(String, String)> {
         Vec::new()
     }
+
+    /// Work done once before the first iteration, with the scene (a count chosen by a
+    /// pilot): a function of the scene, the seed and the sampler alone, so that a resumed or
+    /// sharded render prepares the same.
+    fn prepare(&mut self, _ctx: &RenderContext) {}
 
     /// Work done once per iteration before any pixel (iterations count from 1), counting
     /// what it traces in `counters`.

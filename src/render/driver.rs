@@ -126,6 +126,9 @@ pub fn render_from(
     let tiles = tiles(w, h, TILE_SIZE);
     let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
     let start = Instant::now();
+    // (A no-op for an integrator the caller prepared already.)
+    integrator.prepare(ctx);
+    stats.prepare_time += start.elapsed();
 
     loop {
         let done = film.iterations();

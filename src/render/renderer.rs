@@ -123,9 +123,25 @@ impl<'s> Renderer<'s> {
         self.pool.install(op)
     }
 
-    /// The integrator of a method for this scene.
+    /// The integrator of a method for this scene, prepared ([`Integrator::prepare`]: a
+    /// pilot of light paths where the method chooses their count by the scene).
     pub fn integrator(&self, config: &MethodConfig) -> Box<dyn Integrator> {
-        config.integrator(self.scene.bounds().diagonal())
+        let mut integrator = config.integrator(self.scene.bounds().diagonal());
+        let ctx = self.context();
+        self.pool.install(|| integrator.prepare(&ctx));
+        integrator
+    }
+
+    /// What the integrators see of the render.
+    fn context(&self) -> RenderContext<'_> {
+        RenderContext {
+            scene: self.scene,
+            accel: self.accel.as_ref(),
+            emitters: &self.emitters,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            sampler: self.sampler,
+        }
     }
 
     /// What a render of `config` is, for resuming and merging it.
@@ -156,14 +172,7 @@ impl<'s> Renderer<'s> {
         shard: Shard,
         on_iteration: impl FnMut(&Film, &RenderStats) -> Control + Send,
     ) -> (Film, RenderStats) {
-        let ctx = RenderContext {
-            scene: self.scene,
-            accel: self.accel.as_ref(),
-            emitters: &self.emitters,
-            max_depth: self.max_depth,
-            seed: self.seed,
-            sampler: self.sampler,
-        };
+        let ctx = self.context();
         let settings = RenderSettings { width: self.width as usize, height: self.height as usize, budget };
         let mut integrator = self.integrator(config);
         self.pool.install(|| render_from(&ctx, integrator.as_mut(), &settings, film, shard, on_iteration))

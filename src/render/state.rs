@@ -108,7 +108,8 @@ const STATE_KEY: &str = "pir.job.state";
 /// before light samples picked the emitter's triangle from their point's own number (which
 /// changes every method's image of a seed, so a resume would no longer be exact), format 5
 /// before light paths left no VPL where they arrive behind a surface and `pir-bdpt` counted
-/// its connections by their ends (which change the VPL methods' images of a seed).
+/// its connections by their ends and chose its light paths by the scene (which change the
+/// VPL methods' images of a seed; a stored `pir-bdpt` job without `vpls` meant 64).
 const FORMAT: &str = "6";
 
 /// What `pir.job.state` holds.

@@ -14,8 +14,9 @@
 //!
 //! Parameters (flags of `pir render`):
 //! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]; `pir-bdpt`
-//!   [`BDPT_PATHS`](crate::integrator::BDPT_PATHS)). Each leaves a virtual
-//!   light at every non-delta vertex.
+//!   [`BDPT_PATHS`](crate::integrator::BDPT_PATHS), or more where they leave fewer VPLs,
+//!   chosen by the scene: [`path_count`]). Each leaves a virtual light at every non-delta
+//!   vertex that reflects the light it receives.
 //! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default
 //!   ([`Clamping::default_bound`]): 100 / diagonal², the G of two facing surfaces a tenth of
 //!   the scene's diagonal apart, so the default needs no tuning whatever the scene's units.
@@ -36,7 +37,8 @@
 //! set, points or spheres), [`gather`] (one receiver against the set, shadow rays in
 //! batches: [`shadow_batch`]), [`lanes`] (the four-wide kernel of diffuse point lights),
 //! [`spheres`] (virtual spherical lights: radii and the cone integral, with [`knn`]),
-//! [`schedule`] (the progressive schedules), [`mis`] (the weighed connections of `pir-mis`),
+//! [`schedule`] (the progressive schedules), [`path_count`] (light paths chosen by the
+//! scene), [`mis`] (the weighed connections of `pir-mis`),
 //! [`bidirectional`] (the camera walk and weights of `pir-bdpt`), and for the sampled gather ([`Gather::Tree`]):
 //! [`light_tree`] (the per-iteration tree over the lights) and [`tree_gather`] (drawing k
 //! lights per receiver from it, unbiased); for the resampled gather ([`Gather::Resampled`]):
@@ -53,6 +55,7 @@ pub mod light_set;
 pub mod light_tree;
 pub mod lobe;
 pub mod mis;
+pub mod path_count;
 pub mod resample;
 pub mod schedule;
 pub mod shadow_batch;
@@ -62,6 +65,7 @@ pub mod tree_gather;
 
 pub use light_paths::{Vpl, trace_vpls};
 pub use light_set::LightSet;
+pub use path_count::AutoPaths;
 
 use glam::Vec3;
 
@@ -160,6 +164,9 @@ pub enum Gather {
 pub struct InstantRadiosity {
     lights: VirtualLights,
     paths: usize,
+    /// Light paths chosen by the scene's yield of VPLs ([`path_count`]) when
+    /// [`Integrator::prepare`] runs, instead of `paths`.
+    auto: Option<AutoPaths>,
     gather: Gather,
     /// [`VirtualLights::Bidirectional`]: light samples at the camera path's first vertex.
     light_samples: u32,
@@ -168,7 +175,20 @@ pub struct InstantRadiosity {
 
 impl InstantRadiosity {
     pub fn new(lights: VirtualLights, paths: usize) -> Self {
-        InstantRadiosity { lights, paths, gather: Gather::All, light_samples: 1, set: LightSet::default() }
+        InstantRadiosity {
+            lights,
+            paths,
+            auto: None,
+            gather: Gather::All,
+            light_samples: 1,
+            set: LightSet::default(),
+        }
+    }
+
+    /// The same method with its light paths chosen by the scene's yield of VPLs; `paths`
+    /// until [`Integrator::prepare`] chooses them.
+    pub fn with_auto_paths(self, auto: AutoPaths) -> Self {
+        InstantRadiosity { auto: Some(auto), ..self }
     }
 
     /// The same method gathering as `gather` says.
@@ -322,12 +342,19 @@ impl Integrator for InstantRadiosity {
         p
     }
 
+    fn prepare(&mut self, ctx: &RenderContext) {
+        if let Some(auto) = self.auto.take() {
+            self.paths = auto.resolve(ctx, ctx.max_depth.saturating_sub(2));
+        }
+    }
+
     fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
         // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
         let counts = bidirectional::Counts::new(self.paths, self.gather);
         let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counts, max_vpl_depth);
         counters.light_rays += rays;
+        counters.light_paths += self.paths as u64;
         counters.vpls += vpls.len() as u64;
         self.set = LightSet::new(ctx, &self.lights, vpls, self.paths, iteration, self.gather);
     }

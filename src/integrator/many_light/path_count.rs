@@ -1,0 +1,92 @@
+//! How many light paths an iteration traces when `--vpls` is not given (`pir-bdpt`): its
+//! fewest paths, or more where they leave fewer VPLs than that, so that an iteration always
+//! holds about as many VPLs as its fewest paths leave where light spreads freely.
+//!
+//! **Why the count is the scene's.** Where light spreads freely from the emitters, every
+//! light path leaves a VPL or more (the Cornell box: 156 from 64 paths). Where it enters
+//! through an opening, most light paths end on the outside of the wall around it and leave
+//! none: in the slit room 64 paths left 8, one path in eight reaching the room, so an
+//! iteration's light that came through the opening was estimated from two or three paths,
+//! and that shared error dominated `pir-bdpt`'s. A path that leaves no VPL costs a ray or
+//! two; what the VPLs cost is the gather, per receiver, which grows with their number up to
+//! the window of candidates ([`super::resample`]). So the count is raised only as far as it
+//! takes to leave the VPLs that the fewest paths leave where every path leaves one: in the
+//! slit room 1,024 paths against 64 (with counts by the connections' ends,
+//! [`super::bidirectional::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 % and its
+//! relative MSE × time by 22 %; filling the whole window of 128 candidates cost the Mori
+//! knob (30 VPLs from 64 paths) 19 % more time for no gain (`docs/measurements.md`, "Light
+//! paths by the scene's yield").
+//!
+//! **How.** Before the first iteration, a pilot traces [`PILOT_PATHS`] light paths from a
+//! stream of their own (no iteration draws from it) and counts the VPLs they leave: y per
+//! path. The count is ⌈v / y⌉ for a target of v VPLs, within [`AutoPaths::at_least`] and
+//! [`AutoPaths::at_most`]. It is a function of the scene, the seed and the sampler alone
+//! (the pilot's paths are collected in order whatever the threads), so a resumed or
+//! sharded render finds the same count, and it is fixed for the whole render: every
+//! iteration is an unbiased estimate of the same image, as with a count given by `--vpls`.
+
+use super::light_paths::trace_vpls;
+use crate::integrator::RenderContext;
+use crate::integrator::many_light::bidirectional::Counts;
+
+/// Light paths of the pilot that measures the yield of VPLs per path.
+pub const PILOT_PATHS: usize = 4096;
+
+/// The stream of the pilot's light paths: an iteration number no render reaches.
+const PILOT_ITERATION: u64 = u64::MAX;
+
+/// The light paths of an iteration chosen by the scene's yield of VPLs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AutoPaths {
+    /// The VPLs an iteration should hold at least.
+    pub vpls: usize,
+    /// Fewest light paths per iteration.
+    pub at_least: usize,
+    /// Most light paths per iteration.
+    pub at_most: usize,
+}
+
+impl AutoPaths {
+    /// The count for a yield of `per_path` VPLs per light path: ⌈vpls / per_path⌉ within the
+    /// bounds, the fewest when no path leaves a VPL (nothing to gather, whatever the count).
+    pub fn for_yield(&self, per_path: f64) -> usize {
+        let at_least = self.at_least.max(1);
+        let at_most = self.at_most.max(at_least);
+        if per_path.is_nan() || per_path <= 0.0 {
+            return at_least;
+        }
+        let n = (self.vpls as f64 / per_path).ceil();
+        if n >= at_most as f64 { at_most } else { (n as usize).clamp(at_least, at_most) }
+    }
+
+    /// The count for the scene of `ctx`, from a pilot of [`PILOT_PATHS`] light paths whose
+    /// vertices are at most `max_vpl_depth` segments from the emitter.
+    pub fn resolve(&self, ctx: &RenderContext, max_vpl_depth: u32) -> usize {
+        let (vpls, _) =
+            trace_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, Counts::uniform(PILOT_PATHS as f32), max_vpl_depth);
+        self.for_yield(vpls.len() as f64 / PILOT_PATHS as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_count_leaves_the_vpls_within_its_bounds() {
+        let auto = AutoPaths { vpls: 64, at_least: 64, at_most: 4096 };
+        // 2.4 VPLs per path (a closed box) or one: the fewest paths leave enough.
+        assert_eq!(auto.for_yield(2.4), 64);
+        assert_eq!(auto.for_yield(1.0), 64);
+        // One path in eight leaves a VPL: 512 paths.
+        assert_eq!(auto.for_yield(0.125), 512);
+        assert_eq!(auto.for_yield(0.3), 214);
+        // Almost nothing reaches a receiver: the most; nothing at all (or no number): the fewest.
+        assert_eq!(auto.for_yield(1e-6), 4096);
+        assert_eq!(auto.for_yield(1e-300), 4096);
+        assert_eq!(auto.for_yield(0.0), 64);
+        assert_eq!(auto.for_yield(f64::NAN), 64);
+        // Bounds that make no sense still give a positive count.
+        assert_eq!(AutoPaths { vpls: 64, at_least: 0, at_most: 0 }.for_yield(0.5), 1);
+    }
+}
