@@ -46,6 +46,7 @@ fn bench(c: &mut Criterion) {
         max_depth: 8,
         seed: 1,
         sampler: SamplerKind::default(),
+        pilot: None,
     };
     let max_vpl_depth = ctx.max_depth - 2;
     let vpls_of = |n: usize| -> Vec<Vpl> {
@@ -75,7 +76,7 @@ fn bench(c: &mut Criterion) {
     let mut build = c.benchmark_group("tree-build");
     build.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
     for n in COUNTS.into_iter().chain([1_000_000]) {
-        let set = LightSet::new(&ctx, &lights, vpls_of(n), n, 1, Gather::All);
+        let set = LightSet::new(&ctx, &lights, vpls_of(n), Counts::uniform(n as f32), 1, Gather::All);
         let tree_lights = set.lights.tree_lights(&ctx);
         build.throughput(Throughput::Elements(n as u64));
         build.bench_with_input(BenchmarkId::from_parameter(n), &tree_lights, |b, l| {
@@ -97,7 +98,7 @@ fn bench(c: &mut Criterion) {
             cases.push(("all", Gather::All));
         }
         for (name, gather) in cases {
-            let set = LightSet::new(&ctx, &lights, vpls.clone(), n, 1, gather);
+            let set = LightSet::new(&ctx, &lights, vpls.clone(), Counts::uniform(n as f32), 1, gather);
             group.bench_with_input(BenchmarkId::new(name, n), &set, |b, set| {
                 b.iter(|| {
                     let mut counters = Counters::default();
@@ -143,7 +144,7 @@ fn bench(c: &mut Criterion) {
     let trees: Vec<(usize, LightTree)> = COUNTS
         .iter()
         .map(|&n| {
-            let set = LightSet::new(&ctx, &lights, vpls_of(n), n, 1, Gather::All);
+            let set = LightSet::new(&ctx, &lights, vpls_of(n), Counts::uniform(n as f32), 1, Gather::All);
             (n, LightTree::new(&set.lights.tree_lights(&ctx)))
         })
         .collect();

@@ -41,6 +41,7 @@ fn main() {
         max_depth: scene.defaults().max_depth,
         seed: 3,
         sampler: SamplerKind::default(),
+        pilot: None,
     };
     let settings = RenderSettings {
         width: 128,

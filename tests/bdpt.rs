@@ -9,10 +9,10 @@ mod common;
 use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
 use pir::accel::{Backend, build_accelerator};
-use pir::integrator::many_light::AutoPaths;
+use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::Connect;
 use pir::integrator::{
-    BDPT_MAX_PATHS, BDPT_PATHS, Clamping, Gather, InstantRadiosity, PathTracer, RenderContext, VirtualLights,
+    BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, Gather, InstantRadiosity, PathTracer, RenderContext, VirtualLights,
 };
 use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
@@ -180,15 +180,18 @@ fn bidirectional_gather_does_not_depend_on_the_thread_count() {
 /// (`src/integrator/many_light/path_count.rs`): where every light path leaves VPLs (a closed
 /// cube) the fewest; in the slit room, where one path in eight gets through the opening, about
 /// eight times as many; the same count in pools of one and two threads, with either sampler.
+/// And the pilot's visibility of the emitters from the points they light, which weighs the
+/// connections ([`Counts`](pir::integrator::many_light::bidirectional::Counts)): all of
+/// them inside the cube, a sliver through the slit.
 #[test]
 fn light_paths_follow_the_scenes_yield_of_vpls() {
-    let auto = AutoPaths { vpls: BDPT_PATHS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
-    let slit = pir::scene::load(std::path::Path::new(concat!(
+    let auto = BDPT_AUTO_PATHS;
+    let slit_scene = pir::scene::load(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/stress/slit/scene.toml"
     )))
     .unwrap();
-    let cube = closed_cube(diffuse(0.5, 1.0));
+    let cube_scene = closed_cube(diffuse(0.5, 1.0));
     let resolve = |scene: &Scene, sampler: SamplerKind, threads: usize| {
         let accel =
             build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
@@ -200,15 +203,21 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
             max_depth: 6,
             seed: 3,
             sampler,
+            pilot: None,
         };
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| auto.resolve(&ctx, 4))
+        pool.install(|| Pilot::run(&ctx, 4))
     };
     for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
-        assert_eq!(resolve(&cube, sampler, 2), BDPT_PATHS, "{sampler:?}");
-        let n = resolve(&slit, sampler, 1);
-        eprintln!("slit room, {sampler:?}: {n} light paths per iteration");
-        assert_eq!(resolve(&slit, sampler, 2), n, "{sampler:?}");
+        let (cube, slit) = (resolve(&cube_scene, sampler, 2), resolve(&slit_scene, sampler, 1));
+        assert_eq!(auto.for_yield(cube.per_path), BDPT_PATHS, "{sampler:?}");
+        // Inside the closed cube every emitter point is in view.
+        assert_eq!(cube.visibility, 1.0, "{sampler:?}");
+        let n = auto.for_yield(slit.per_path);
+        eprintln!("slit room, {sampler:?}: {n} light paths per iteration, {slit:?}");
+        assert_eq!(resolve(&slit_scene, sampler, 2), slit, "{sampler:?}");
         assert!((4 * BDPT_PATHS..=16 * BDPT_PATHS).contains(&n), "{sampler:?}: {n} light paths");
+        // From the strip under the slit only a sliver of the panel shows through it.
+        assert!(slit.visibility > 0.02 && slit.visibility < 0.4, "{sampler:?}: {slit:?}");
     }
 }

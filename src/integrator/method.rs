@@ -219,6 +219,10 @@ pub const BDPT_PATHS: usize = 64;
 /// sees (an iteration of 4,096 paths that each leave no VPL costs 4,096 rays, a few
 /// hundredths of a 128 × 128 image's camera paths).
 pub const BDPT_MAX_PATHS: usize = 64 * BDPT_PATHS;
+/// `pir-bdpt`'s light paths chosen by the scene: at least [`BDPT_PATHS`], as many as leave
+/// that many VPLs, at most [`BDPT_MAX_PATHS`].
+pub const BDPT_AUTO_PATHS: AutoPaths =
+    AutoPaths { vpls: BDPT_PATHS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
 
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
 /// given: of 64, 128 and 256 candidates with 4 or 8 picks and 32 to 256 light paths, 128
@@ -427,11 +431,7 @@ impl MethodConfig {
     /// [`BDPT_PATHS`] per iteration, or more where they leave fewer VPLs than that (up to
     /// [`BDPT_MAX_PATHS`], [`AutoPaths`]). `None` for a fixed count.
     pub fn auto_paths(&self) -> Option<AutoPaths> {
-        (self.method == Method::PirBdpt && self.params.vpls.is_none()).then_some(AutoPaths {
-            vpls: BDPT_PATHS,
-            at_least: BDPT_PATHS,
-            at_most: BDPT_MAX_PATHS,
-        })
+        (self.method == Method::PirBdpt && self.params.vpls.is_none()).then_some(BDPT_AUTO_PATHS)
     }
 
     /// `--vpls`, or the method's default ([`BDPT_PATHS`] for `pir-bdpt`, [`DEFAULT_PATHS`]

@@ -27,9 +27,9 @@ pub mod walker;
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
 pub use method::{
-    BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES, GatherKind,
-    MAX_GATHER_SAMPLES, MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method, MethodConfig, MethodParams,
-    Parameter,
+    BDPT_AUTO_PATHS, BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES,
+    GatherKind, MAX_GATHER_SAMPLES, MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method, MethodConfig,
+    MethodParams, Parameter,
 };
 pub use path::PathTracer;
 
@@ -51,6 +51,10 @@ pub struct RenderContext<'a> {
     pub seed: u64,
     /// How camera samples and light paths draw their numbers.
     pub sampler: SamplerKind,
+    /// Where the render keeps its pilot ([`many_light::Pilot`]), a function of the fields
+    /// above alone, so that every integrator made for the render (its own, and the ones that
+    /// only report their parameters) runs it once; `None`: each runs its own.
+    pub pilot: Option<&'a std::sync::OnceLock<many_light::Pilot>>,
 }
 
 /// Ray counts, kept per task and summed for the summary.

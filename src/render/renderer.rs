@@ -48,6 +48,8 @@ pub struct Renderer<'s> {
     seed: u64,
     sampler: SamplerKind,
     max_depth: u32,
+    /// The pilot of the methods that run one, once for the render ([`Integrator::prepare`]).
+    pilot: std::sync::OnceLock<crate::integrator::many_light::Pilot>,
 }
 
 impl<'s> Renderer<'s> {
@@ -80,6 +82,7 @@ impl<'s> Renderer<'s> {
             seed: options.seed(scene),
             sampler: options.sampler(),
             max_depth: options.max_depth(scene),
+            pilot: std::sync::OnceLock::new(),
         })
     }
 
@@ -123,8 +126,9 @@ impl<'s> Renderer<'s> {
         self.pool.install(op)
     }
 
-    /// The integrator of a method for this scene, prepared ([`Integrator::prepare`]: a
-    /// pilot of light paths where the method chooses their count by the scene).
+    /// The integrator of a method for this scene, prepared ([`Integrator::prepare`]: the
+    /// render's pilot of light paths, run at the first call only, for the methods that use
+    /// it).
     pub fn integrator(&self, config: &MethodConfig) -> Box<dyn Integrator> {
         let mut integrator = config.integrator(self.scene.bounds().diagonal());
         let ctx = self.context();
@@ -141,6 +145,7 @@ impl<'s> Renderer<'s> {
             max_depth: self.max_depth,
             seed: self.seed,
             sampler: self.sampler,
+            pilot: Some(&self.pilot),
         }
     }
 

@@ -175,6 +175,7 @@ impl Job {
             max_depth: self.max_depth,
             seed: self.seed,
             sampler: self.sampler,
+            pilot: None,
         };
         let settings = RenderSettings {
             width,

@@ -97,7 +97,8 @@ use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
 /// How many samples the weights count for a connection technique: a function of the
-/// iteration's light paths, the gather, and the connection's two ends.
+/// iteration's light paths, the gather, the connection's two ends and how often next-event
+/// estimation finds the emitters unoccluded.
 ///
 /// Any positive counts keep the weights of every path summing to one, as long as both
 /// subpaths use the same count for the same connection (the running sums carry each
@@ -105,50 +106,77 @@ use crate::sampling::Sampler;
 /// - **The exhaustive gather** makes N connections per vertex, N samples of the technique:
 ///   every connection counts N.
 /// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
-///   contribution) counts N for a connection between two Lambertian ends, whose estimate
-///   is the unoccluded contribution itself but for the albedos' colours (power × the
-///   geometry term, [`super::resample`]): every one of the N light paths is a candidate and
-///   the picks go where its light is, so the k picks estimate the N connections' sum with
-///   only visibility left to chance. A connection with a glossy end counts at most 2k: the
-///   estimate leaves the lobe out, so the picks are no better placed than k samples of it.
-///   Measured with k = 4 and 32 paths, when every connection counted alike
-///   (`docs/measurements.md`, "Bidirectional weights"): 8 rather than 32 lowered the glossy
-///   Cornell box's relative MSE by 4 % and its worst pixel by 20 %, the near-mirror floor's
-///   by 8 % and 54 %; and with 64 paths, 64 rather than 8 raised the glossy corner's by
-///   72 % and the near-mirror floor's by 17 % while the Lambertian Cornell box gained 4 %.
-///   Where light comes through an opening the Lambertian count is what lets the many light
-///   paths that reach the room take the paths over from the path tracer's techniques:
-///   `docs/measurements.md`, "Connections counted by their ends".
+///   contribution) counts at most 2k: its picks are k samples, and the VPLs they pick are
+///   shared by every pixel, so that a larger count trades per-pixel noise for blotches.
+///   Measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional weights"): 8
+///   rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its worst pixel
+///   by 20 %, the near-mirror floor's by 8 % and 54 %; with 64 paths, 64 rather than 8
+///   raised the glossy corner's by 72 % and the near-mirror floor's by 17 %, and on the
+///   Cornell box lowered relative MSE by 8 % but raised HDR-FLIP by 15 % (`docs/measurements.md`,
+///   "Connections counted by their ends").
+/// - **Between two Lambertian ends, the resampled gather** counts 2k / v, at most N, with v
+///   the probability that next-event estimation from a point that light reaches directly
+///   finds its emitter point unoccluded (measured by the pilot of
+///   [`super::path_count::Pilot`]). The competitor of such a connection z_1 → z_2 is
+///   next-event estimation at z_2, whose samples are mostly wasted where the emitters are
+///   hidden behind an opening (the slit room: v ≈ 0.1), and whose effective count is then v
+///   samples, not one; the connection's estimate is the unoccluded contribution itself but
+///   for the albedos' colours (power × the geometry term, [`super::resample`]), so its picks
+///   are well placed. Where the emitters are in view (v ≈ 1) this is 2k as before. A glossy
+///   end keeps 2k: the estimate leaves the lobe out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Counts {
-    /// N: the count of a connection between two Lambertian ends (of every connection for the
-    /// exhaustive gather); the emitter techniques count once against it.
+    /// N, the light paths of the iteration: the emitter techniques count once against it,
+    /// and the connections' counts are relative to it.
     pub paths: f32,
+    /// The count of a connection between two Lambertian ends, relative to `paths` (in (0, 1]).
+    pub lambertian: f32,
     /// The count of a connection with a glossy end, relative to `paths` (in (0, 1]).
     pub glossy: f32,
 }
 
 impl Counts {
-    /// The counts of an iteration of `paths` light paths gathered as `gather` says.
-    pub fn new(paths: usize, gather: Gather) -> Counts {
+    /// The counts of an iteration of `paths` light paths gathered as `gather` says, in a
+    /// scene where next-event estimation from the points that light reaches directly finds
+    /// its emitter point unoccluded with probability `visibility` (the pilot's,
+    /// [`super::path_count::Pilot`]; 1 when not measured).
+    pub fn new(paths: usize, gather: Gather, visibility: f32) -> Counts {
         let n = (paths as f32).max(1.0);
-        let glossy = match gather {
-            Gather::All => n,
-            Gather::Tree { samples } | Gather::Resampled { samples, .. } => n.min(2.0 * samples as f32),
+        let (glossy, lambertian) = match gather {
+            Gather::All => (n, n),
+            Gather::Tree { samples } => (n.min(2.0 * samples as f32), n.min(2.0 * samples as f32)),
+            Gather::Resampled { samples, .. } => {
+                let k2 = 2.0 * samples as f32;
+                let v = if visibility > 0.0 { visibility.min(1.0) } else { 1.0 };
+                (n.min(k2), n.min(k2 / v))
+            }
         };
-        Counts { paths: n, glossy: (glossy / n).clamp(f32::MIN_POSITIVE, 1.0) }
+        Counts {
+            paths: n,
+            lambertian: (lambertian / n).clamp(f32::MIN_POSITIVE, 1.0),
+            glossy: (glossy / n).clamp(f32::MIN_POSITIVE, 1.0),
+        }
     }
 
     /// Every connection counted as `paths` (the tests' weights, and [`Gather::All`]).
     pub fn uniform(paths: f32) -> Counts {
-        Counts { paths, glossy: 1.0 }
+        Counts { paths, lambertian: 1.0, glossy: 1.0 }
+    }
+
+    /// The count of the connection between a vertex of BSDF `b` and the vertex before it
+    /// on the same subpath, of BSDF `a` (none at the camera or the emitter: 1, the term it
+    /// would multiply being zero or next-event estimation's), relative to [`Counts::paths`].
+    /// What both subpaths fold into their sums, in [`walk`] and in light tracing.
+    #[inline]
+    pub fn between(&self, a: Option<&Bsdf>, b: &Bsdf) -> f32 {
+        a.map_or(1.0, |a| self.factor(a, b))
     }
 
     /// The count of the connection between a vertex of BSDF `a` and one of BSDF `b`,
     /// relative to [`Counts::paths`].
     #[inline]
     pub fn factor(&self, a: &Bsdf, b: &Bsdf) -> f32 {
-        if lambertian(a) && lambertian(b) { 1.0 } else { self.glossy }
+        if lambertian(a) && lambertian(b) { self.lambertian } else { self.glossy }
     }
 }
 
@@ -453,7 +481,7 @@ pub fn walk(
         let bsdf = &material.bsdf;
         let geometry = sp.geometry();
         // The count of the connection from the previous camera vertex to this one.
-        let count_in = previous.map_or(1.0, |b| counts.factor(b, bsdf));
+        let count_in = counts.between(previous, bsdf);
         // ---- Next-event estimation: `light_samples` samples at the first vertex.
         let n = if depth == 1 { light_samples } else { 1 };
         let count = n as f32;
@@ -465,8 +493,8 @@ pub fn walk(
             for u in sampler.next_2d_block(n) {
                 direct += sample_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
-                    let previous = if connect.at(depth - 1) { count_in } else { 0.0 };
-                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, previous, count)
+                    let count_previous = if connect.at(depth - 1) { count_in } else { 0.0 };
+                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, count_previous, count)
                 });
             }
             radiance += beta * (direct / count);
@@ -533,13 +561,12 @@ mod tests {
         (a.p - b.p).length_squared()
     }
 
-    /// The count of the connection between `a` and `b` (1 where either is delta: no
-    /// connection touches it).
-    fn factor(counts: Counts, a: &Node, b: &Node) -> f32 {
-        match (&a.bsdf, &b.bsdf) {
-            (Some(a), Some(b)) => counts.factor(a, b),
-            _ => 1.0,
-        }
+    /// The count of the connection between `b` and the vertex `a` before it on its subpath
+    /// (none at the camera or the emitter), as the renderer folds it in
+    /// ([`Counts::between`]; a delta vertex is a mirror).
+    fn factor(counts: Counts, a: Option<&Node>, b: &Node) -> f32 {
+        let bsdf = |n: &Node| n.bsdf.unwrap_or(Bsdf::Mirror { specular: Vec3::ONE });
+        counts.between(a.map(bsdf).as_ref(), &bsdf(b))
     }
 
     /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
@@ -550,7 +577,7 @@ mod tests {
             if j < t {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
                 let delta = z[j].bsdf.is_none();
-                let count = if j > 1 { factor(counts, &z[j - 1], &z[j]) } else { 1.0 };
+                let count = factor(counts, (j > 1).then(|| &z[j - 1]), &z[j]);
                 let scatter = Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, j as u32, count);
                 s.scatter(scatter);
             }
@@ -567,7 +594,7 @@ mod tests {
             if j > t {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
-                let count = factor(counts, &z[j], &z[j + 1]);
+                let count = factor(counts, (j + 1 < k).then(|| &z[j + 1]), &z[j]);
                 s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, (k - j) as u32, count));
             }
         }
@@ -591,7 +618,7 @@ mod tests {
         for t in 1..=k {
             let cam = camera_state(z, t, connect, counts);
             let x = &z[t];
-            let count_in = if t > 1 { factor(counts, &z[t - 1], x) } else { 1.0 };
+            let count_in = factor(counts, (t > 1).then(|| &z[t - 1]), x);
             w.push(if t == k {
                 Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
             } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
@@ -616,7 +643,7 @@ mod tests {
                 let vpl = Vpl {
                     arrival: 0.0,
                     mis: light_state(z, t + 1, pdf_area, counts),
-                    count_out: if t + 2 < k { factor(counts, y, &z[t + 2]) } else { 1.0 },
+                    count_out: factor(counts, (t + 2 < k).then(|| &z[t + 2]), y),
                     ..Vpl::for_test(y.p, y.g.ng, y.g.frame, w_in, Vec3::ONE, (k - t - 1) as u32)
                 };
                 let wo = x.dir(&z[t - 1]);
@@ -693,7 +720,13 @@ mod tests {
             let pdf_bsdf = x.pdf(&z[0], e);
             // With n light samples, the power heuristic with counts: (n p_l)² / ((n p_l)² + p_b²).
             for n in [1, 3] {
-                let w = weights(&z, pdf_area, Counts { paths: 32.0, glossy: 0.25 }, Connect::First, n);
+                let w = weights(
+                    &z,
+                    pdf_area,
+                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25 },
+                    Connect::First,
+                    n,
+                );
                 let nee = crate::integrator::direct::power_heuristic(n as f32 * pdf_light, pdf_bsdf);
                 assert!((w[0].unwrap() - nee).abs() < 1e-4, "n {n}: {w:?} against {nee}");
                 assert!((w[1].unwrap() - (1.0 - nee)).abs() < 1e-4, "n {n}: {w:?} against {}", 1.0 - nee);
@@ -727,7 +760,11 @@ mod tests {
                 (Connect::All, 3),
             ] {
                 // Every connection counted alike, and a glossy end counted a quarter.
-                for counts in [Counts::uniform(32.0), Counts { paths: 32.0, glossy: 0.25 }] {
+                for counts in [
+                    Counts::uniform(32.0),
+                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25 },
+                    Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 },
+                ] {
                     let w = weights(&z, 0.37, counts, connect, light_samples);
                     let sum: f32 = w.iter().flatten().sum();
                     if w.iter().flatten().all(|w| w.is_finite()) {
@@ -740,6 +777,6 @@ mod tests {
                 }
             }
         }
-        assert!(checked > 3000, "only {checked} paths checked");
+        assert!(checked > 4500, "only {checked} paths checked");
     }
 }

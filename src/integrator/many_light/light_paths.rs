@@ -10,7 +10,10 @@
 //! of VPLs). Delta vertices (mirror, glass) get none, but the path continues through them:
 //! that is how caustics reach diffuse surfaces. Nor do vertices where the light arrives from
 //! behind the surface or the material is black ([`crate::material::Bsdf::reflects_from`]):
-//! such a VPL adds exactly nothing to any receiver, and where light enters through an
+//! such a VPL adds exactly nothing to any receiver as a point light (the spherical lights'
+//! density radius, the distance to a light's 4th-nearest VPL, is now taken among the VPLs
+//! that reflect: a different bias of `vsl` and `pir-vsl`, vanishing as before), and where
+//! light enters through an
 //! opening most light paths end on the outside of the wall around it (in the slit room, 85 %
 //! of the VPLs of an iteration of 64 paths were such; every one took a candidate's place in
 //! the resampled gather's window; the exhaustive gather evaluated them all and traced no
@@ -27,7 +30,7 @@ use super::bidirectional::{Counts, MisState, Scatter};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
-use crate::material::{LocalGeometry, TransportMode};
+use crate::material::{Bsdf, LocalGeometry, TransportMode};
 use crate::sampling::{Sampler, Streams, cosine_hemisphere};
 
 /// A virtual point light at a non-delta vertex of a light path.
@@ -160,7 +163,7 @@ fn trace_path(
     let emitter_point = (es.point.p, es.pdf_area, local.z);
     let mut mis = MisState::light(es.pdf_area, local.z, counts.paths);
     // The BSDF of the light path's previous vertex (none at the emitter).
-    let mut previous: Option<&crate::material::Bsdf> = None;
+    let mut previous: Option<&Bsdf> = None;
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;
@@ -179,6 +182,8 @@ fn trace_path(
             d if d >= RR_DEPTH => (beta.max_element() / beta0).min(MAX_SURVIVAL),
             _ => 1.0,
         };
+        // The count of the connection from here to the previous vertex's VPL.
+        let count = counts.between(previous, bsdf);
         // Only where light can be reflected: a vertex on the back of a surface (light paths
         // that miss an opening and strike the wall around it from outside) or on a black
         // material would add nothing to any receiver, yet take a place in every gather's
@@ -201,7 +206,7 @@ fn trace_path(
                     0.0
                 },
                 mis,
-                count_out: previous.map_or(1.0, |b| counts.factor(bsdf, b)),
+                count_out: count,
             });
         }
         if depth == max_depth {
@@ -209,7 +214,6 @@ fn trace_path(
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
-        let count = previous.map_or(1.0, |b| counts.factor(bsdf, b));
         mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count));
         previous = Some(bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {

@@ -97,22 +97,24 @@ impl Default for LightSet {
 }
 
 impl LightSet {
-    /// The set of `lights` made from iteration `iteration`'s VPLs (left by `paths` light
-    /// paths), with the light tree when `gather` samples from one.
+    /// The set of `lights` made from iteration `iteration`'s VPLs, with the light tree when
+    /// `gather` samples from one; `counts` are the weights' counts of its light paths (the
+    /// ones the VPLs' sums were traced with, for `pir-bdpt`; `pir-mis` counts every path,
+    /// [`Counts::paths`]).
     pub fn new(
         ctx: &RenderContext,
         lights: &VirtualLights,
         vpls: Vec<Vpl>,
-        paths: usize,
+        counts: Counts,
         iteration: u64,
         gather: Gather,
     ) -> Self {
         let mis = match *lights {
             VirtualLights::WeighedPoints(clamping) => {
-                Some(Mis { counts: Counts::uniform(paths as f32), bound: clamping.bound(iteration) })
+                Some(Mis { counts: Counts::uniform(counts.paths), bound: clamping.bound(iteration) })
             }
             VirtualLights::Bidirectional(clamping, _) => {
-                Some(Mis { counts: Counts::new(paths, gather), bound: clamping.bound(iteration) })
+                Some(Mis { counts, bound: clamping.bound(iteration) })
             }
             _ => None,
         };

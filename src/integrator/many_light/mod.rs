@@ -65,7 +65,7 @@ pub mod tree_gather;
 
 pub use light_paths::{Vpl, trace_vpls};
 pub use light_set::LightSet;
-pub use path_count::AutoPaths;
+pub use path_count::{AutoPaths, Pilot};
 
 use glam::Vec3;
 
@@ -167,6 +167,8 @@ pub struct InstantRadiosity {
     /// Light paths chosen by the scene's yield of VPLs ([`path_count`]) when
     /// [`Integrator::prepare`] runs, instead of `paths`.
     auto: Option<AutoPaths>,
+    /// What the pilot measured ([`Integrator::prepare`]), for methods that need it.
+    pilot: Option<Pilot>,
     gather: Gather,
     /// [`VirtualLights::Bidirectional`]: light samples at the camera path's first vertex.
     light_samples: u32,
@@ -179,6 +181,7 @@ impl InstantRadiosity {
             lights,
             paths,
             auto: None,
+            pilot: None,
             gather: Gather::All,
             light_samples: 1,
             set: LightSet::default(),
@@ -312,6 +315,10 @@ impl Integrator for InstantRadiosity {
             let name = clap::ValueEnum::to_possible_value(&connect).map(|v| v.get_name().to_string());
             p.push(("connect".into(), name.unwrap_or_default()));
             p.push(("light-samples".into(), self.light_samples.to_string()));
+            if let Some(pilot) = self.pilot {
+                // Measured, not given: what the weights' counts used ([`Pilot`]).
+                p.push(("emitter-visibility".into(), format!("{:.3}", pilot.visibility)));
+            }
         }
         match self.lights {
             VirtualLights::Points(Clamping::None)
@@ -342,21 +349,29 @@ impl Integrator for InstantRadiosity {
         p
     }
 
+    /// The pilot, once, for a count chosen by the scene or the bidirectional weights.
     fn prepare(&mut self, ctx: &RenderContext) {
-        if let Some(auto) = self.auto.take() {
-            self.paths = auto.resolve(ctx, ctx.max_depth.saturating_sub(2));
+        let bidirectional = matches!(self.lights, VirtualLights::Bidirectional(..));
+        if self.pilot.is_some() || !(bidirectional || self.auto.is_some()) {
+            return;
         }
+        let pilot = Pilot::run(ctx, ctx.max_depth.saturating_sub(2));
+        if let Some(auto) = self.auto.take() {
+            self.paths = auto.for_yield(pilot.per_path);
+        }
+        self.pilot = Some(pilot);
     }
 
     fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
         // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-        let counts = bidirectional::Counts::new(self.paths, self.gather);
+        let visibility = self.pilot.map_or(1.0, |p| p.visibility);
+        let counts = bidirectional::Counts::new(self.paths, self.gather, visibility);
         let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counts, max_vpl_depth);
         counters.light_rays += rays;
         counters.light_paths += self.paths as u64;
         counters.vpls += vpls.len() as u64;
-        self.set = LightSet::new(ctx, &self.lights, vpls, self.paths, iteration, self.gather);
+        self.set = LightSet::new(ctx, &self.lights, vpls, counts, iteration, self.gather);
     }
 
     fn radiance(

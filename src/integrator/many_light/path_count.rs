@@ -11,11 +11,11 @@
 //! two; what the VPLs cost is the gather, per receiver, which grows with their number up to
 //! the window of candidates ([`super::resample`]). So the count is raised only as far as it
 //! takes to leave the VPLs that the fewest paths leave where every path leaves one: in the
-//! slit room 1,024 paths against 64 (with counts by the connections' ends,
+//! slit room about 520 paths against 64 (with counts by the connections' ends,
 //! [`super::bidirectional::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 % and its
-//! relative MSE × time by 22 %; filling the whole window of 128 candidates cost the Mori
-//! knob (30 VPLs from 64 paths) 19 % more time for no gain (`docs/measurements.md`, "Light
-//! paths by the scene's yield").
+//! relative MSE × time by 28 % (seeds 1–3, fixed iterations); filling the whole window of
+//! 128 candidates instead cost the Mori knob (30 VPLs from 64 paths) 19 % more time for 3 %
+//! less error (`docs/measurements.md`, "Light paths by the scene's yield").
 //!
 //! **How.** Before the first iteration, a pilot traces [`PILOT_PATHS`] light paths from a
 //! stream of their own (no iteration draws from it) and counts the VPLs they leave: y per
@@ -25,12 +25,19 @@
 //! sharded render finds the same count, and it is fixed for the whole render: every
 //! iteration is an unbiased estimate of the same image, as with a count given by `--vpls`.
 
+use super::bidirectional::Counts;
 use super::light_paths::trace_vpls;
-use crate::integrator::RenderContext;
-use crate::integrator::many_light::bidirectional::Counts;
+use crate::integrator::direct::occluded;
+use crate::integrator::{Counters, RenderContext};
+use crate::sampling::Streams;
 
-/// Light paths of the pilot that measures the yield of VPLs per path.
+/// Light paths of the pilot that measures the yield of VPLs per path (no more than the most
+/// an iteration of `pir-bdpt` traces, which the memory estimate counts).
 pub const PILOT_PATHS: usize = 4096;
+
+/// Light samples the pilot takes from each VPL lit directly (in the slit room its
+/// visibility came out 0.15–0.17 over seeds 1–3, against 0.15–0.20 with one sample).
+const PILOT_LIGHT_SAMPLES: usize = 8;
 
 /// The stream of the pilot's light paths: an iteration number no render reaches.
 const PILOT_ITERATION: u64 = u64::MAX;
@@ -58,13 +65,62 @@ impl AutoPaths {
         let n = (self.vpls as f64 / per_path).ceil();
         if n >= at_most as f64 { at_most } else { (n as usize).clamp(at_least, at_most) }
     }
+}
 
-    /// The count for the scene of `ctx`, from a pilot of [`PILOT_PATHS`] light paths whose
-    /// vertices are at most `max_vpl_depth` segments from the emitter.
-    pub fn resolve(&self, ctx: &RenderContext, max_vpl_depth: u32) -> usize {
+/// What the pilot measures of a scene before the first iteration: the VPLs its light paths
+/// leave, and how often next-event estimation from where they first arrive finds its emitter
+/// point in view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pilot {
+    /// VPLs per light path.
+    pub per_path: f64,
+    /// Of the light samples taken from the VPLs lit directly ([`PILOT_LIGHT_SAMPLES`] each,
+    /// towards a point drawn as
+    /// next-event estimation draws it, on the emitter's front side and in front of the
+    /// VPL's surface), the fraction that no surface blocks; 1 when there were none.
+    /// [`super::bidirectional::Counts`] weighs the connections by it.
+    pub visibility: f32,
+}
+
+impl Pilot {
+    /// Traces [`PILOT_PATHS`] light paths whose vertices are at most `max_vpl_depth`
+    /// segments from the emitter, and light samples from each VPL lit directly, all from
+    /// streams no iteration draws from, in order: the same for any thread count. Once per
+    /// render where the context keeps it (`max_vpl_depth` is then the render's, from its
+    /// path length).
+    pub fn run(ctx: &RenderContext, max_vpl_depth: u32) -> Pilot {
+        match ctx.pilot {
+            Some(cell) => *cell.get_or_init(|| Pilot::trace(ctx, max_vpl_depth)),
+            None => Pilot::trace(ctx, max_vpl_depth),
+        }
+    }
+
+    /// [`Pilot::run`] without the render's cache.
+    fn trace(ctx: &RenderContext, max_vpl_depth: u32) -> Pilot {
         let (vpls, _) =
             trace_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, Counts::uniform(PILOT_PATHS as f32), max_vpl_depth);
-        self.for_yield(vpls.len() as f64 / PILOT_PATHS as f64)
+        let streams = Streams::light_paths(ctx.sampler, ctx.seed, PILOT_ITERATION - 1);
+        let mut counters = Counters::default();
+        let (mut tried, mut visible) = (0u32, 0u32);
+        for (j, vpl) in vpls.iter().enumerate().filter(|(_, v)| v.depth == 1) {
+            let mut sampler = streams.sampler(j as u64);
+            for _ in 0..PILOT_LIGHT_SAMPLES {
+                let u_select = sampler.next_f32();
+                let es = ctx.emitters.sample(ctx.scene, u_select, sampler.next_2d());
+                let d = es.point.p - vpl.p;
+                if es.point.ng.dot(d) >= 0.0 || vpl.ng.dot(d) <= 0.0 {
+                    continue;
+                }
+                tried += 1;
+                if !occluded(ctx, vpl.p, vpl.ng, es.point.p, es.point.ng, &mut counters) {
+                    visible += 1;
+                }
+            }
+        }
+        Pilot {
+            per_path: vpls.len() as f64 / PILOT_PATHS as f64,
+            visibility: if tried == 0 { 1.0 } else { visible as f32 / tried as f32 },
+        }
     }
 }
 
