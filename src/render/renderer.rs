@@ -179,7 +179,9 @@ impl<'s> Renderer<'s> {
     ) -> (Film, RenderStats) {
         let ctx = self.context();
         let settings = RenderSettings { width: self.width as usize, height: self.height as usize, budget };
-        let mut integrator = self.integrator(config);
+        // Prepared by the driver, which counts the pilot's time in the statistics (unless an
+        // earlier call already ran the render's pilot).
+        let mut integrator = config.integrator(self.scene.bounds().diagonal());
         self.pool.install(|| render_from(&ctx, integrator.as_mut(), &settings, film, shard, on_iteration))
     }
 
