@@ -11,9 +11,9 @@
 //! two; what the VPLs cost is the gather, per receiver, which grows with their number up to
 //! the window of candidates ([`super::resample`]). So the count is raised only as far as it
 //! takes to leave the VPLs that the fewest paths leave where every path leaves one: in the
-//! slit room about 520 paths against 64 (with counts by the connections' ends,
-//! [`super::bidirectional::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 % and its
-//! relative MSE × time by 28 % (seeds 1–3, fixed iterations); filling the whole window of
+//! slit room about 520 paths against 64 (with the connections between Lambertian ends
+//! counted N, [`super::bidirectional::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 %
+//! and its relative MSE × time by 28 % (seeds 1–3, fixed iterations); filling the whole window of
 //! 128 candidates instead cost the Mori knob (30 VPLs from 64 paths) 19 % more time for 3 %
 //! less error (`docs/measurements.md`, "Light paths by the scene's yield").
 //!
