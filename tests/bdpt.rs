@@ -178,8 +178,8 @@ fn bidirectional_gather_does_not_depend_on_the_thread_count() {
 
 /// The light paths `pir-bdpt` chooses by the scene's yield of VPLs
 /// (`src/integrator/many_light/path_count.rs`): where every light path leaves VPLs (a closed
-/// cube) the fewest; in the slit room, where one path in eight gets through the opening, about
-/// eight times as many; the same count in pools of one and two threads, with either sampler.
+/// cube) the fewest; in the slit room, where about one VPL is left per eight paths (one path
+/// in thirty gets through the opening), about eight times as many; the same count in pools of one and two threads, with either sampler.
 /// And the pilot's visibility of the emitters from the points they light, which weighs the
 /// connections ([`Counts`](pir::integrator::many_light::bidirectional::Counts)): all of
 /// them inside the cube, a sliver through the slit.
@@ -206,7 +206,7 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
             pilot: None,
         };
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| Pilot::run(&ctx, 4))
+        pool.install(|| Pilot::run(&ctx))
     };
     for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
         let (cube, slit) = (resolve(&cube_scene, sampler, 2), resolve(&slit_scene, sampler, 1));

@@ -55,7 +55,7 @@ pub struct RenderStats {
     /// Iterations rendered by this run.
     pub rendered: u64,
     pub elapsed: Duration,
-    /// Time in `begin_iteration` (e.g. light tracing).
+    /// Time in `prepare` (a pilot) and `begin_iteration` (e.g. light tracing).
     pub prepare_time: Duration,
     /// Time rendering pixels.
     pub pixel_time: Duration,

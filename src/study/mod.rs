@@ -157,9 +157,6 @@ pub fn run_one(
     if (w as usize, h as usize) != (reference.width, reference.height) {
         bail!("the renderer's size {w}×{h} is not the reference's");
     }
-    let parameters: Vec<String> =
-        renderer.integrator(&run.config).parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
-    let parameters = parameters.join(";");
     let marks = schedule.marks();
     let end = schedule.end();
     let mut next = 0usize;
@@ -188,6 +185,10 @@ pub fn run_one(
             Control::Continue
         }
     });
+    // After the render, whose driver runs (and times) the pilot of the methods that have one.
+    let parameters: Vec<String> =
+        renderer.integrator(&run.config).parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
+    let parameters = parameters.join(";");
     let exposures = flip::exposures(reference);
     let measured: Vec<Result<Snapshot>> = renderer.install(|| {
         taken

@@ -13,7 +13,7 @@
 //! - t ≤ k − 2: the camera vertex z_t connects to the VPL that light tracing left at z_{t+1}
 //!   (its light path came from the emitter through z_k … z_{t+2}); the iteration's N light
 //!   paths give N samples, so this technique's density is N times its path density (a
-//!   sampled gather counts fewer where an end is glossy: [`Counts`]).
+//!   sampled gather counts fewer: [`Counts`]).
 //!
 //! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}; the hit is
 //! always possible. Every technique reaches every path length up to `max_depth`, so the set
@@ -57,7 +57,7 @@
 //! it, and its VPL connections get the share the balance heuristic gives them: where a
 //! connection spikes (a short segment, a receiver's or a VPL's lobe), the path tracer's
 //! density is the larger and takes the path. Where light arrives by long diffuse chains or
-//! through an opening, the N connections dominate. What is left of the connection keeps the
+//! through an opening, the connections dominate. What is left of the connection keeps the
 //! progressive bound of `pir-mis` ([`super::mis::Weighing::apply`]), b_i = b_1 · i^α on
 //! π² · w · max(c) / max(Φ); its bias vanishes as b_i grows, so `pir-bdpt` is consistent.
 //!
@@ -111,15 +111,16 @@ use crate::sampling::Sampler;
 ///   Measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional weights"): 8
 ///   rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its worst pixel
 ///   by 20 %, the near-mirror floor's by 8 % and 54 %; with 64 paths, 64 rather than 8
-///   raised the glossy corner's by 72 % and the near-mirror floor's by 17 %, and on the
-///   Cornell box lowered relative MSE by 8 % but raised HDR-FLIP by 15 % (`docs/measurements.md`,
+///   raised the glossy corner's by 72 % and the near-mirror floor's by 17 %; counting N only
+///   between Lambertian ends lowered the Cornell box's relative MSE at 20 s by 10 % but
+///   raised its HDR-FLIP by 15 % (`docs/measurements.md`,
 ///   "Connections counted by their ends").
 /// - **Between two Lambertian ends, the resampled gather** counts 2k / v, at most N, with v
 ///   the probability that next-event estimation from a point that light reaches directly
 ///   finds its emitter point unoccluded (measured by the pilot of
 ///   [`super::path_count::Pilot`]). The competitor of such a connection z_1 → z_2 is
 ///   next-event estimation at z_2, whose samples are mostly wasted where the emitters are
-///   hidden behind an opening (the slit room: v ≈ 0.1), and whose effective count is then v
+///   hidden behind an opening (the slit room: v = 0.15–0.18), and whose effective count is then v
 ///   samples, not one; the connection's estimate is the unoccluded contribution itself but
 ///   for the albedos' colours (power × the geometry term, [`super::resample`]), so its picks
 ///   are well placed. Where the emitters are in view (v ≈ 1) this is 2k as before. A glossy
@@ -147,8 +148,13 @@ impl Counts {
             Gather::Tree { samples } => (n.min(2.0 * samples as f32), n.min(2.0 * samples as f32)),
             Gather::Resampled { samples, .. } => {
                 let k2 = 2.0 * samples as f32;
-                let v = if visibility > 0.0 { visibility.min(1.0) } else { 1.0 };
-                (n.min(k2), n.min(k2 / v))
+                // Not measured: as if in view; measured and nothing in view: N.
+                let lambertian = match visibility {
+                    v if v.is_nan() => k2,
+                    v if v <= 0.0 => n,
+                    v => k2 / v.min(1.0),
+                };
+                (n.min(k2), n.min(lambertian))
             }
         };
         Counts {
@@ -697,6 +703,43 @@ mod tests {
                 Node { p: pts[j], g: LocalGeometry { ng: n, frame: Frame::from_normal(n) }, bsdf }
             })
             .collect()
+    }
+
+    /// The counts' rule: the exhaustive gather N; the light tree and a glossy end 2k; two
+    /// Lambertian ends with the resampled gather 2k / v, at most N (N where nothing was in
+    /// view, 2k where nothing was measured).
+    #[test]
+    fn counts_follow_the_gather_the_ends_and_the_visibility() {
+        let lambert = Bsdf::Diffuse { albedo: Vec3::splat(0.5) };
+        let glossy = Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.5), roughness: 0.2 };
+        let resample = Gather::Resampled { candidates: 128, samples: 4 };
+        let count = |c: Counts, a: &Bsdf, b: &Bsdf| c.paths * c.factor(a, b);
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-3 * b;
+        for v in [1.0, 0.97, 0.5, 0.16, 0.01, 0.0, f32::NAN] {
+            let all = Counts::new(512, Gather::All, v);
+            assert!(
+                close(count(all, &lambert, &glossy), 512.0) && close(count(all, &lambert, &lambert), 512.0)
+            );
+            let tree = Counts::new(512, Gather::Tree { samples: 4 }, v);
+            assert!(
+                close(count(tree, &lambert, &lambert), 8.0) && close(count(tree, &glossy, &lambert), 8.0)
+            );
+            let c = Counts::new(512, resample, v);
+            assert!(
+                close(count(c, &glossy, &lambert), 8.0) && close(count(c, &lambert, &glossy), 8.0),
+                "{v}"
+            );
+            let expected = match v {
+                v if v.is_nan() => 8.0,
+                v if v <= 0.0 => 512.0,
+                v => (8.0 / v).min(512.0),
+            };
+            assert!(close(count(c, &lambert, &lambert), expected), "{v}: {c:?}");
+            assert_eq!(c.between(None, &glossy), 1.0);
+        }
+        // Fewer paths than 2k: every connection counts them all.
+        let few = Counts::new(5, resample, 0.5);
+        assert!(close(count(few, &lambert, &lambert), 5.0) && close(count(few, &glossy, &glossy), 5.0));
     }
 
     /// The direct light of the first non-delta vertex (a path of two segments after any delta

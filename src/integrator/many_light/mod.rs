@@ -355,7 +355,7 @@ impl Integrator for InstantRadiosity {
         if self.pilot.is_some() || !(bidirectional || self.auto.is_some()) {
             return;
         }
-        let pilot = Pilot::run(ctx, ctx.max_depth.saturating_sub(2));
+        let pilot = Pilot::run(ctx);
         if let Some(auto) = self.auto.take() {
             self.paths = auto.for_yield(pilot.per_path);
         }

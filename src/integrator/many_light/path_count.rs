@@ -5,8 +5,9 @@
 //! **Why the count is the scene's.** Where light spreads freely from the emitters, every
 //! light path leaves a VPL or more (the Cornell box: 156 from 64 paths). Where it enters
 //! through an opening, most light paths end on the outside of the wall around it and leave
-//! none: in the slit room 64 paths left 8, one path in eight reaching the room, so an
-//! iteration's light that came through the opening was estimated from two or three paths,
+//! none: in the slit room 64 paths left 8 VPLs (one path in about thirty goes through the
+//! slit), so an iteration's light that came through the opening was estimated from two or
+//! three paths,
 //! and that shared error dominated `pir-bdpt`'s. A path that leaves no VPL costs a ray or
 //! two; what the VPLs cost is the gather, per receiver, which grows with their number up to
 //! the window of candidates ([`super::resample`]). So the count is raised only as far as it
@@ -19,11 +20,14 @@
 //!
 //! **How.** Before the first iteration, a pilot traces [`PILOT_PATHS`] light paths from a
 //! stream of their own (no iteration draws from it) and counts the VPLs they leave: y per
-//! path. The count is ⌈v / y⌉ for a target of v VPLs, within [`AutoPaths::at_least`] and
-//! [`AutoPaths::at_most`]. It is a function of the scene, the seed and the sampler alone
-//! (the pilot's paths are collected in order whatever the threads), so a resumed or
-//! sharded render finds the same count, and it is fixed for the whole render: every
-//! iteration is an unbiased estimate of the same image, as with a count given by `--vpls`.
+//! path. The count is ⌈t / y⌉ for a target of t VPLs, within [`AutoPaths::at_least`] and
+//! [`AutoPaths::at_most`]. The same pilot measures the emitters' visibility from the points
+//! they light, which weighs `pir-bdpt`'s connections ([`Pilot::visibility`]). Both are a
+//! function of the scene, its path length, the seed, the sampler and (through the rays'
+//! rounding) the accelerator alone: the pilot's paths are collected in order whatever the
+//! threads, so a resumed or sharded render on the same machine finds the same, and they are
+//! fixed for the whole render: every iteration is an unbiased estimate of the same image,
+//! as with a count given by `--vpls`.
 
 use super::bidirectional::Counts;
 use super::light_paths::trace_vpls;
@@ -83,20 +87,20 @@ pub struct Pilot {
 }
 
 impl Pilot {
-    /// Traces [`PILOT_PATHS`] light paths whose vertices are at most `max_vpl_depth`
-    /// segments from the emitter, and light samples from each VPL lit directly, all from
-    /// streams no iteration draws from, in order: the same for any thread count. Once per
-    /// render where the context keeps it (`max_vpl_depth` is then the render's, from its
-    /// path length).
-    pub fn run(ctx: &RenderContext, max_vpl_depth: u32) -> Pilot {
+    /// Traces [`PILOT_PATHS`] light paths (as deep as a VPL serves a camera vertex, max_depth
+    /// − 2 segments), and light samples from each VPL lit directly, all from streams no
+    /// iteration draws from, in order: the same for any thread count. Once per render where
+    /// the context keeps it.
+    pub fn run(ctx: &RenderContext) -> Pilot {
         match ctx.pilot {
-            Some(cell) => *cell.get_or_init(|| Pilot::trace(ctx, max_vpl_depth)),
-            None => Pilot::trace(ctx, max_vpl_depth),
+            Some(cell) => *cell.get_or_init(|| Pilot::trace(ctx)),
+            None => Pilot::trace(ctx),
         }
     }
 
     /// [`Pilot::run`] without the render's cache.
-    fn trace(ctx: &RenderContext, max_vpl_depth: u32) -> Pilot {
+    fn trace(ctx: &RenderContext) -> Pilot {
+        let max_vpl_depth = ctx.max_depth.saturating_sub(2);
         let (vpls, _) =
             trace_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, Counts::uniform(PILOT_PATHS as f32), max_vpl_depth);
         let streams = Streams::light_paths(ctx.sampler, ctx.seed, PILOT_ITERATION - 1);
