@@ -705,6 +705,40 @@ mod tests {
             .collect()
     }
 
+    /// On a path camera → z_1 → z_2 → emitter z_3, the connection at z_1 weighs exactly
+    /// n_c P_c / (n_c P_c + P_nee + P_hit) with the densities written out (the camera ray's
+    /// common to all three left out) and n_c its count by its two ends: Lambertian and glossy
+    /// vertices, counts below one of either kind.
+    #[test]
+    fn the_connection_weighs_its_count_against_the_emitter_techniques() {
+        let mut s = Sampler::new(11, 0, Domain::LightPath, 0);
+        let counts = Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 };
+        let pdf_area = 0.6;
+        let mut checked = [0; 2];
+        for _ in 0..400 {
+            let z = random_path(&mut s, 3, None);
+            let front = |j: usize, i: usize| z[j].g.ng.dot(z[j].dir(&z[i])) > 0.05;
+            if !(front(1, 0) && front(1, 2) && front(2, 1) && front(2, 3) && front(3, 2)) {
+                continue;
+            }
+            let (b1, b2) = (z[1].bsdf.unwrap(), z[2].bsdf.unwrap());
+            let n_c = counts.paths * counts.factor(&b1, &b2);
+            let p_c = pdf_area * z[3].cos(&z[2]) / PI * z[2].cos(&z[3]) / dist2(&z[2], &z[3]);
+            let camera_z2 = z[1].pdf(&z[0], &z[2]) * z[2].cos(&z[1]) / dist2(&z[1], &z[2]);
+            let p_nee = camera_z2 * pdf_area;
+            let p_hit = camera_z2 * z[2].pdf(&z[1], &z[3]) * z[3].cos(&z[2]) / dist2(&z[2], &z[3]);
+            let expected = n_c * p_c / (n_c * p_c + p_nee + p_hit);
+            let w = weights(&z, pdf_area, counts, Connect::First, 1);
+            let got = w[0].unwrap();
+            assert!(
+                (got - expected).abs() < 1e-3 * expected.max(1e-3),
+                "{b1:?} {b2:?}: {got} against {expected}"
+            );
+            checked[usize::from(counts.factor(&b1, &b2) == counts.lambertian)] += 1;
+        }
+        assert!(checked.iter().all(|&n| n > 20), "checked (glossy, Lambertian): {checked:?}");
+    }
+
     /// The counts' rule: the exhaustive gather N; the light tree and a glossy end 2k; two
     /// Lambertian ends with the resampled gather 2k / v, at most N (N where nothing was in
     /// view, 2k where nothing was measured).
