@@ -320,7 +320,12 @@ fn finite_sample(wi: Vec3, weight: Vec3, pdf: f32, delta: bool, eta: f32) -> Opt
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::{Domain, Sampler};
+    use crate::sampling::{Domain, Sampler, uniform_cone};
+
+    /// A direction uniform over the sphere (the cone of every cosine).
+    fn dir(rng: &mut Sampler) -> Vec3 {
+        uniform_cone(rng.next_2d(), -1.0)
+    }
 
     /// `reflects_from` is false exactly where every evaluation with that direction is zero:
     /// checked against `eval` over many other directions, both modes, for tilted shading
@@ -328,13 +333,6 @@ mod tests {
     #[test]
     fn reflects_from_is_false_exactly_where_nothing_is_reflected() {
         let mut rng = Sampler::new(9, 0, Domain::Iteration, 0);
-        let dir = |rng: &mut Sampler| {
-            let u = rng.next_2d();
-            let z = 1.0 - 2.0 * u.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * std::f32::consts::PI * u.y;
-            Vec3::new(r * phi.cos(), r * phi.sin(), z)
-        };
         let bsdfs = [
             Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.5, 0.2) },
             Bsdf::Diffuse { albedo: Vec3::ZERO },
@@ -370,13 +368,6 @@ mod tests {
     #[test]
     fn diffuse_fast_paths_are_the_general_paths() {
         let mut rng = Sampler::new(5, 0, Domain::Iteration, 0);
-        let dir = |rng: &mut Sampler| {
-            let u = rng.next_2d();
-            let z = 1.0 - 2.0 * u.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * std::f32::consts::PI * u.y;
-            Vec3::new(r * phi.cos(), r * phi.sin(), z)
-        };
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
         let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() <= 1e-5;
         let (mut both, mut grazing) = (0, 0);

@@ -285,10 +285,10 @@ impl Scatter {
     /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
     /// first, the technique `dvcm` stands for is next-event estimation; further on, the
     /// connection of this vertex (as a camera vertex) to the previous one's VPL, which counts
-    /// `count` times ([`Counts::factor`] of this vertex and the previous one).
+    /// `count` times ([`Counts::between`] this vertex and the previous one, which is 1 at
+    /// the first vertex, whose previous one is the emitter).
     #[inline]
     pub fn light(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, depth: u32, count: f32) -> Self {
-        let count = if depth == 1 { 1.0 } else { count };
         Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count }
     }
 }
@@ -496,10 +496,10 @@ pub fn walk(
             // The samples' points: one block of the sequence, stratified among themselves.
             let u_select = sampler.next_f32();
             let mut direct = Vec3::ZERO;
+            let count_previous = if connect.at(depth - 1) { count_in } else { 0.0 };
             for u in sampler.next_2d_block(n) {
                 direct += sample_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters, |l| {
                     let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
-                    let count_previous = if connect.at(depth - 1) { count_in } else { 0.0 };
                     light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, count_previous, count)
                 });
             }

@@ -45,6 +45,8 @@ const PILOT_LIGHT_SAMPLES: usize = 8;
 
 /// The stream of the pilot's light paths: an iteration number no render reaches.
 const PILOT_ITERATION: u64 = u64::MAX;
+/// The stream of the pilot's light samples, another such number.
+const PILOT_SAMPLES_ITERATION: u64 = u64::MAX - 1;
 
 /// The light paths of an iteration chosen by the scene's yield of VPLs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,7 +105,7 @@ impl Pilot {
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
         let (vpls, _) =
             trace_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, Counts::uniform(PILOT_PATHS as f32), max_vpl_depth);
-        let streams = Streams::light_paths(ctx.sampler, ctx.seed, PILOT_ITERATION - 1);
+        let streams = Streams::light_paths(ctx.sampler, ctx.seed, PILOT_SAMPLES_ITERATION);
         let mut counters = Counters::default();
         let (mut tried, mut visible) = (0u32, 0u32);
         for (j, vpl) in vpls.iter().enumerate().filter(|(_, v)| v.depth == 1) {
