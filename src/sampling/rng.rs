@@ -240,17 +240,23 @@ impl Sampler<'_> {
     }
 
     /// `n` points of one dimension that are stratified among themselves as well as over the
-    /// iterations: with Sobol points, the sample's own aligned block of `n` (rounded up to a
-    /// power of two) consecutive points of the dimension's sequence, point `index · n + j`
-    /// for the j-th, so that the blocks of the first iterations together are the sequence's
-    /// first points; independent points otherwise. For several samples taken at one vertex
-    /// (next-event estimation's light samples), where a dimension per sample would stratify
-    /// each over the iterations only. One point is [`Sampler::next_2d`]'s. The points are
-    /// computed as the block is read.
+    /// iterations: with Sobol points, the sample's own block of `n` consecutive points of the
+    /// dimension's sequence, point `index · n + j` for the j-th, so that the blocks of the
+    /// first iterations together are the sequence's first points (and a block of a power of
+    /// two is an aligned one, a net of its own); independent points otherwise. For several
+    /// samples taken at one vertex (next-event estimation's light samples), where a dimension
+    /// per sample would stratify each over the iterations only. One point is
+    /// [`Sampler::next_2d`]'s. The points are computed as the block is read.
+    ///
+    /// The blocks must tile the sequence: a block of `n` points taken from an aligned block
+    /// of the next power of two (as before 2026-12-04) leaves the same points of every
+    /// block out, and under a pixel's fixed scramble those lie in the same part of the
+    /// square at every iteration, so that the pixel never converged (the slit room with 5
+    /// light samples: relative MSE at 256 iterations 6.1e-4, against 3.4e-4 with 4).
     pub fn next_2d_block(&mut self, n: u32) -> Block {
         let (one, h) = if n == 1 { (Some(self.next_2d()), 0) } else { (None, self.next_u64()) };
-        let k = n.next_power_of_two().trailing_zeros();
-        Block { one, h, index: self.index, k, sobol: self.sobol, next: 0, n }
+        let first = self.index.reverse_bits().wrapping_mul(n);
+        Block { one, h, first, sobol: self.sobol, next: 0, n }
     }
 }
 
@@ -262,9 +268,8 @@ pub struct Block {
     /// The dimension's hash: the Sobol points' shuffle and shifts, or the independent
     /// points' key.
     h: u64,
-    /// The sample's reversed index, and log2 of the block's size.
-    index: u32,
-    k: u32,
+    /// The number of the block's first point in the sequence.
+    first: u32,
     sobol: bool,
     next: u32,
     n: u32,
@@ -284,9 +289,9 @@ impl Iterator for Block {
             return Some(p);
         }
         Some(if self.sobol {
-            // The reversed bits of index · 2^k + j: the index's reversed bits moved down by k,
-            // j's reversed above them. (The shuffle is the sample's own, for any dimension.)
-            let rindex = self.index >> self.k | j.reverse_bits();
+            // Point `first + j`, given reversed. (The shuffle is the sample's own, for any
+            // dimension.)
+            let rindex = self.first.wrapping_add(j).reverse_bits();
             glam::Vec2::from(sobol::point_2d(rindex, self.h))
         } else {
             let x = mix64(self.h ^ (j as u64 + 1).wrapping_mul(GAMMA));
@@ -383,9 +388,8 @@ mod tests {
     }
 
     /// A pixel's blocks of four over its first 16 iterations are the 64 first points of the
-    /// dimension's sequence (a net), and each block alone is one too; after other draws,
-    /// with three points (a block of four cut short), and at the table's last dimension and
-    /// beyond it. Independent samplers give distinct points.
+    /// dimension's sequence (a net), and each block alone is one too; after other draws, at
+    /// the table's last dimension and beyond it; blocks of three tile the sequence as well. Independent samplers give distinct points.
     #[test]
     fn blocks_of_points_stratify_within_and_across_iterations() {
         for (before, n) in [(0, 4), (3, 4), (TABLE_DIMS - 1, 4), (TABLE_DIMS + 5, 4), (2, 3)] {
@@ -406,10 +410,15 @@ mod tests {
                 let next: Vec<_> = (17..=32).flat_map(|i| block(SamplerKind::Sobol, i)).collect();
                 assert!(is_net(&next) && next != first);
             } else {
-                // The first three of the block of four.
-                let b = block(SamplerKind::Sobol, 9);
-                assert_eq!(b.len(), 3);
-                assert!(b.iter().all(|p| p.cmpge(glam::Vec2::ZERO).all() && p.cmplt(glam::Vec2::ONE).all()));
+                // Blocks of three tile the sequence too: those of the first 64 iterations are
+                // its 192 first points, 128 and then 64 of them nets. (Three points of aligned
+                // blocks of four left the fourth point of every block out: no net.)
+                let all: Vec<_> = (1..=64).flat_map(|i| block(SamplerKind::Sobol, i)).collect();
+                assert_eq!(all.len(), 192);
+                assert!(is_net(&all[..128]) && is_net(&all[128..]), "{before} draws before");
+                assert!(
+                    all.iter().all(|p| p.cmpge(glam::Vec2::ZERO).all() && p.cmplt(glam::Vec2::ONE).all())
+                );
             }
             let independent = block(SamplerKind::Independent, 3);
             assert!(
