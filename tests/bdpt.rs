@@ -10,9 +10,10 @@ use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
 use pir::accel::{Backend, build_accelerator};
 use pir::integrator::many_light::Pilot;
-use pir::integrator::many_light::bidirectional::Connect;
+use pir::integrator::many_light::bidirectional::{Connect, light_samples_for};
 use pir::integrator::{
-    BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, Gather, InstantRadiosity, PathTracer, RenderContext, VirtualLights,
+    BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, DEFAULT_LIGHT_SAMPLES, Gather, InstantRadiosity, Method,
+    MethodConfig, PathTracer, RenderContext, VirtualLights,
 };
 use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
@@ -219,5 +220,50 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
         assert!((4 * BDPT_PATHS..=16 * BDPT_PATHS).contains(&n), "{sampler:?}: {n} light paths");
         // From the strip under the slit only a sliver of the panel shows through it.
         assert!(slit.visibility > 0.02 && slit.visibility < 0.4, "{sampler:?}: {slit:?}");
+        // So the first vertex takes more light samples there than in the cube.
+        assert_eq!(light_samples_for(DEFAULT_LIGHT_SAMPLES, cube.visibility), DEFAULT_LIGHT_SAMPLES);
+        let more = light_samples_for(DEFAULT_LIGHT_SAMPLES, slit.visibility);
+        assert!([4, 8, 16].contains(&more), "{sampler:?}: {more} light samples");
     }
+}
+
+/// `pir-bdpt` without `--light-samples` takes the count the pilot's visibility gives (more in
+/// the slit room, the default inside the cube) and reports it among its parameters; a
+/// count given is kept.
+#[test]
+fn light_samples_follow_the_emitters_visibility_unless_given() {
+    let slit_scene = pir::scene::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/stress/slit/scene.toml"
+    )))
+    .unwrap();
+    let cube_scene = closed_cube(diffuse(0.5, 1.0));
+    let chosen = |scene: &Scene, given: Option<u32>| {
+        let accel =
+            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+        let emitters = Emitters::new(scene).unwrap();
+        let ctx = RenderContext {
+            scene,
+            accel: accel.as_ref(),
+            emitters: &emitters,
+            max_depth: 6,
+            seed: 3,
+            sampler: SamplerKind::Sobol,
+            pilot: None,
+        };
+        let mut config = MethodConfig::new(Method::PirBdpt);
+        config.params.light_samples = given;
+        let mut integrator = config.integrator(scene.bounds().diagonal());
+        integrator.prepare(&ctx);
+        let p = integrator.parameters();
+        let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+        let v: f32 = value("emitter-visibility").unwrap().parse().unwrap();
+        (value("light-samples").unwrap().parse::<u32>().unwrap(), v)
+    };
+    let (n, v) = chosen(&slit_scene, None);
+    assert_eq!(n, light_samples_for(DEFAULT_LIGHT_SAMPLES, v));
+    assert!(n > DEFAULT_LIGHT_SAMPLES, "slit room: {n} light samples at visibility {v}");
+    assert_eq!(chosen(&slit_scene, Some(2)).0, 2);
+    assert_eq!(chosen(&slit_scene, Some(3)).0, 3);
+    assert_eq!(chosen(&cube_scene, None).0, DEFAULT_LIGHT_SAMPLES);
 }

@@ -109,8 +109,10 @@ const STATE_KEY: &str = "pir.job.state";
 /// changes every method's image of a seed, so a resume would no longer be exact), format 5
 /// before light paths left no VPL where they arrive behind a surface and `pir-bdpt` counted
 /// its connections by their ends and chose its light paths by the scene (which change the
-/// VPL methods' images of a seed; a stored `pir-bdpt` job without `vpls` meant 64).
-const FORMAT: &str = "6";
+/// VPL methods' images of a seed; a stored `pir-bdpt` job without `vpls` meant 64), format 6
+/// before `pir-bdpt` chose its light samples by the scene (a stored job's 2 meant the
+/// default, which is now more where the emitters are hidden).
+const FORMAT: &str = "7";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]

@@ -172,6 +172,9 @@ pub struct InstantRadiosity {
     gather: Gather,
     /// [`VirtualLights::Bidirectional`]: light samples at the camera path's first vertex.
     light_samples: u32,
+    /// Whether [`Integrator::prepare`] chooses `light_samples` by the pilot's visibility of
+    /// the emitters ([`bidirectional::light_samples_for`], with `light_samples` the base).
+    auto_light_samples: bool,
     set: LightSet,
 }
 
@@ -184,6 +187,7 @@ impl InstantRadiosity {
             pilot: None,
             gather: Gather::All,
             light_samples: 1,
+            auto_light_samples: false,
             set: LightSet::default(),
         }
     }
@@ -205,6 +209,13 @@ impl InstantRadiosity {
     pub fn with_light_samples(self, n: u32) -> Self {
         let n = n.clamp(1, crate::integrator::MAX_LIGHT_SAMPLES);
         InstantRadiosity { light_samples: n, ..self }
+    }
+
+    /// The same method with its light samples chosen by the scene when [`Integrator::prepare`]
+    /// runs: `base` where the emitters are in view, more where they are hidden
+    /// ([`bidirectional::light_samples_for`]).
+    pub fn with_auto_light_samples(self, base: u32) -> Self {
+        InstantRadiosity { auto_light_samples: true, ..self.with_light_samples(base) }
     }
 
     /// Point lights with the given clamping.
@@ -349,7 +360,7 @@ impl Integrator for InstantRadiosity {
         p
     }
 
-    /// The pilot, once, for a count chosen by the scene or the bidirectional weights.
+    /// The pilot, once, for counts chosen by the scene or the bidirectional weights.
     fn prepare(&mut self, ctx: &RenderContext) {
         let bidirectional = matches!(self.lights, VirtualLights::Bidirectional(..));
         if self.pilot.is_some() || !(bidirectional || self.auto.is_some()) {
@@ -358,6 +369,9 @@ impl Integrator for InstantRadiosity {
         let pilot = Pilot::run(ctx);
         if let Some(auto) = self.auto.take() {
             self.paths = auto.for_yield(pilot.per_path);
+        }
+        if std::mem::take(&mut self.auto_light_samples) {
+            self.light_samples = bidirectional::light_samples_for(self.light_samples, pilot.visibility);
         }
         self.pilot = Some(pilot);
     }
