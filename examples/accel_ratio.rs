@@ -6,10 +6,11 @@
 //!     accel_ratio embree SCENE WORKLOAD PASSES  Embree alone
 //!
 //! SCENE: cornell, bunny, dragon (from ../shared/scenes) or closed1m; WORKLOAD: closest,
-//! occluded or gather, the rays of `benches/accel.rs`, or `build`: the BVH's build time over
+//! occluded or gather, the rays of `benches/accel.rs`, occluded-batch or gather-batch, the
+//! same rays in one batched call (Embree's packets, the BVH's interleaved rays), or `build`: the BVH's build time over
 //! Embree's (medium quality), both on every core (rayon's and TBB's threads), timed in wall
 //! time, alternating, a build of each per round (the ratio is of times: lower is better; `bvh
-//! SCENE build N` builds N times, for profilers). A round traces about 400,000 rays on the
+//! SCENE build N` builds N times, for profilers). A round traces about 400,000 rays (`RAYS`) on the
 //! BVH, then as many on Embree, each timed in CPU time of this thread (Linux's
 //! /proc/thread-self/schedstat), so time the thread spends preempted does not count and the
 //! machine's drift between the two halves of a round is small. Compare two builds by their
@@ -49,13 +50,27 @@ fn rays(m: &Mesh, workload: &str) -> Vec<Ray> {
     match workload {
         "closest" => w.closest,
         "occluded" => w.occluded,
-        "gather" => w.gather,
+        "gather" | "gather-batch" => w.gather,
+        "occluded-batch" => w.occluded,
         _ => panic!("unknown workload {workload}"),
     }
 }
 
-fn trace(acc: &dyn Accelerator, rays: &[Ray], closest: bool) -> usize {
-    if closest {
+/// How a workload is traced: closest hits, or occlusion ray by ray or in batches.
+#[derive(Clone, Copy, PartialEq)]
+enum Query {
+    Closest,
+    Occluded,
+    OccludedBatch,
+}
+
+fn trace(acc: &dyn Accelerator, rays: &[Ray], query: Query) -> usize {
+    if query == Query::OccludedBatch {
+        let mut occ = vec![false; rays.len()];
+        acc.occluded_batch(std::hint::black_box(rays), &mut occ);
+        return occ.iter().filter(|&&o| o).count();
+    }
+    if query == Query::Closest {
         rays.iter().filter(|r| acc.intersect(std::hint::black_box(r)).is_some()).count()
     } else {
         rays.iter().filter(|r| acc.occluded(std::hint::black_box(r))).count()
@@ -79,27 +94,32 @@ fn main() {
         return builds(mode, scene_name, &m, n);
     }
     let rs = rays(&m, workload);
-    let closest = workload == "closest";
+    let query = match workload.as_str() {
+        "closest" => Query::Closest,
+        w if w.ends_with("-batch") => Query::OccludedBatch,
+        _ => Query::Occluded,
+    };
     let vertices = VertexBuffer::from(m.positions.clone());
     let embree = || build_accelerator(Backend::Embree, &vertices, &m.indices).expect("a build with Embree");
     match mode.as_str() {
         "bvh" => {
             let bvh = Bvh::new(&m.positions, &m.indices);
-            println!("{} hits", (0..n).map(|_| trace(&bvh, &rs, closest)).sum::<usize>());
+            println!("{} hits", (0..n).map(|_| trace(&bvh, &rs, query)).sum::<usize>());
         }
         "embree" => {
             let e = embree();
-            println!("{} hits", (0..n).map(|_| trace(e.as_ref(), &rs, closest)).sum::<usize>());
+            println!("{} hits", (0..n).map(|_| trace(e.as_ref(), &rs, query)).sum::<usize>());
         }
         "ratio" => {
             let bvh = Bvh::new(&m.positions, &m.indices);
             let e = embree();
-            assert_eq!(trace(&bvh, &rs, closest), trace(e.as_ref(), &rs, closest), "hit counts differ");
-            let passes = (400_000 / rs.len()).max(1);
+            assert_eq!(trace(&bvh, &rs, query), trace(e.as_ref(), &rs, query), "hit counts differ");
+            let per_round = std::env::var("RAYS").ok().and_then(|v| v.parse().ok()).unwrap_or(400_000);
+            let passes = (per_round / rs.len()).max(1);
             let rate = |acc: &dyn Accelerator| {
                 let t0 = cpu_ns();
                 for _ in 0..passes {
-                    trace(acc, &rs, closest);
+                    trace(acc, &rs, query);
                 }
                 (passes * rs.len()) as f64 / (cpu_ns() - t0) as f64 * 1e3
             };

@@ -22,6 +22,20 @@
 //! box), 0.4–0.6× with the rays sorted by direction octant first; tracing each batch of 64
 //! one by one in direction order was slower than in the given order too.
 //!
+//! Interleaved rays were measured too (2026-12-04): `occluded_batch` tracing eight rays of a
+//! batch at once, each a traversal paused between node visits and taking a step in turn, so
+//! that one ray's wait for its next node is filled by the others' work (batches of fewer than
+//! 16 ray by ray). On the benchmark's incoherent rays it paid: BVH rates, one thread, median
+//! of five rounds of 2 M rays (`RAYS=2000000 accel_ratio ratio SCENE WORKLOAD 5`), ray by ray
+//! → interleaved: random segments, bunny 4.92 → 6.07, dragon 3.07 → 4.51 M rays/s (0.79,
+//! 0.98 and, on the 1M scene, 0.88 of Embree's 16-wide packets); gather pattern, bunny 5.55
+//! → 6.17, dragon 3.99 → 4.76. In the renderer it did not: `pir-clamp --accel bvh`, whose gather queues every VPL
+//! of the iteration from one point in batches of 64, gathered at 0.93–0.96× the rate on the
+//! bunny's Cornell box and `scenes/dense/indirect.toml` with two threads (1.04× and 0.93×
+//! with one; four and two rays at a time: 0.94–1.0×). Rays from one point share their nodes,
+//! which stay in cache, so there is little wait to fill, and each step reloads its ray's
+//! state from memory. Not kept.
+//!
 //! Octant-ordered lanes (Ylitie, Karras and Laine's compressed wide BVH) were measured too
 //! (2026-12-04): at collapse each child takes the lane of the direction octant for which it
 //! comes earliest (greedy on its centre's offset along the octant's diagonal), and any-hit
