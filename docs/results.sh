@@ -123,22 +123,25 @@ else
     echo "skipping the dense-mesh studies: $shared/scenes/dragon or bunny is absent" >&2
 fi
 # The Cornell box with the Stanford bunny (../shared/scenes/bunny), 256x256, 60 s, against a
-# Mitsuba 3 reference that is not committed: BUNNY_REF, else ../shared/references/cornell-bunny.exr,
-# else target/bench-refs/cornell-bunny.exr, rendered there at 8,192 spp when Mitsuba is at hand
+# Mitsuba 3 reference that is not committed: BUNNY_REF, else ../shared/references/cornell-bunny.exr
+# if present, else target/bench-refs/cornell-bunny.exr; rendered at 8,192 spp when missing and Mitsuba is at hand
 # (MITSUBA_PYTHON: a Python that imports mitsuba; see ../shared/tools/mitsuba_ref.py).
 bunny_scene=$shared/scenes/bunny/cornell-bunny.toml
-bunny_ref=${BUNNY_REF:-$shared/references/cornell-bunny.exr}
-[ -f "$bunny_ref" ] || bunny_ref=target/bench-refs/cornell-bunny.exr
-if wanted cornell-bunny && [ -f "$bunny_scene" ] && [ ! -f "$bunny_ref" ] && [ -n "${MITSUBA_PYTHON:-}" ]; then
+bunny_ref=${BUNNY_REF:-}
+if [ -z "$bunny_ref" ]; then
+    bunny_ref=$shared/references/cornell-bunny.exr
+    [ -f "$bunny_ref" ] || bunny_ref=target/bench-refs/cornell-bunny.exr
+fi
+if wanted cornell-bunny-mis && [ -f "$bunny_scene" ] && [ ! -f "$bunny_ref" ] && [ -n "${MITSUBA_PYTHON:-}" ]; then
     mkdir -p "$(dirname "$bunny_ref")"
     "$MITSUBA_PYTHON" "$shared/tools/mitsuba_ref.py" "$bunny_scene" "$bunny_ref" --spp 8192 --seed 7 >&2
 fi
-if wanted cornell-bunny && [ -f "$bunny_scene" ] && [ -f "$bunny_ref" ]; then
+if wanted cornell-bunny-mis && [ -f "$bunny_scene" ] && [ -f "$bunny_ref" ]; then
     "$pir" render "$bunny_scene" --spp 1024 --out "$tmp/bunny-pt-1024.exr" --quiet
     bunny_target=$("$pir" compare "$tmp/bunny-pt-1024.exr" "$bunny_ref" | awk '/^relative MSE/ { print $3 }')
     echo "bunny, pt at 1,024 spp: relative MSE $bunny_target" >&2
     study cornell-bunny-mis "$bunny_scene" "$bunny_ref" 60 --target-rel-mse "$bunny_target" --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
-elif wanted cornell-bunny; then
+elif wanted cornell-bunny-mis; then
     echo "skipping the bunny's study: $bunny_scene or its reference $bunny_ref is absent" >&2
 fi
 echo "done: $out" >&2

@@ -6,16 +6,17 @@
 //!     accel_ratio embree SCENE WORKLOAD PASSES  Embree alone
 //!
 //! SCENE: cornell, bunny, dragon (from ../shared/scenes) or closed1m; WORKLOAD: closest,
-//! occluded or gather, the rays of `benches/accel.rs`, occluded-batch or gather-batch, the
-//! same rays in one batched call (Embree's packets, the BVH's interleaved rays), or `build`: the BVH's build time over
-//! Embree's (medium quality), both on every core (rayon's and TBB's threads), timed in wall
-//! time, alternating, a build of each per round (the ratio is of times: lower is better; `bvh
-//! SCENE build N` builds N times, for profilers). A round traces about 400,000 rays (`RAYS`) on the
-//! BVH, then as many on Embree, each timed in CPU time of this thread (Linux's
-//! /proc/thread-self/schedstat), so time the thread spends preempted does not count and the
-//! machine's drift between the two halves of a round is small. Compare two builds by their
-//! ratios: `cargo build --release --example accel_ratio`, copy `target/release/examples/
-//! accel_ratio` aside, change the code, build again, and run both in turn.
+//! occluded or gather, the rays of `benches/accel.rs`, occluded-batch or gather-batch, the same
+//! rays in one batched call (Embree's 16-wide packets; the BVH traces a batch ray by ray), or
+//! `build`: the BVH's build time over Embree's (medium quality), both on every core (rayon's
+//! and TBB's threads), timed in wall time, alternating, a build of each per round (the ratio is
+//! of times: lower is better; `bvh SCENE build N` builds N times, for profilers). A round
+//! traces about 400,000 rays (`RAYS`) on the BVH, then as many on Embree, each timed in CPU
+//! time of this thread (Linux's /proc/thread-self/schedstat), so time the thread spends
+//! preempted does not count and the machine's drift between the two halves of a round is small.
+//! Compare two builds by their ratios: `cargo build --release --example accel_ratio`, copy
+//! `target/release/examples/accel_ratio` aside, change the code, build again, and run both in
+//! turn.
 //!
 //! Instruction counts of the traversal alone: `valgrind --tool=callgrind
 //! --toggle-collect='*hit_dispatch*' target/release/examples/accel_ratio bvh bunny occluded 1`.

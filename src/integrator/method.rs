@@ -448,8 +448,10 @@ impl MethodConfig {
 
     /// The configuration as it decides the image, for a scene whose bounding box has this
     /// diagonal: the clamp bound's default made explicit and the parameters the method does not
-    /// use set to their defaults. Two configurations render the same image exactly when their
-    /// identities are equal (the resume identity of [`crate::render::state`]).
+    /// use set to their defaults. Two configurations whose identities are equal render the same
+    /// image (the resume identity of [`crate::render::state`]). The converse holds but for
+    /// what the scene chooses: `pir-bdpt`'s light paths and light samples stay unset when not
+    /// given, so a given value that equals the scene's choice still makes another identity.
     pub fn identity(&self, scene_diagonal: f32) -> MethodConfig {
         let m = self.method;
         let p = &self.params;

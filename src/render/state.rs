@@ -111,7 +111,8 @@ const STATE_KEY: &str = "pir.job.state";
 /// its connections by their ends and chose its light paths by the scene (which change the
 /// VPL methods' images of a seed; a stored `pir-bdpt` job without `vpls` meant 64), format 6
 /// before `pir-bdpt` chose its light samples by the scene (a stored job's 2 meant the
-/// default, which is now more where the emitters are hidden).
+/// default, which is now more where the emitters are hidden) and before light samples of a
+/// count other than a power of two tiled the Sobol sequence (which changes their images).
 const FORMAT: &str = "7";
 
 /// What `pir.job.state` holds.

@@ -389,7 +389,8 @@ mod tests {
 
     /// A pixel's blocks of four over its first 16 iterations are the 64 first points of the
     /// dimension's sequence (a net), and each block alone is one too; after other draws, at
-    /// the table's last dimension and beyond it; blocks of three tile the sequence as well. Independent samplers give distinct points.
+    /// the table's last dimension and beyond it; blocks of three tile the sequence as well.
+    /// Independent samplers give distinct points.
     #[test]
     fn blocks_of_points_stratify_within_and_across_iterations() {
         for (before, n) in [(0, 4), (3, 4), (TABLE_DIMS - 1, 4), (TABLE_DIMS + 5, 4), (2, 3)] {

@@ -18,12 +18,13 @@
 //! lanes that LLVM vectorises (safe code), compiled for SSE2 and for AVX2 (one `ymm` operation
 //! per plane), the version picked at run time by the CPU's features. The slab test picks each
 //! axis' near and far planes from the sign, with a finite inverse direction so that a ray in a
-//! box's plane gives no NaN (`0 · ∞`), and combines the axes as a tree of minima and maxima. Closest-hit visits children nearest first, keeps the others on a stack with
-//! their entry distances (prefetching them on large trees) and drops any that starts beyond the
-//! closest hit so far. `occluded` stops at the first hit. A pack's four triangles
-//! are tested at once with the operations of
-//! [`intersect_triangle`](crate::geometry::intersect_triangle), the brute-force oracle's test,
-//! in the same order, on the same open interval `(tmin, tmax)`, so both agree hit for hit.
+//! box's plane gives no NaN (`0 · ∞`), and combines the axes as a tree of minima and maxima.
+//! Closest-hit visits children nearest first, keeps the others on a stack with their entry
+//! distances (prefetching them on large trees) and drops any that starts beyond the closest hit
+//! so far. `occluded` stops at the first hit. A pack's four triangles are tested at once with
+//! the operations of [`intersect_triangle`](crate::geometry::intersect_triangle), the
+//! brute-force oracle's test, in the same order, on the same open interval `(tmin, tmax)`, so
+//! both agree hit for hit.
 //!
 //! Why this shape: ray queries are dominated by cache misses, so the design keeps boxes that
 //! are tested together in the same cache lines, the tree shallow and leaves contiguous; the

@@ -15,25 +15,26 @@
 //! bunny and dragon and ran 1.1–1.25× as fast there, but on the 1M scene it visited 8 % more
 //! nodes for random segments and 30 % more (with 1.6× the leaf packs) for the gather pattern,
 //! which ran at 0.65–0.75× the nearest-first rate; nearest-first for two hit children and lane
-//! order for more lost about as much on the gather. Batches are traced ray by ray (the trait's default `occluded_batch`): a
-//! packet traversal of up to 64 rays sharing node visits (a ray mask per stack entry, each
-//! ray tested with this box test; 1.36× the instructions per ray) ran the gather pattern at
-//! 0.66–0.76× the single-ray rate on the bunny, dragon and 1M scene (1.4× on the 296-triangle
-//! box), 0.4–0.6× with the rays sorted by direction octant first; tracing each batch of 64
-//! one by one in direction order was slower than in the given order too.
+//! order for more lost about as much on the gather. Batches are traced ray by ray (the trait's
+//! default `occluded_batch`): a packet traversal of up to 64 rays sharing node visits (a ray
+//! mask per stack entry, each ray tested with this box test; 1.36× the instructions per ray)
+//! ran the gather pattern at 0.66–0.76× the single-ray rate on the bunny, dragon and 1M scene
+//! (1.4× on the 296-triangle box), 0.4–0.6× with the rays sorted by direction octant first;
+//! tracing each batch of 64 one by one in direction order was slower than in the given order
+//! too.
 //!
 //! Interleaved rays were measured too (2026-12-04): `occluded_batch` tracing eight rays of a
 //! batch at once, each a traversal paused between node visits and taking a step in turn, so
 //! that one ray's wait for its next node is filled by the others' work (batches of fewer than
-//! 16 ray by ray). On the benchmark's incoherent rays it paid: BVH rates, one thread, median
-//! of five rounds of 2 M rays (`RAYS=2000000 accel_ratio ratio SCENE WORKLOAD 5`), ray by ray
-//! → interleaved: random segments, bunny 4.92 → 6.07, dragon 3.07 → 4.51 M rays/s (0.79,
-//! 0.98 and, on the 1M scene, 0.88 of Embree's 16-wide packets); gather pattern, bunny 5.55
-//! → 6.17, dragon 3.99 → 4.76. In the renderer it did not: `pir-clamp --accel bvh`, whose gather queues every VPL
-//! of the iteration from one point in batches of 64, gathered at 0.93–0.96× the rate on the
-//! bunny's Cornell box and `scenes/dense/indirect.toml` with two threads (1.04× and 0.93×
-//! with one; four and two rays at a time: 0.94–1.0×). Rays from one point share their nodes,
-//! which stay in cache, so there is little wait to fill, and each step reloads its ray's
+//! 16 ray by ray). On the benchmark's incoherent rays it paid: BVH rates, one thread, median of
+//! five rounds of 2 M rays (`RAYS=2000000 accel_ratio ratio SCENE WORKLOAD 5`), ray by ray →
+//! interleaved: random segments, bunny 4.92 → 6.07, dragon 3.07 → 4.51 M rays/s (0.79, 0.98
+//! and, on the 1M scene, 0.88 of Embree's 16-wide packets); gather pattern, bunny 5.55 → 6.17,
+//! dragon 3.99 → 4.76. In the renderer it did not: `pir-clamp --accel bvh`, whose gather queues
+//! every VPL of the iteration from one point in batches of 64, gathered at 0.93–0.96× the rate
+//! on the bunny's Cornell box and `scenes/dense/indirect.toml` with two threads (1.04× and
+//! 0.93× with one; four and two rays at a time: 0.94–1.0×). Rays from one point share their
+//! nodes, which stay in cache, so there is little wait to fill, and each step reloads its ray's
 //! state from memory. Not kept.
 //!
 //! Octant-ordered lanes (Ylitie, Karras and Laine's compressed wide BVH) were measured too
@@ -60,11 +61,13 @@
 //!
 //! The slab test picks each axis' near and far planes from the direction's sign. The inverse
 //! direction is kept finite (±`f32::MAX` for a zero component, whose `1 / ±0` is ±∞), so no
-//! plane distance is the NaN of `0 · ∞`: a ray parallel to a slab gets distances of ±∞ or
-//! ±`f32::MAX`-sized from it, which leave its interval alone when it lies within the slab and
-//! empty it when it lies outside, and in a face plane it counts as inside when its zero's
-//! sign points into the box. Boxes are padded, so no triangle reaches a box's faces and
-//! either way is safe. With no NaN, each lane's entry and exit are a tree of maxima and
+//! plane distance is the NaN of `0 · ∞`: a ray parallel to a slab gets the distances
+//! (plane − origin) · `f32::MAX` from its planes, 0 for a plane it lies in and of the order of
+//! `f32::MAX` times its gap to the others, which leave its interval alone when it lies within
+//! the slab and empty it when it lies outside; in a face plane it counts as inside when its
+//! zero's sign points into the box. What makes this safe is the boxes' padding (at least
+//! `f32::MIN_POSITIVE` plus 1e-5 of the coordinate): no triangle reaches its box's faces, and
+//! a parallel ray just inside a face gets an exit distance far beyond any scene. With no NaN, each lane's entry and exit are a tree of maxima and
 //! minima over the three axes, two operations deep, and the mask a comparison of the two:
 //! the chain of dependent operations from a node's load to its child's is shorter than when
 //! the distances were folded in one by one, the NaN ignored by each select's operand order
@@ -445,6 +448,7 @@ mod tests {
         assert_eq!(enters(Vec3::new(0.0, 0.5, -1.0), Vec3::new(0.0, 0.0, 1.0)), 1, "on the minimum's face");
         assert_eq!(enters(Vec3::new(1.0, 0.5, 2.0), Vec3::new(-0.0, 0.0, -1.0)), 1, "on the maximum's face");
         assert_eq!(enters(Vec3::new(0.0, 0.0, -1.0), Vec3::Z), 1, "along an edge");
+        assert_eq!(enters(Vec3::new(1.0, 1.0, 2.0), -Vec3::Z), 1, "along an edge, backwards");
         assert_eq!(enters(Vec3::new(1.0 + 1e-6, 0.5, -1.0), Vec3::Z), 0, "outside the x slab");
         assert_eq!(enters(Vec3::new(0.5, 0.5, 2.0), Vec3::Z), 0, "box behind the ray");
     }

@@ -219,7 +219,8 @@ pub fn light_samples_for(base: u32, visibility: f32) -> u32 {
     if v <= 0.0 {
         return base.max(MAX_AUTO_LIGHT_SAMPLES);
     }
-    // log2(1 / √v) rounded: 0 for v > 1/2, 1 down to 1/8, 2 down to 1/32, …
+    // log2(1 / √v) rounded half away from zero: 0 for v > 1/2, 1 for 1/8 < v ≤ 1/2, 2 for
+    // 1/32 < v ≤ 1/8, …
     let doublings = (-0.5 * v.log2()).round().min(8.0) as u32;
     base.saturating_mul(1 << doublings).min(MAX_AUTO_LIGHT_SAMPLES.max(base))
 }

@@ -208,7 +208,7 @@ impl InstantRadiosity {
     /// [`MAX_LIGHT_SAMPLES`](crate::integrator::MAX_LIGHT_SAMPLES).
     pub fn with_light_samples(self, n: u32) -> Self {
         let n = n.clamp(1, crate::integrator::MAX_LIGHT_SAMPLES);
-        InstantRadiosity { light_samples: n, ..self }
+        InstantRadiosity { light_samples: n, auto_light_samples: false, ..self }
     }
 
     /// The same method with its light samples chosen by the scene when [`Integrator::prepare`]
