@@ -87,6 +87,14 @@
 //! per-ray setup grew by more than that saved (bunny, instructions per ray in traversal:
 //! occlusion 884 → 912, closest hit 707 → 755, gather 1,143 → 1,162) and interleaved timings
 //! showed no gain (bunny occlusion 0.72–0.79 → 0.69–0.70 of Embree's rate), so it is not used.
+//! Measured again after the shorter chain above (2026-12-04), in the AVX2 version only (the
+//! SSE2 one has no FMA), with rays whose direction has a component below 10⁻⁸ of the largest
+//! left to the unfused form (their `o · inv` could overflow): one loop per form, chosen per
+//! ray, against the unfused test, `RAYS=1000000 accel_ratio ratio SCENE WORKLOAD 5`: bunny
+//! closest hit 0.78 → 0.72, dragon 0.73 → 0.76, occlusion level (0.72 → 0.70, 0.73 → 0.71);
+//! with the form chosen per node instead, 0.67–0.78× the unfused rates. A first version
+//! without the overflow guard or the widening (not conservative, so not usable) had run
+//! 1.0–1.17× as fast, which puts the cost in the per-ray choice and setup: not kept.
 //!
 //! **Fewer instructions did not buy time (2026-12-03).** Two changes cut the traversal's
 //! instructions under callgrind by 10 % for occlusion and 5 % for closest hit (bunny: 55.0 →
