@@ -81,6 +81,14 @@ fn light_paths_chosen_by_the_scene_resume_exactly() {
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no light paths in the summary: {summary}"));
     assert!(paths >= 4 * pir::integrator::BDPT_PATHS as u64, "{paths} light paths per iteration");
+    // The light samples chosen for the slit's hidden emitters are in the summary too.
+    let samples: u32 = summary
+        .lines()
+        .find(|line| line.contains(" light samples at the first vertex"))
+        .and_then(|line| line.trim_start_matches("pir: ").split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no light samples in the summary: {summary}"));
+    assert!(samples > pir::integrator::DEFAULT_LIGHT_SAMPLES, "{samples} light samples");
     run(&["--spp", "2", "--checkpoint", "1000", "--out", "part.exr", "-q"]);
     run(&["--spp", "5", "--resume", "part.exr", "-q"]);
     assert_eq!(pixels(&d.join("part.exr")), pixels(&d.join("full.exr")));

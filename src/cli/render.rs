@@ -97,7 +97,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     print_header(&a, &renderer, loaded, &memory);
     let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
     let image = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
-    print_summary(&plan, &renderer, &stats, &image);
+    print_summary(&a, &plan, &renderer, &stats, &image);
     Ok(())
 }
 
@@ -269,7 +269,7 @@ fn render(
     Ok((film, stats))
 }
 
-fn print_summary(plan: &Plan, renderer: &Renderer, stats: &RenderStats, image: &RgbImage) {
+fn print_summary(a: &RenderArgs, plan: &Plan, renderer: &Renderer, stats: &RenderStats, image: &RgbImage) {
     let secs = stats.elapsed.as_secs_f64();
     let (width, height) = renderer.resolution();
     let pixels = (width as u64 * height as u64) as f64;
@@ -296,6 +296,16 @@ fn print_summary(plan: &Plan, renderer: &Renderer, stats: &RenderStats, image: &
             stats.prepare_time.as_secs_f64(),
             stats.pixel_time.as_secs_f64(),
             stats.shadow_rays_per_second() / 1e6
+        );
+    }
+    // What a method chose by the scene's pilot (`pir-bdpt`'s light samples), so that a user
+    // sees it without reading the EXR's attributes.
+    let params = renderer.integrator(&a.config).parameters();
+    let param = |key: &str| params.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+    if let (Some(n), Some(v)) = (param("light-samples"), param("emitter-visibility")) {
+        let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
+        eprintln!(
+            "pir: {n} light samples at the first vertex; the emitters are in view of {percent} of the light samples from the points they light"
         );
     }
     if stats.dropped > 0 {
