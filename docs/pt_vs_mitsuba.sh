@@ -19,9 +19,10 @@
 #   SHARED          the shared data folder (default: ../shared beside the checkout), which holds
 #                   the scenes, the references and tools/mitsuba_ref.py.
 #   BUNNY_REF       the bunny scene's reference EXR (default: $SHARED/references/cornell-bunny.exr,
-#                   else target/bench-refs/cornell-bunny.exr). When missing and Mitsuba is there,
-#                   it is rendered first (4,096 spp with Mitsuba, about 10 minutes); a scene with
-#                   no reference is skipped with a message.
+#                   else target/bench-refs/cornell-bunny.exr; docs/bunny-reference.sh, shared with
+#                   docs/results.sh). When missing and Mitsuba is there, it is rendered first
+#                   (8,192 spp, about 2 minutes); a scene with no reference is skipped with a
+#                   message.
 #   RUNS            renders per renderer and scene; the median time is used (default 1).
 #   SEED            seed of both renderers (default 1; the shared references use Mitsuba's 0).
 #   SAMPLERS        pir's samplers to measure, each against the same Mitsuba run (default
@@ -55,17 +56,7 @@ fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-bunny_ref=${BUNNY_REF:-}
-if [[ -z $bunny_ref ]]; then
-    bunny_ref=$shared/references/cornell-bunny.exr
-    [[ -f $bunny_ref ]] || bunny_ref=target/bench-refs/cornell-bunny.exr
-fi
-if [[ ! -f $bunny_ref && -n $py ]]; then
-    echo "rendering the bunny's reference with Mitsuba (4,096 spp) into $bunny_ref" >&2
-    mkdir -p "$(dirname "$bunny_ref")"
-    "$py" "$shared/tools/mitsuba_ref.py" "$shared/scenes/bunny/cornell-bunny.toml" "$bunny_ref" \
-        --spp 4096 --seed 7 >&2
-fi
+bunny_ref=$(docs/bunny-reference.sh "$shared" "$py")
 
 # name scene reference
 scenes=(

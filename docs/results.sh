@@ -37,6 +37,16 @@ study() {
     rm -f "$out/$name"/final-*.exr
 }
 
+# pt_1024 SCENE REFERENCE NAME: the relative MSE of pt at 1,024 spp against REFERENCE, the error
+# each line's time is measured against (--target-rel-mse).
+pt_1024() {
+    "$pir" render "$1" --spp 1024 --out "$tmp/$3-pt-1024.exr" --quiet >&2
+    local e
+    e=$("$pir" compare "$tmp/$3-pt-1024.exr" "$2" | awk '/^relative MSE/ { print $3 }')
+    echo "$3, pt at 1,024 spp: relative MSE $e" >&2
+    echo "$e"
+}
+
 # Scenes with their references (SCENE REFERENCE).
 shared=../shared
 cornell=("$shared/scenes/cornell-box/original.toml" "$shared/references/cornell-box-original.exr")
@@ -61,9 +71,7 @@ if [ -f "${cornell[1]}" ]; then
         wanted "$name" && target=pending
     done
     if [ -n "$target" ]; then
-        "$pir" render "${cornell[0]}" --spp 1024 --out "$tmp/pt-1024.exr" --quiet
-        target=$("$pir" compare "$tmp/pt-1024.exr" "${cornell[1]}" | awk '/^relative MSE/ { print $3 }')
-        echo "pt at 1,024 spp: relative MSE $target" >&2
+        target=$(pt_1024 "${cornell[@]}" cornell)
     fi
     # pir-mis and pir-bdpt at their defaults (docs/results.md, "Weighed connections" and
     # "Bidirectional weights") against pt and pir-clamp.
@@ -123,25 +131,16 @@ else
     echo "skipping the dense-mesh studies: $shared/scenes/dragon or bunny is absent" >&2
 fi
 # The Cornell box with the Stanford bunny (../shared/scenes/bunny), 256x256, 60 s, against a
-# Mitsuba 3 reference that is not committed: BUNNY_REF, else ../shared/references/cornell-bunny.exr
-# if present, else target/bench-refs/cornell-bunny.exr; rendered at 8,192 spp when missing and Mitsuba is at hand
-# (MITSUBA_PYTHON: a Python that imports mitsuba; see ../shared/tools/mitsuba_ref.py).
-bunny_scene=$shared/scenes/bunny/cornell-bunny.toml
-bunny_ref=${BUNNY_REF:-}
-if [ -z "$bunny_ref" ]; then
-    bunny_ref=$shared/references/cornell-bunny.exr
-    [ -f "$bunny_ref" ] || bunny_ref=target/bench-refs/cornell-bunny.exr
-fi
-if wanted cornell-bunny-mis && [ -f "$bunny_scene" ] && [ ! -f "$bunny_ref" ] && [ -n "${MITSUBA_PYTHON:-}" ]; then
-    mkdir -p "$(dirname "$bunny_ref")"
-    "$MITSUBA_PYTHON" "$shared/tools/mitsuba_ref.py" "$bunny_scene" "$bunny_ref" --spp 8192 --seed 7 >&2
-fi
-if wanted cornell-bunny-mis && [ -f "$bunny_scene" ] && [ -f "$bunny_ref" ]; then
-    "$pir" render "$bunny_scene" --spp 1024 --out "$tmp/bunny-pt-1024.exr" --quiet
-    bunny_target=$("$pir" compare "$tmp/bunny-pt-1024.exr" "$bunny_ref" | awk '/^relative MSE/ { print $3 }')
-    echo "bunny, pt at 1,024 spp: relative MSE $bunny_target" >&2
-    study cornell-bunny-mis "$bunny_scene" "$bunny_ref" 60 --target-rel-mse "$bunny_target" --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
-elif wanted cornell-bunny-mis; then
-    echo "skipping the bunny's study: $bunny_scene or its reference $bunny_ref is absent" >&2
+# Mitsuba 3 reference that is not committed (docs/bunny-reference.sh: where it is, and its
+# rendering when missing and MITSUBA_PYTHON, a Python that imports mitsuba, is set).
+if wanted cornell-bunny-mis; then
+    bunny_scene=$shared/scenes/bunny/cornell-bunny.toml
+    bunny_ref=$(docs/bunny-reference.sh "$shared" "${MITSUBA_PYTHON:-}")
+    if [ -f "$bunny_scene" ] && [ -f "$bunny_ref" ]; then
+        bunny_target=$(pt_1024 "$bunny_scene" "$bunny_ref" bunny)
+        study cornell-bunny-mis "$bunny_scene" "$bunny_ref" 60 --target-rel-mse "$bunny_target" --methods pt,pir-clamp,pir-vsl,pir-mis,pir-bdpt
+    else
+        echo "skipping the bunny's study: $bunny_scene or its reference $bunny_ref is absent" >&2
+    fi
 fi
 echo "done: $out" >&2

@@ -8,14 +8,12 @@ mod common;
 
 use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
-use pir::accel::{Backend, build_accelerator};
 use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::{Connect, light_samples_for};
 use pir::integrator::{
     BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, DEFAULT_LIGHT_SAMPLES, Gather, InstantRadiosity, Method,
-    MethodConfig, PathTracer, RenderContext, VirtualLights,
+    MethodConfig, PathTracer, VirtualLights,
 };
-use pir::light::Emitters;
 use pir::material::{Bsdf, Material};
 use pir::sampling::SamplerKind;
 use pir::scene::Scene;
@@ -177,6 +175,21 @@ fn bidirectional_gather_does_not_depend_on_the_thread_count() {
     assert!(run(1).pixels == run(2).pixels, "pir-bdpt differs between 1 and 2 threads");
 }
 
+/// The room lit through a slit (`scenes/stress/slit`), whose emitters are mostly hidden from
+/// the points they light.
+fn slit_room() -> Scene {
+    pir::scene::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/stress/slit/scene.toml"
+    )))
+    .unwrap()
+}
+
+/// The path length and seed of the pilot tests' contexts.
+fn pilot_job(sampler: SamplerKind) -> Job {
+    Job { max_depth: 6, seed: 3, sampler, ..Job::default() }
+}
+
 /// The light paths `pir-bdpt` chooses by the scene's yield of VPLs
 /// (`src/integrator/many_light/path_count.rs`): where every light path leaves VPLs (a closed
 /// cube) the fewest; in the slit room, where about one VPL is left per eight paths (one path
@@ -187,27 +200,10 @@ fn bidirectional_gather_does_not_depend_on_the_thread_count() {
 #[test]
 fn light_paths_follow_the_scenes_yield_of_vpls() {
     let auto = BDPT_AUTO_PATHS;
-    let slit_scene = pir::scene::load(std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/stress/slit/scene.toml"
-    )))
-    .unwrap();
-    let cube_scene = closed_cube(diffuse(0.5, 1.0));
+    let (slit_scene, cube_scene) = (slit_room(), closed_cube(diffuse(0.5, 1.0)));
     let resolve = |scene: &Scene, sampler: SamplerKind, threads: usize| {
-        let accel =
-            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
-        let emitters = Emitters::new(scene).unwrap();
-        let ctx = RenderContext {
-            scene,
-            accel: accel.as_ref(),
-            emitters: &emitters,
-            max_depth: 6,
-            seed: 3,
-            sampler,
-            pilot: None,
-        };
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| Pilot::run(&ctx))
+        pilot_job(sampler).with_context(scene, |ctx| pool.install(|| Pilot::run(ctx)))
     };
     for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
         let (cube, slit) = (resolve(&cube_scene, sampler, 2), resolve(&slit_scene, sampler, 1));
@@ -232,29 +228,12 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
 /// count given is kept.
 #[test]
 fn light_samples_follow_the_emitters_visibility_unless_given() {
-    let slit_scene = pir::scene::load(std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/stress/slit/scene.toml"
-    )))
-    .unwrap();
-    let cube_scene = closed_cube(diffuse(0.5, 1.0));
+    let (slit_scene, cube_scene) = (slit_room(), closed_cube(diffuse(0.5, 1.0)));
     let chosen = |scene: &Scene, given: Option<u32>| {
-        let accel =
-            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
-        let emitters = Emitters::new(scene).unwrap();
-        let ctx = RenderContext {
-            scene,
-            accel: accel.as_ref(),
-            emitters: &emitters,
-            max_depth: 6,
-            seed: 3,
-            sampler: SamplerKind::Sobol,
-            pilot: None,
-        };
         let mut config = MethodConfig::new(Method::PirBdpt);
         config.params.light_samples = given;
         let mut integrator = config.integrator(scene.bounds().diagonal());
-        integrator.prepare(&ctx);
+        pilot_job(SamplerKind::Sobol).with_context(scene, |ctx| integrator.prepare(ctx));
         let p = integrator.parameters();
         let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
         let v: f32 = value("emitter-visibility").unwrap().parse().unwrap();

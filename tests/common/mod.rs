@@ -160,15 +160,23 @@ impl Job {
         self.run_with(scene, accel.as_ref(), integrator)
     }
 
-    pub fn run_with(
+    /// Calls `f` with the render context of `scene` on the default backend, with this job's
+    /// path length, seed and sampler (and no cached pilot).
+    pub fn with_context<R>(&self, scene: &Scene, f: impl FnOnce(&RenderContext) -> R) -> R {
+        let accel =
+            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+        self.with_context_on(scene, accel.as_ref(), f)
+    }
+
+    /// [`Job::with_context`] on `accel`.
+    pub fn with_context_on<R>(
         &self,
         scene: &Scene,
         accel: &dyn Accelerator,
-        integrator: &mut dyn Integrator,
-    ) -> Rendered {
-        let (width, height) = (self.width, self.height);
+        f: impl FnOnce(&RenderContext) -> R,
+    ) -> R {
         let emitters = Emitters::new(scene).expect("scene has emitters");
-        let ctx = RenderContext {
+        f(&RenderContext {
             scene,
             accel,
             emitters: &emitters,
@@ -176,7 +184,20 @@ impl Job {
             seed: self.seed,
             sampler: self.sampler,
             pilot: None,
-        };
+        })
+    }
+
+    pub fn run_with(
+        &self,
+        scene: &Scene,
+        accel: &dyn Accelerator,
+        integrator: &mut dyn Integrator,
+    ) -> Rendered {
+        self.with_context_on(scene, accel, |ctx| self.render_in(ctx, integrator))
+    }
+
+    fn render_in(&self, ctx: &RenderContext, integrator: &mut dyn Integrator) -> Rendered {
+        let (width, height) = (self.width, self.height);
         let settings = RenderSettings {
             width,
             height,
@@ -188,7 +209,7 @@ impl Job {
         let mut prev = vec![glam::DVec3::ZERO; width * height];
         let npix = (width * height) as f64;
         let (film, stats) = pool.install(|| {
-            render(&ctx, integrator, &settings, |film, _| {
+            render(ctx, integrator, &settings, |film, _| {
                 let mut m = glam::DVec3::ZERO;
                 for (s, p) in film.sums().iter().zip(prev.iter_mut()) {
                     m += *s - *p;
