@@ -303,6 +303,20 @@ mod tests {
         assert!(bvh.leaf_count() >= 1000 / build::MAX_LEAF);
     }
 
+    /// A range of coincident centroids large enough to be partitioned in parallel, below a node
+    /// that was: its primitives are in the other buffer, where it is split in the middle, and
+    /// its halves are copied back; every triangle is still in exactly one leaf.
+    #[test]
+    fn coincident_centroids_below_a_parallel_partition() {
+        let mut m = testmesh::closed_scene(100_000);
+        let first = m.positions.len() as u32;
+        let far = Vec3::splat(10.0);
+        m.positions.extend([far, far + Vec3::X, far + Vec3::Y]);
+        m.indices.extend(std::iter::repeat_n([first, first + 1, first + 2], 100_000));
+        let bvh = Bvh::new(&m.positions, &m.indices);
+        validate(&bvh, m.indices.len());
+    }
+
     #[test]
     fn pairs_are_cache_line_sized() {
         assert_eq!(std::mem::size_of::<Node>(), 32);
