@@ -29,7 +29,7 @@ use glam::{BVec4A, Vec3, Vec4};
 pub(super) const NO_PRIM: u32 = u32::MAX;
 
 /// Four triangles: vertex `a` and edges `b − a`, `c − a`, each as x, y, z lanes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(16))]
 pub(super) struct Tri4 {
     pub a: [Vec4; 3],

@@ -120,7 +120,7 @@ use multiversion::target::match_target;
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
-use super::leaf::Ray4;
+use super::leaf::{Ray4, Tri4};
 use super::wide::{ChildRef, Node8, WIDTH};
 use crate::accel::Hit;
 use crate::geometry::Ray;
@@ -267,15 +267,15 @@ fn push_sorted<const N: usize>(
 #[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "sse")]
 #[inline]
-fn prefetch_child(bvh: &Bvh, c: ChildRef) {
+fn prefetch_child(bvh: &Bvh, nodes: &[Node8], packs: &[Tri4], c: ChildRef) {
     use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
     if !bvh.prefetch {
         return;
     }
     let p = if c.is_leaf() {
-        bvh.packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>()
+        packs.as_ptr().wrapping_add(c.index as usize).cast::<i8>()
     } else {
-        bvh.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>()
+        nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>()
     };
     // Four lines either way: a fixed count unrolls into four instructions without a loop
     // branch, and the fourth line of a leaf is the start of its second pack.
@@ -291,11 +291,14 @@ fn prefetch_child(bvh: &Bvh, c: ChildRef) {
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
     let pf = match_target! {
-        "x86_64+avx2" => |c: ChildRef| {
-            #[cfg(not(target_feature = "avx2"))]
-            prefetch_child(bvh, c);
-            #[cfg(target_feature = "avx2")]
-            let _ = (bvh, c);
+        "x86_64+avx2" => {
+            let (nodes, packs): (&[Node8], &[Tri4]) = (&bvh.nodes, &bvh.packs);
+            move |c: ChildRef| {
+                #[cfg(not(target_feature = "avx2"))]
+                prefetch_child(bvh, nodes, packs, c);
+                #[cfg(target_feature = "avx2")]
+                let _ = (bvh, nodes, packs, c);
+            }
         },
         _ => |_: ChildRef| {},
     };
@@ -309,11 +312,14 @@ fn closest_hit_dispatch(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn any_hit_dispatch(bvh: &Bvh, ray: &Ray) -> bool {
     let pf = match_target! {
-        "x86_64+avx2" => |c: ChildRef| {
-            #[cfg(not(target_feature = "avx2"))]
-            prefetch_child(bvh, c);
-            #[cfg(target_feature = "avx2")]
-            let _ = (bvh, c);
+        "x86_64+avx2" => {
+            let (nodes, packs): (&[Node8], &[Tri4]) = (&bvh.nodes, &bvh.packs);
+            move |c: ChildRef| {
+                #[cfg(not(target_feature = "avx2"))]
+                prefetch_child(bvh, nodes, packs, c);
+                #[cfg(target_feature = "avx2")]
+                let _ = (bvh, nodes, packs, c);
+            }
         },
         _ => |_: ChildRef| {},
     };
@@ -341,6 +347,7 @@ impl Bvh {
         ray: &Ray,
         pf: &impl Fn(ChildRef),
     ) -> Result<Option<Hit>, Overflow> {
+        let (nodes, packs): (&[Node8], &[Tri4]) = (&self.nodes, &self.packs);
         let rb = RayBoxes::new(ray);
         let r4 = Ray4::new(ray.origin, ray.dir);
         let mut best: Option<Hit> = None;
@@ -351,7 +358,7 @@ impl Bvh {
         loop {
             if cur.is_leaf() {
                 let first = cur.index as usize;
-                for pack in &self.packs[first..first + cur.count as usize] {
+                for pack in &packs[first..first + cur.count as usize] {
                     let h = pack.hit(&r4, ray.tmin, tmax);
                     if h.mask != 0 {
                         let lane = h.nearest();
@@ -360,7 +367,7 @@ impl Bvh {
                     }
                 }
             } else {
-                let n = &self.nodes[cur.index as usize];
+                let n = &nodes[cur.index as usize];
                 let (mask, entry) = rb.enter(n, tmax);
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
@@ -391,6 +398,7 @@ impl Bvh {
     /// Any-hit traversal with an `N`-entry stack.
     #[inline(always)]
     fn any_hit_with<const N: usize>(&self, ray: &Ray, pf: &impl Fn(ChildRef)) -> Result<bool, Overflow> {
+        let (nodes, packs): (&[Node8], &[Tri4]) = (&self.nodes, &self.packs);
         let rb = RayBoxes::new(ray);
         let r4 = Ray4::new(ray.origin, ray.dir);
         let tmax = ray.tmax;
@@ -400,13 +408,13 @@ impl Bvh {
         loop {
             if cur.is_leaf() {
                 let first = cur.index as usize;
-                for pack in &self.packs[first..first + cur.count as usize] {
+                for pack in &packs[first..first + cur.count as usize] {
                     if pack.hit(&r4, ray.tmin, tmax).mask != 0 {
                         return Ok(true);
                     }
                 }
             } else {
-                let n = &self.nodes[cur.index as usize];
+                let n = &nodes[cur.index as usize];
                 let (mask, entry) = rb.enter(n, tmax);
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {

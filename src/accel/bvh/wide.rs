@@ -9,6 +9,7 @@
 //! tree's depth, and the number of nodes a ray visits, by about three. Unused lanes hold the
 //! empty box (`+∞` min, `−∞` max), which no ray enters.
 
+use super::pages::Pages;
 use super::{Node, NodePair};
 
 /// Children per node.
@@ -16,7 +17,8 @@ pub(super) const WIDTH: usize = 8;
 
 /// A reference to a child: an interior node (`count == 0`, `index` is its [`Node8`]) or a leaf
 /// (`count > 0` triangle packs from `index`, see [`leaf`](super::leaf)).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub(super) struct ChildRef {
     pub index: u32,
     pub count: u32,
@@ -30,7 +32,7 @@ impl ChildRef {
 }
 
 /// [`WIDTH`] children's boxes (SoA) and references.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(64))]
 pub(super) struct Node8 {
     pub min: [[f32; WIDTH]; 3],
@@ -56,21 +58,27 @@ impl Node8 {
 
 /// The collapsed tree: `nodes[0]` is the root. A binary root that is itself a leaf becomes a
 /// root with one leaf lane.
-pub(super) fn collapse(pairs: &[NodePair]) -> Vec<Node8> {
-    let mut nodes = Vec::with_capacity(pairs.len() / 2 + 1);
-    nodes.push(Node8::EMPTY);
+pub(super) fn collapse(pairs: &[NodePair]) -> Pages<Node8> {
+    // Each wide node takes the place of a distinct interior binary node, and every pair but the
+    // root's holds the children of one: fewer than `pairs.len()` wide nodes. The nodes are
+    // written in place (huge pages are only backed where they are touched) and the rest cut.
+    let mut nodes = Pages::zeroed(pairs.len());
+    nodes[0] = Node8::EMPTY;
+    let mut len = 1;
     let root = pairs[0].nodes[0];
     if root.is_leaf() {
         nodes[0].set(0, &root, ChildRef { index: root.index, count: root.count });
     } else if pairs.len() > 1 {
         // (A single pair means an empty scene: the root stays an empty node.)
-        fill(pairs, &root, 0, &mut nodes);
+        fill(pairs, &root, 0, &mut nodes, &mut len);
     }
+    nodes.truncate(len);
     nodes
 }
 
-/// Fills `nodes[at]` with the (up to [`WIDTH`]) descendants of the binary interior node `n`.
-fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut Vec<Node8>) {
+/// Fills `nodes[at]` with the (up to [`WIDTH`]) descendants of the binary interior node `n`;
+/// `nodes[..*used]` are in use.
+fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut [Node8], used: &mut usize) {
     let mut kids = [Node::default(); WIDTH];
     // The half-area of each interior kid, −1 for a leaf (never opened).
     let mut area = [-1.0f32; WIDTH];
@@ -105,10 +113,11 @@ fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut Vec<Node8>) {
         if k.is_leaf() {
             nodes[at].set(lane, k, ChildRef { index: k.index, count: k.count });
         } else {
-            let child = nodes.len();
-            nodes.push(Node8::EMPTY);
+            let child = *used;
+            *used += 1;
+            nodes[child] = Node8::EMPTY;
             nodes[at].set(lane, k, ChildRef { index: child as u32, count: 0 });
-            fill(pairs, k, child, nodes);
+            fill(pairs, k, child, nodes, used);
         }
     }
 }
