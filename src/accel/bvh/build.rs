@@ -32,6 +32,7 @@
 use glam::{BVec3A, BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
 
+use super::pages::Pages;
 use super::{Node, NodePair};
 use crate::geometry::Aabb;
 
@@ -95,15 +96,14 @@ impl Box3 {
 /// One primitive as the builder sees it: its (padded) box and its index, in 32 bytes (the
 /// index's bits ride in the fourth lane of the minimum, which no arithmetic touches): every
 /// level of the build streams all primitives through memory, so their size matters.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub(super) struct Prim {
     min_id: Vec4,
     max: Vec3A,
 }
 
 impl Prim {
-    const ZERO: Prim = Prim { min_id: Vec4::ZERO, max: Vec3A::ZERO };
-
     pub fn new(bounds: Aabb, id: u32) -> Self {
         Prim { min_id: bounds.min.extend(f32::from_bits(id)), max: bounds.max.into() }
     }
@@ -153,22 +153,18 @@ pub(super) struct Built {
 }
 
 /// Builds over `prims` (callers leave out triangles with non-finite vertices).
-pub(super) fn build(mut prims: Vec<Prim>) -> Built {
+pub(super) fn build(prims: &mut [Prim]) -> Built {
     let mut root_pair = NodePair::default();
     if prims.is_empty() {
         // An empty leaf whose box no ray enters.
         root_pair.nodes[0] = Node::leaf(Aabb::EMPTY, 0, 0);
         return Built { pairs: vec![root_pair], packs: Vec::new(), order: Vec::new(), leaves: 1, depth: 0 };
     }
-    let root = Bounds::of(&prims);
-    // The parallel partitions' other buffer, allocated (and its pages touched) once for the
-    // whole build, in parallel.
-    let mut scratch: Vec<Prim> = if prims.len() >= PARALLEL_PASS_MIN {
-        (0..prims.len()).into_par_iter().with_min_len(CHUNK).map(|_| Prim::ZERO).collect()
-    } else {
-        Vec::new()
-    };
-    let sub = subtree(&mut prims, &mut scratch, false, 0, root, 0);
+    let root = Bounds::of(prims);
+    // The parallel partitions' other buffer, allocated once for the whole build (on huge
+    // pages, like the primitives: see `Bvh::new`).
+    let mut scratch = Pages::<Prim>::zeroed(if prims.len() >= PARALLEL_PASS_MIN { prims.len() } else { 0 });
+    let sub = subtree(prims, &mut scratch, false, 0, root, 0);
     // The first segment's packs start at 0.
     root_pair.nodes[0] = sub.root.shifted(1, 0);
     let (pairs, packs) = flatten(root_pair, &sub.segments);

@@ -127,30 +127,29 @@ impl Bvh {
     pub fn new(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
         let start = Instant::now();
         let verts = |t: &[u32; 3]| t.map(|i| positions[i as usize]);
-        // Parallel iterators that keep their order: the result does not depend on the threads.
-        // Indexed, so that `collect` writes every record in place; triangles with non-finite
-        // vertices get an empty box and are dropped afterwards.
-        let mut prims: Vec<build::Prim> = indices
-            .par_iter()
-            .enumerate()
-            .with_min_len(4096)
-            .map(|(i, t)| {
-                let v = verts(t);
-                let b = if v.iter().all(|p| p.is_finite()) {
-                    let b = Aabb::from_points(&v);
-                    let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
-                        + Vec3::splat(f32::MIN_POSITIVE);
-                    Aabb { min: b.min - pad, max: b.max + pad }
-                } else {
-                    Aabb::EMPTY
-                };
-                build::Prim::new(b, i as u32)
-            })
-            .collect();
+        // One record per triangle, written in place in parallel: the result does not depend on
+        // the threads. Triangles with non-finite vertices get an empty box and are dropped
+        // afterwards. The records are streamed through at every level of the build: on huge
+        // pages ([`pages`]) their first touch costs 32 page faults instead of 16,000 (1M
+        // triangles).
+        let mut prims = Pages::<build::Prim>::zeroed(indices.len());
+        prims.par_iter_mut().zip(indices).enumerate().with_min_len(4096).for_each(|(i, (prim, t))| {
+            let v = verts(t);
+            let b = if v.iter().all(|p| p.is_finite()) {
+                let b = Aabb::from_points(&v);
+                let pad = Vec3::splat(BOX_PAD * b.min.abs().max(b.max.abs()).max_element())
+                    + Vec3::splat(f32::MIN_POSITIVE);
+                Aabb { min: b.min - pad, max: b.max + pad }
+            } else {
+                Aabb::EMPTY
+            };
+            *prim = build::Prim::new(b, i as u32);
+        });
         if prims.par_iter().any(|p| p.is_empty()) {
-            prims.retain(|p| !p.is_empty());
+            let kept: Vec<build::Prim> = prims.iter().filter(|p| !p.is_empty()).copied().collect();
+            prims = Pages::from_slice(&kept);
         }
-        let built = build::build(prims);
+        let built = build::build(&mut prims);
         let mut packs = Pages::<Tri4>::zeroed(built.packs.len());
         packs.par_iter_mut().zip(&built.packs).with_min_len(1024).for_each(|(pack, &(first, count))| {
             let tris = &built.order[first as usize..(first + count) as usize];

@@ -53,7 +53,6 @@ impl<T: Pod> Pages<T> {
     }
 
     /// A copy of `items`.
-    #[cfg(test)]
     pub fn from_slice(items: &[T]) -> Self {
         let mut p = Self::zeroed(items.len());
         p.copy_from_slice(items);
