@@ -205,14 +205,24 @@ impl Accelerator for Bvh {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !ray.is_valid() || self.packs.is_empty() {
+        if !ray.is_valid() || self.triangles == 0 {
             return None;
         }
-        self.closest_hit(ray)
+        self.view().closest_hit(ray)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        ray.is_valid() && !self.packs.is_empty() && self.any_hit(ray)
+        ray.is_valid() && self.triangles > 0 && self.view().any_hit(ray)
+    }
+
+    /// Ray by ray (see [`traverse`] for the batched traversals measured), with the tree's
+    /// arrays borrowed once.
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len());
+        let v = self.view();
+        for (r, o) in rays.iter().zip(occluded.iter_mut()) {
+            *o = r.is_valid() && self.triangles > 0 && v.any_hit(r);
+        }
     }
 }
 
