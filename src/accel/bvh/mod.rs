@@ -238,7 +238,7 @@ mod tests {
         let mut seen = vec![0u32; n_tris];
         let mut leaves = 0;
         let inside = |lo: [f32; 3], hi: [f32; 3], n: &Node8, lane: usize| {
-            (0..3).all(|a| n.min[a][lane] <= lo[a] && hi[a] <= n.max[a][lane])
+            (0..3).all(|a| n.bounds[a][0][lane] <= lo[a] && hi[a] <= n.bounds[a][1][lane])
         };
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
@@ -255,12 +255,12 @@ mod tests {
                             }
                         }
                     }
-                } else if n.min[0][lane] <= n.max[0][lane] {
+                } else if n.bounds[0][0][lane] <= n.bounds[0][1][lane] {
                     let child = &bvh.nodes[c.index as usize];
                     for l in 0..wide::WIDTH {
-                        if child.min[0][l] <= child.max[0][l] {
-                            let lo = [child.min[0][l], child.min[1][l], child.min[2][l]];
-                            let hi = [child.max[0][l], child.max[1][l], child.max[2][l]];
+                        if child.bounds[0][0][l] <= child.bounds[0][1][l] {
+                            let lo = child.bounds.map(|b| b[0][l]);
+                            let hi = child.bounds.map(|b| b[1][l]);
                             assert!(inside(lo, hi, n, lane));
                         }
                     }

@@ -59,42 +59,45 @@
 //! 1.05–1.2× on the bunny, dragon and 1M scene and cost a few percent on a tiny scene, hence
 //! the size threshold.
 //!
-//! The slab test picks each axis' near and far planes from the direction's sign. The inverse
-//! direction is kept finite (±`f32::MAX` for a zero component, whose `1 / ±0` is ±∞), so no
-//! plane distance is the NaN of `0 · ∞`: a ray parallel to a slab gets the distances
-//! (plane − origin) · `f32::MAX` from its planes, 0 for a plane it lies in and of the order of
-//! `f32::MAX` times its gap to the others, which leave its interval alone when it lies within
-//! the slab and empty it when it lies outside; in a face plane it counts as inside when its
-//! zero's sign points into the box. What makes this safe is the boxes' padding (at least
-//! `f32::MIN_POSITIVE` plus 1e-5 of the coordinate): no triangle reaches its box's faces, and
-//! a parallel ray just inside a face gets an exit distance far beyond any scene. With no NaN, each lane's entry and exit are a tree of maxima and
-//! minima over the three axes, two operations deep, and the mask a comparison of the two:
-//! the chain of dependent operations from a node's load to its child's is shorter than when
-//! the distances were folded in one by one, the NaN ignored by each select's operand order
-//! (three maxima deep), and the mask read from lanes set to NaN (a select and a comparison
-//! more). Interleaved `accel_ratio` rounds (2026-12-04, idle machine, one thread, 1 M
-//! rays per round, median of five): closest hit 0.71 → 0.75 (bunny), 0.72 → 0.78 (dragon),
-//! 0.74 → 0.78 (1M scene), 0.74 → 0.77 (box) of Embree's rate; occlusion 0.69 → 0.69, 0.68 →
-//! 0.69, 0.69 → 0.72, 0.67 → 0.59; the gather pattern 0.77 → 0.73, 0.85 → 0.89, 1.49 →
-//! 1.54, 0.80 → 0.86 (two pairs of runs on the bunny and dragon); `pt --accel bvh` on the
-//! bunny's Cornell box 1.01–1.05× as fast. The far planes' distances are widened by a few
-//! ulps (Ize 2013, their inverse multiplied by [`EXIT_SCALE`] once per ray) so rounding cannot
-//! cull a box the exact ray touches. Embree's form
-//! `lower · inv − origin · inv`, one FMA per plane, was measured with that bound kept: the
-//! fused product is exact, so moving `origin · inv` outwards by 4 ulps (one copy for the near
-//! planes, one for the far) covers the only error it adds, and rays with an infinite `inv` or
-//! `origin · inv` kept this form. The node test went from 45 to 37 instructions, but the
-//! per-ray setup grew by more than that saved (bunny, instructions per ray in traversal:
-//! occlusion 884 → 912, closest hit 707 → 755, gather 1,143 → 1,162) and interleaved timings
-//! showed no gain (bunny occlusion 0.72–0.79 → 0.69–0.70 of Embree's rate), so it is not used.
-//! Measured again after the shorter chain above (2026-12-04), in the AVX2 version only (the
-//! SSE2 one has no FMA), with rays whose direction has a component below 10⁻⁸ of the largest
-//! left to the unfused form (their `o · inv` could overflow): one loop per form, chosen per
-//! ray, against the unfused test, `RAYS=1000000 accel_ratio ratio SCENE WORKLOAD 5`: bunny
-//! closest hit 0.78 → 0.72, dragon 0.73 → 0.76, occlusion level (0.72 → 0.70, 0.73 → 0.71);
-//! with the form chosen per node instead, 0.67–0.78× the unfused rates. A first version
-//! without the overflow guard or the widening (not conservative, so not usable) had run
-//! 1.0–1.17× as fast, which puts the cost in the per-ray choice and setup: not kept.
+//! The slab test picks each axis' near and far planes from the direction's sign, as an index
+//! (`bounds[axis][negative]`, the minima and maxima of an axis being adjacent arrays) rather
+//! than a select of two addresses per axis and node: 3 % fewer instructions for the bunny's
+//! random segments under callgrind (63.3 → 61.5 M), interleaved `accel_ratio` rounds level to
+//! +4 % (2026-12-04). The inverse direction is kept finite (±`f32::MAX` for a zero component,
+//! whose `1 / ±0` is ±∞), so no plane distance is the NaN of `0 · ∞`: a ray parallel to a slab
+//! gets the distances (plane − origin) · `f32::MAX` from its planes, 0 for a plane it lies in
+//! and of the order of `f32::MAX` times its gap to the others, which leave its interval alone
+//! when it lies within the slab and empty it when it lies outside; in a face plane it counts as
+//! inside when its zero's sign points into the box. What makes this safe is the boxes' padding
+//! (at least `f32::MIN_POSITIVE` plus 1e-5 of the coordinate): no triangle reaches its box's
+//! faces, and a parallel ray just inside a face gets an exit distance far beyond any scene.
+//! With no NaN, each lane's entry and exit are a tree of maxima and minima over the three axes,
+//! two operations deep, and the mask a comparison of the two: the chain of dependent operations
+//! from a node's load to its child's is shorter than when the distances were folded in one by
+//! one, the NaN ignored by each select's operand order (three maxima deep), and the mask read
+//! from lanes set to NaN (a select and a comparison more). Interleaved `accel_ratio` rounds
+//! (2026-12-04, idle machine, one thread, 1 M rays per round, median of five): closest hit 0.71
+//! → 0.75 (bunny), 0.72 → 0.78 (dragon), 0.74 → 0.78 (1M scene), 0.74 → 0.77 (box) of Embree's
+//! rate; occlusion 0.69 → 0.69, 0.68 → 0.69, 0.69 → 0.72, 0.67 → 0.59; the gather pattern 0.77
+//! → 0.73, 0.85 → 0.89, 1.49 → 1.54, 0.80 → 0.86 (two pairs of runs on the bunny and dragon);
+//! `pt --accel bvh` on the bunny's Cornell box 1.01–1.05× as fast. The far planes' distances
+//! are widened by a few ulps (Ize 2013, their inverse multiplied by [`EXIT_SCALE`] once per
+//! ray) so rounding cannot cull a box the exact ray touches. Embree's form `lower · inv −
+//! origin · inv`, one FMA per plane, was measured with that bound kept: the fused product is
+//! exact, so moving `origin · inv` outwards by 4 ulps (one copy for the near planes, one for
+//! the far) covers the only error it adds, and rays with an infinite `inv` or `origin · inv`
+//! kept this form. The node test went from 45 to 37 instructions, but the per-ray setup grew by
+//! more than that saved (bunny, instructions per ray in traversal: occlusion 884 → 912, closest
+//! hit 707 → 755, gather 1,143 → 1,162) and interleaved timings showed no gain (bunny occlusion
+//! 0.72–0.79 → 0.69–0.70 of Embree's rate), so it is not used. Measured again after the shorter
+//! chain above (2026-12-04), in the AVX2 version only (the SSE2 one has no FMA), with rays
+//! whose direction has a component below 10⁻⁸ of the largest left to the unfused form (their `o
+//! · inv` could overflow): one loop per form, chosen per ray, against the unfused test,
+//! `RAYS=1000000 accel_ratio ratio SCENE WORKLOAD 5`: bunny closest hit 0.78 → 0.72, dragon
+//! 0.73 → 0.76, occlusion level (0.72 → 0.70, 0.73 → 0.71); with the form chosen per node
+//! instead, 0.67–0.78× the unfused rates. A first version without the overflow guard or the
+//! widening (not conservative, so not usable) had run 1.0–1.17× as fast, which puts the cost in
+//! the per-ray choice and setup: not kept.
 //!
 //! **Fewer instructions did not buy time (2026-12-03).** Two changes cut the traversal's
 //! instructions under callgrind by 10 % for occlusion and 5 % for closest hit (bunny: 55.0 →
@@ -186,7 +189,8 @@ impl RayBoxes {
         let mut t0 = [[0.0; WIDTH]; 3];
         let mut t1 = [[0.0; WIDTH]; 3];
         for a in 0..3 {
-            let (near, far) = if self.neg[a] { (&n.max[a], &n.min[a]) } else { (&n.min[a], &n.max[a]) };
+            let (near, far) =
+                (&n.bounds[a][usize::from(self.neg[a])], &n.bounds[a][usize::from(!self.neg[a])]);
             for l in 0..WIDTH {
                 t0[a][l] = (near[l] - self.o[a]) * self.inv[a];
                 t1[a][l] = (far[l] - self.o[a]) * self.inv_far[a];
@@ -463,8 +467,8 @@ mod tests {
     fn slab_test_handles_zero_direction_components() {
         let mut n = Node8::EMPTY;
         for a in 0..3 {
-            n.min[a][0] = 0.0;
-            n.max[a][0] = 1.0;
+            n.bounds[a][0][0] = 0.0;
+            n.bounds[a][1][0] = 1.0;
         }
         let enters = |o: Vec3, d: Vec3| RayBoxes::new(&Ray::new(o, d)).enter(&n, f32::INFINITY).0;
         for zero in [0.0, -0.0] {

@@ -1,8 +1,9 @@
 //! The wide node layout that traversal runs on, collapsed from the binary SAH tree.
 //!
 //! A [`Node8`] holds the boxes of up to [`WIDTH`] children in structure-of-arrays form (one
-//! `[f32; WIDTH]` per bound and axis: 192 bytes; with the child references 256 bytes, four
-//! cache lines, like Embree's 8-wide nodes), so one ray is tested against all of them with one
+//! `[f32; WIDTH]` per bound and axis, an axis' minima and maxima side by side in one cache
+//! line: 192 bytes; with the child references 256 bytes, four cache lines, like Embree's 8-wide
+//! nodes), so one ray is tested against all of them with one
 //! AVX2 operation per plane (see [`traverse`](super::traverse)); with SSE2 only, eight lanes
 //! take two operations. Collapsing pulls grandchildren up into a node, always opening the
 //! interior child with the largest surface area, until the node is full: this divides the
@@ -35,22 +36,22 @@ impl ChildRef {
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(64))]
 pub(super) struct Node8 {
-    pub min: [[f32; WIDTH]; 3],
-    pub max: [[f32; WIDTH]; 3],
+    /// Per axis, the children's minima (`[axis][0]`) and maxima (`[axis][1]`): a ray's near
+    /// planes on an axis are `[axis][negative direction]`, an index rather than a select.
+    pub bounds: [[[f32; WIDTH]; 2]; 3],
     pub child: [ChildRef; WIDTH],
 }
 
 impl Node8 {
     pub const EMPTY: Node8 = Node8 {
-        min: [[f32::INFINITY; WIDTH]; 3],
-        max: [[f32::NEG_INFINITY; WIDTH]; 3],
+        bounds: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3],
         child: [ChildRef { index: 0, count: 0 }; WIDTH],
     };
 
     fn set(&mut self, lane: usize, n: &Node, child: ChildRef) {
         for a in 0..3 {
-            self.min[a][lane] = n.min[a];
-            self.max[a][lane] = n.max[a];
+            self.bounds[a][0][lane] = n.min[a];
+            self.bounds[a][1][lane] = n.max[a];
         }
         self.child[lane] = child;
     }
