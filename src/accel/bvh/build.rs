@@ -48,6 +48,9 @@ pub(super) const MAX_DEPTH: usize = 60;
 const PARALLEL_MIN: usize = 16 * 1024;
 /// Nodes with at least this many primitives are binned and partitioned in chunks in parallel.
 const PARALLEL_PASS_MIN: usize = 64 * 1024;
+/// Items below which a parallel iterator runs on the calling thread: a split hands work to
+/// the thread pool, which costs more than a small build (tens of microseconds).
+pub(super) const SMALL: usize = 4096;
 /// Primitives per chunk of a parallel pass (a constant: the result must not depend on the
 /// thread count).
 const CHUNK: usize = 16 * 1024;
@@ -168,7 +171,7 @@ pub(super) fn build(prims: &mut [Prim]) -> Built {
     // The first segment's packs start at 0.
     root_pair.nodes[0] = sub.root.shifted(1, 0);
     let (pairs, packs) = flatten(root_pair, &sub.segments);
-    let order = prims.par_iter().map(Prim::id).collect();
+    let order = prims.par_iter().with_min_len(SMALL).map(Prim::id).collect();
     Built { pairs, packs, order, leaves: sub.leaves, depth: sub.depth }
 }
 
@@ -222,7 +225,7 @@ fn flatten(root_pair: NodePair, segments: &[Segment]) -> (Vec<NodePair>, Vec<Pac
     let find = |starts: &[usize], g: usize| starts.partition_point(|&s| s <= g) - 1;
     let pairs = (0..pairs)
         .into_par_iter()
-        .with_min_len(4096)
+        .with_min_len(SMALL)
         .map(|g| {
             if g == 0 {
                 return root_pair;
@@ -235,7 +238,7 @@ fn flatten(root_pair: NodePair, segments: &[Segment]) -> (Vec<NodePair>, Vec<Pac
         .collect();
     let packs = (0..packs)
         .into_par_iter()
-        .with_min_len(4096)
+        .with_min_len(SMALL)
         .map(|g| {
             let k = find(&pack_at, g);
             segments[k].packs[g - pack_at[k]]
