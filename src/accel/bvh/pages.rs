@@ -7,10 +7,23 @@
 //! trees that way (its `os_malloc` advises the kernel to back large blocks with huge pages;
 //! its process shows them in `AnonHugePages`), which pir's BVH did not. Debian's kernels grant
 //! transparent huge pages only to memory that asks for them (`madvise` mode), so an array of
-//! at least [`HUGE`] bytes is an anonymous mapping of its own, rounded up to whole huge pages
-//! and advised `MADV_HUGEPAGE` before it is first touched; smaller ones, other systems, or a
-//! failed mapping fall back to a `Vec`. The advice is a hint: where the kernel has no huge page
-//! to give, the array works the same on small pages.
+//! at least [`MAP_MIN`] bytes is an anonymous mapping of its own, rounded up to whole huge
+//! pages and advised `MADV_HUGEPAGE` before it is first touched; smaller ones, other systems,
+//! or a failed mapping fall back to a `Vec`. The advice is a hint: where the kernel has no huge
+//! page to give, the array works the same on small pages. The build's primitive records and
+//! its partition's second buffer are such arrays too: their first touch takes 16 huge-page
+//! faults instead of 8,000 small ones (1M scene).
+//!
+//! Why 8 MiB (2026-12-04, `accel_ratio`, alternating binaries, one thread for queries, builds on
+//! two): from 2 MiB, the bunny's build took 1.03× Embree's time against 0.93× from 8 MiB (its
+//! arrays, 2–5 MB, each cost a fresh mapping and whole huge pages to clear, where a `Vec`
+//! reuses memory the allocator kept from the previous build), and its traversal gained
+//! nothing (its tree is within the TLB's reach). From 16 MiB, the dragon's packs (9.5 MB) stay
+//! on small pages: its build ran at 0.97–0.98× Embree's time against 1.03–1.04× from 8 MiB, but
+//! its closest hits at 0.78–0.79× Embree's rate against 0.82×, and the 1M scene's occlusion
+//! (whose nodes, 10 MB, then stay on small pages too) at 0.70–0.71× against 0.74×. A render
+//! builds once, from fresh memory, where huge pages fault faster than small ones (48 MB: 6 ms
+//! against 16 ms once the machine has backed the memory).
 //!
 //! No `unsafe`: `memmap2` maps and advises, `bytemuck` views the bytes as `T` (the element
 //! types are plain old data, and a mapping is page-aligned, which satisfies their alignment).
@@ -19,9 +32,10 @@ use std::ops::{Deref, DerefMut};
 
 use bytemuck::Pod;
 
-/// The size of a transparent huge page on x86-64 (a PMD), and the smallest array mapped on
-/// its own.
+/// The size of a transparent huge page on x86-64 (a PMD).
 pub(super) const HUGE: usize = 2 << 20;
+/// The smallest array mapped on its own (see the module docs).
+pub(super) const MAP_MIN: usize = 8 << 20;
 
 /// `len` elements of `T`, on huge pages when large (see the module docs).
 pub(super) struct Pages<T: Pod> {
@@ -40,7 +54,7 @@ impl<T: Pod> Pages<T> {
     pub fn zeroed(len: usize) -> Self {
         let bytes = len * std::mem::size_of::<T>();
         #[cfg(target_os = "linux")]
-        if bytes >= HUGE
+        if Self::maps(len)
             && let Ok(map) = memmap2::MmapMut::map_anon(bytes.next_multiple_of(HUGE))
         {
             // A hint: without huge pages the mapping is still good memory.
@@ -59,15 +73,19 @@ impl<T: Pod> Pages<T> {
         p
     }
 
-    /// Keeps the first `len` elements (the pages of the others stay mapped, and unbacked if
-    /// they were never touched).
-    pub fn truncate(&mut self, len: usize) {
-        assert!(len <= self.len, "truncate to {len} of {}", self.len);
-        self.len = len;
-        if let Store::Vec(v) = &mut self.store {
-            v.truncate(len);
-            v.shrink_to_fit();
+    /// `items`, moved to a mapping of their own if large (a copy), else kept as they are.
+    pub fn from_vec(items: Vec<T>) -> Self {
+        if Self::maps(items.len()) {
+            Self::from_slice(&items)
+        } else {
+            let len = items.len();
+            Pages { store: Store::Vec(items), len }
         }
+    }
+
+    /// Whether `len` elements get a mapping of their own.
+    fn maps(len: usize) -> bool {
+        cfg!(target_os = "linux") && len * std::mem::size_of::<T>() >= MAP_MIN
     }
 
     /// Whether the array is on a mapping of its own (which the kernel was asked to back with
@@ -111,12 +129,12 @@ mod tests {
     /// the lengths asked for.
     #[test]
     fn arrays_hold_their_elements() {
-        for len in [0, 1, 1000, HUGE / 8 + 3] {
+        for len in [0, 1, 1000, MAP_MIN / 16 + 3] {
             let items: Vec<[u64; 2]> = (0..len as u64).map(|i| [i, !i]).collect();
             let p = Pages::from_slice(&items);
             assert_eq!(p.len(), len);
             assert_eq!(&p[..], &items[..]);
-            assert_eq!(p.is_mapped(), cfg!(target_os = "linux") && len * 16 >= HUGE, "{len}");
+            assert_eq!(p.is_mapped(), cfg!(target_os = "linux") && len * 16 >= MAP_MIN, "{len}");
         }
         let mut z = Pages::<u32>::zeroed(HUGE);
         assert!(z.iter().all(|&x| x == 0));

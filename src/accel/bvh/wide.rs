@@ -60,26 +60,20 @@ impl Node8 {
 /// The collapsed tree: `nodes[0]` is the root. A binary root that is itself a leaf becomes a
 /// root with one leaf lane.
 pub(super) fn collapse(pairs: &[NodePair]) -> Pages<Node8> {
-    // Each wide node takes the place of a distinct interior binary node, and every pair but the
-    // root's holds the children of one: fewer than `pairs.len()` wide nodes. The nodes are
-    // written in place (huge pages are only backed where they are touched) and the rest cut.
-    let mut nodes = Pages::zeroed(pairs.len());
-    nodes[0] = Node8::EMPTY;
-    let mut len = 1;
+    let mut nodes = Vec::with_capacity(pairs.len() / 2 + 1);
+    nodes.push(Node8::EMPTY);
     let root = pairs[0].nodes[0];
     if root.is_leaf() {
         nodes[0].set(0, &root, ChildRef { index: root.index, count: root.count });
     } else if pairs.len() > 1 {
         // (A single pair means an empty scene: the root stays an empty node.)
-        fill(pairs, &root, 0, &mut nodes, &mut len);
+        fill(pairs, &root, 0, &mut nodes);
     }
-    nodes.truncate(len);
-    nodes
+    Pages::from_vec(nodes)
 }
 
-/// Fills `nodes[at]` with the (up to [`WIDTH`]) descendants of the binary interior node `n`;
-/// `nodes[..*used]` are in use.
-fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut [Node8], used: &mut usize) {
+/// Fills `nodes[at]` with the (up to [`WIDTH`]) descendants of the binary interior node `n`.
+fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut Vec<Node8>) {
     let mut kids = [Node::default(); WIDTH];
     // The half-area of each interior kid, −1 for a leaf (never opened).
     let mut area = [-1.0f32; WIDTH];
@@ -114,11 +108,10 @@ fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut [Node8], used: &mut
         if k.is_leaf() {
             nodes[at].set(lane, k, ChildRef { index: k.index, count: k.count });
         } else {
-            let child = *used;
-            *used += 1;
-            nodes[child] = Node8::EMPTY;
+            let child = nodes.len();
+            nodes.push(Node8::EMPTY);
             nodes[at].set(lane, k, ChildRef { index: child as u32, count: 0 });
-            fill(pairs, k, child, nodes, used);
+            fill(pairs, k, child, nodes);
         }
     }
 }
