@@ -30,9 +30,9 @@
 //! children stay in the buffer they were written to and are partitioned from there into the
 //! first one, and so on down; a range copies its primitives back once, when it becomes too
 //! small to be partitioned in parallel (see [`subtree`]). Before that (2026-12-04),
-//! each such node took a counting pass, the scatter and a copy back; with the runs, the
-//! 1M-triangle scene's build on 2 threads went from 197 and 204 ms to 172 and 167 ms
-//! (alternating binaries). Chunk size and thresholds are constants, so the tree is the same
+//! each such node took a counting pass, the scatter and a copy back; the one pass, the runs and
+//! a collapse that reserves its nodes took the 1M-triangle scene's build on 2 threads from 197
+//! and 204 ms to 172 and 167 ms (alternating binaries). Chunk size and thresholds are constants, so the tree is the same
 //! whatever the number of threads.
 //!
 //! Measured and not kept (2026-12-04): the same stable scatter and ping-pong at every level,
@@ -179,7 +179,7 @@ pub(super) fn build(prims: &mut [Prim]) -> Built {
     }
     let root = Bounds::of(prims);
     // The parallel partitions' other buffer, allocated once for the whole build (on huge
-    // pages, like the primitives: see `Bvh::new`).
+    // pages when large, like the primitives: see `Bvh::new`).
     let mut scratch = Pages::<Prim>::zeroed(if prims.len() >= PARALLEL_PASS_MIN { prims.len() } else { 0 });
     let sub = subtree(prims, &mut scratch, false, 0, root, 0);
     // The first segment's packs start at 0.
@@ -317,6 +317,15 @@ struct Bin {
     count: u32,
 }
 
+impl Bin {
+    /// Adds `count` primitives whose boxes are bounded by `bounds`.
+    #[inline]
+    fn add(&mut self, bounds: Box3, count: u32) {
+        self.bounds = self.bounds.union(bounds);
+        self.count += count;
+    }
+}
+
 /// A chosen split: the axis, the first bin on the right, and the two children's bounds.
 struct Split {
     axis: usize,
@@ -344,8 +353,8 @@ const EMPTY_BINS: Bins = [[Bin { bounds: Box3::EMPTY, count: 0 }; BINS]; 3];
 /// from `min`, `scale` bins per unit); the other bins are left as they are. Filling the
 /// caller's bins, and resetting only those used, spares small nodes copying all [`BINS`].
 /// Nodes of [`PARALLEL_PASS_MIN`] primitives or more are binned in chunks of [`CHUNK`] in
-/// parallel, and each chunk's counts are returned (in chunk order) for the partition; for
-/// others the list is empty.
+/// parallel (all of `bins` is then reset and merged into), and each chunk's counts are
+/// returned (in chunk order) for the partition; for others the list is empty.
 fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize, bins: &mut Bins) -> Vec<ChunkCounts> {
     if prims.len() >= PARALLEL_PASS_MIN {
         let per_chunk: Vec<Bins> = prims
@@ -360,8 +369,7 @@ fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize, bins: &mut Bin
         for b in &per_chunk {
             for (aa, ba) in bins.iter_mut().zip(b) {
                 for (x, y) in aa.iter_mut().zip(ba) {
-                    x.bounds = x.bounds.union(y.bounds);
-                    x.count += y.count;
+                    x.add(y.bounds, y.count);
                 }
             }
         }
@@ -374,8 +382,7 @@ fn bin_prims(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize, bins: &mut Bin
         let idx = bin_index(p.centroid2(), min, scale, nb);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             let b = &mut axis_bins[idx[axis]];
-            b.bounds = b.bounds.union(p.bounds());
-            b.count += 1;
+            b.add(p.bounds(), 1);
         }
     }
     Vec::new()
@@ -395,8 +402,7 @@ fn bin_runs(prims: &[Prim], min: Vec3A, scale: Vec3A, nb: usize, bins: &mut Bins
     let flush = |bins: &mut Bins, axis: usize, (bin, bounds, count): (usize, Box3, u32)| {
         if bin != usize::MAX {
             let b = &mut bins[axis][bin];
-            b.bounds = b.bounds.union(bounds);
-            b.count += count;
+            b.add(bounds, count);
         }
     };
     for p in prims {
@@ -537,6 +543,8 @@ fn build_into(
     out: &mut Seq,
     bins: &mut Bins,
 ) -> Node {
+    // Sequential subtrees are below the size of a parallel pass, which needs `scratch`.
+    debug_assert!(prims.len() < PARALLEL_PASS_MIN);
     let Some(Parts { mid, left, right, .. }) = choose_split(prims, &mut [], bins, b, depth) else {
         out.leaves += 1;
         out.depth = out.depth.max(depth);

@@ -7,8 +7,9 @@
 //! trees that way (its `os_malloc` advises the kernel to back large blocks with huge pages;
 //! its process shows them in `AnonHugePages`), which pir's BVH did not. Debian's kernels grant
 //! transparent huge pages only to memory that asks for them (`madvise` mode), so an array of
-//! at least [`MAP_MIN`] bytes is an anonymous mapping of its own, rounded up to whole huge
-//! pages and advised `MADV_HUGEPAGE` before it is first touched; smaller ones, other systems,
+//! at least [`MAP_MIN`] bytes is an anonymous mapping of its own, starting at a 2 MiB boundary
+//! and rounded up to whole huge pages, advised `MADV_HUGEPAGE` before it is first touched;
+//! smaller ones (written in parallel when large, as the build's records are), other systems,
 //! or a failed mapping fall back to a `Vec`. The advice is a hint: where the kernel has no huge
 //! page to give, the array works the same on small pages. The build's primitive records and
 //! its partition's second buffer are such arrays too: their first touch takes 16 huge-page
@@ -31,9 +32,11 @@
 use std::ops::{Deref, DerefMut};
 
 use bytemuck::Pod;
+use rayon::prelude::*;
 
 /// The size of a transparent huge page on x86-64 (a PMD).
-pub(super) const HUGE: usize = 2 << 20;
+#[cfg(target_os = "linux")]
+const HUGE: usize = 2 << 20;
 /// The smallest array mapped on its own (see the module docs).
 pub(super) const MAP_MIN: usize = 8 << 20;
 
@@ -45,25 +48,33 @@ pub(super) struct Pages<T: Pod> {
 
 enum Store<T> {
     Vec(Vec<T>),
+    /// A mapping and where in it the elements start: its first 2 MiB boundary. Kernels since
+    /// 6.7 place large anonymous mappings on such a boundary themselves; older ones (Debian
+    /// 12's 6.1) do not, and only whole, aligned 2 MiB blocks can be huge pages, so the
+    /// mapping is one huge page longer than the elements and they start at the boundary.
     #[cfg(target_os = "linux")]
-    Map(memmap2::MmapMut),
+    Map(memmap2::MmapMut, usize),
 }
 
-impl<T: Pod> Pages<T> {
+impl<T: Pod + Send + Sync> Pages<T> {
     /// `len` elements with all bits zero.
     pub fn zeroed(len: usize) -> Self {
-        let bytes = len * std::mem::size_of::<T>();
         #[cfg(target_os = "linux")]
-        if Self::maps(len)
-            && let Ok(map) = memmap2::MmapMut::map_anon(bytes.next_multiple_of(HUGE))
-        {
-            // A hint: without huge pages the mapping is still good memory.
-            let _ = map.advise(memmap2::Advice::HugePage);
-            if map.as_ptr().align_offset(std::mem::align_of::<T>()) == 0 {
-                return Pages { store: Store::Map(map), len };
+        if Self::maps(len) {
+            let bytes = len * std::mem::size_of::<T>();
+            if let Ok(map) = memmap2::MmapMut::map_anon(bytes.next_multiple_of(HUGE) + HUGE) {
+                // A hint: without huge pages the mapping is still good memory.
+                let _ = map.advise(memmap2::Advice::HugePage);
+                let start = map.as_ptr().align_offset(HUGE);
+                if start <= HUGE {
+                    return Pages { store: Store::Map(map, start), len };
+                }
             }
         }
-        Pages { store: Store::Vec(vec![T::zeroed(); len]), len }
+        // Written in parallel when large: a zero-filled `vec!` of a struct is written on one
+        // thread (the allocator's zeroed pages serve only primitive types).
+        let v = (0..len).into_par_iter().with_min_len(64 << 10).map(|_| T::zeroed()).collect();
+        Pages { store: Store::Vec(v), len }
     }
 
     /// A copy of `items`.
@@ -73,11 +84,13 @@ impl<T: Pod> Pages<T> {
         p
     }
 
-    /// `items`, moved to a mapping of their own if large (a copy), else kept as they are.
-    pub fn from_vec(items: Vec<T>) -> Self {
+    /// `items`, moved to a mapping of their own if large (a copy), else kept as they are
+    /// (without their spare capacity).
+    pub fn from_vec(mut items: Vec<T>) -> Self {
         if Self::maps(items.len()) {
             Self::from_slice(&items)
         } else {
+            items.shrink_to_fit();
             let len = items.len();
             Pages { store: Store::Vec(items), len }
         }
@@ -89,10 +102,14 @@ impl<T: Pod> Pages<T> {
     }
 
     /// Whether the array is on a mapping of its own (which the kernel was asked to back with
-    /// huge pages).
+    /// huge pages), starting at a 2 MiB boundary.
     #[cfg(test)]
     pub fn is_mapped(&self) -> bool {
-        !matches!(self.store, Store::Vec(_))
+        match &self.store {
+            Store::Vec(_) => false,
+            #[cfg(target_os = "linux")]
+            Store::Map(..) => self.as_ptr().align_offset(HUGE) == 0,
+        }
     }
 }
 
@@ -104,7 +121,9 @@ impl<T: Pod> Deref for Pages<T> {
         match &self.store {
             Store::Vec(v) => v,
             #[cfg(target_os = "linux")]
-            Store::Map(m) => bytemuck::cast_slice(&m[..self.len * std::mem::size_of::<T>()]),
+            Store::Map(m, start) => {
+                bytemuck::cast_slice(&m[*start..*start + self.len * std::mem::size_of::<T>()])
+            }
         }
     }
 }
@@ -116,7 +135,7 @@ impl<T: Pod> DerefMut for Pages<T> {
         match &mut self.store {
             Store::Vec(v) => v,
             #[cfg(target_os = "linux")]
-            Store::Map(m) => bytemuck::cast_slice_mut(&mut m[..bytes]),
+            Store::Map(m, start) => bytemuck::cast_slice_mut(&mut m[*start..*start + bytes]),
         }
     }
 }
@@ -136,9 +155,11 @@ mod tests {
             assert_eq!(&p[..], &items[..]);
             assert_eq!(p.is_mapped(), cfg!(target_os = "linux") && len * 16 >= MAP_MIN, "{len}");
         }
-        let mut z = Pages::<u32>::zeroed(HUGE);
+        let n = MAP_MIN / 4;
+        let mut z = Pages::<u32>::zeroed(n);
         assert!(z.iter().all(|&x| x == 0));
-        z[HUGE - 1] = 7;
-        assert_eq!(z[HUGE - 1], 7);
+        z[n - 1] = 7;
+        assert_eq!(z[n - 1], 7);
+        assert_eq!(z.is_mapped(), cfg!(target_os = "linux"));
     }
 }

@@ -15,8 +15,8 @@
 //! bunny and dragon and ran 1.1–1.25× as fast there, but on the 1M scene it visited 8 % more
 //! nodes for random segments and 30 % more (with 1.6× the leaf packs) for the gather pattern,
 //! which ran at 0.65–0.75× the nearest-first rate; nearest-first for two hit children and lane
-//! order for more lost about as much on the gather. Batches are traced ray by ray (the trait's
-//! default `occluded_batch`): a packet traversal of up to 64 rays sharing node visits (a ray
+//! order for more lost about as much on the gather. Batches are traced ray by ray (the BVH's
+//! `occluded_batch` borrows the tree's arrays once and calls the single-ray query): a packet traversal of up to 64 rays sharing node visits (a ray
 //! mask per stack entry, each ray tested with this box test; 1.36× the instructions per ray)
 //! ran the gather pattern at 0.66–0.76× the single-ray rate on the bunny, dragon and 1M scene
 //! (1.4× on the 296-triangle box), 0.4–0.6× with the rays sorted by direction octant first;
