@@ -37,11 +37,13 @@
 //!
 //! Measured and not kept (2026-12-04): the same stable scatter and ping-pong at every level,
 //! with the sequential levels binned by runs too (the mesh's order then survives all the way
-//! down): level on one thread (the subtrees' phase 300 ms either way on the 1M scene), slower on
-//! two (1M scene 173 → 198 ms, dragon 29 → 43 ms), its second buffer doubling the working set
-//! of each thread's subtrees. The SAH's `C_TRAV` at 0.5 or 2 instead of 1: traversal rates
-//! moved both ways by up to 8 % (bunny, dragon; random rays, segments, gather pattern), no
-//! consistent change.
+//! down): level on one thread (the subtrees' phase 300 ms either way on the 1M scene), slower
+//! on two (1M scene 173 → 198 ms, dragon 29 → 43 ms), its second buffer doubling the working
+//! set of each thread's subtrees. Bins by runs for the sequential nodes of 4,096 or 16,384
+//! primitives and more (where the in-place partition has shuffled the mesh's order least): 1M
+//! scene 186, 189 ms → 182, 188 (4,096) and 184, 184 (16,384), dragon level. The SAH's `C_TRAV`
+//! at 0.5 or 2 instead of 1: traversal rates moved both ways by up to 8 % (bunny, dragon;
+//! random rays, segments, gather pattern), no consistent change.
 
 use glam::{BVec3A, BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
@@ -687,7 +689,10 @@ fn partition_parallel(prims: &[Prim], scratch: &mut [Prim], s: &Split) -> (usize
 #[inline]
 fn bin_index(c: Vec3A, min: Vec3A, scale: Vec3A, bins: usize) -> [usize; 3] {
     let f = ((c - min) * scale).max(Vec3A::ZERO).min(Vec3A::splat((bins - 1) as f32));
-    // Four lanes converted together (LLVM vectorises the saturating conversions).
+    // Four lanes converted together. LLVM does not make one `cvttps2dq` of the saturating
+    // conversions: under callgrind this line is a fifth of the build's instructions (1M scene,
+    // 2026-12-04), but the intrinsic needs `unsafe` outside a `#[target_feature]` function, and
+    // the 2²³ trick, which avoids the conversion, did not make the build faster (module docs).
     let i = f.extend(0.0).to_array().map(|x| x as i32);
     [i[0] as usize, i[1] as usize, i[2] as usize]
 }
