@@ -33,7 +33,7 @@ fn mix64(mut z: u64) -> u64 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SamplerKind {
-    /// Shuffled, randomly shifted Sobol points (see [`sobol`](super::sobol)): each pixel's samples over
+    /// Shuffled, randomly shifted Sobol points (see `sampling/sobol.rs`): each pixel's samples over
     /// the iterations, and each iteration's light paths, are stratified in every pair of
     /// dimensions.
     #[default]

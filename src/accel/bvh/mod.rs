@@ -237,7 +237,7 @@ impl Accelerator for Bvh {
         }
     }
 
-    /// Ray by ray (see [`traverse`] for the batched traversals measured), with the tree's
+    /// Ray by ray (see `traverse.rs` for the batched traversals measured), with the tree's
     /// arrays borrowed once.
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len());

@@ -178,7 +178,7 @@ const CORRECTION_CAP: f32 = 1e6;
 /// and the intensity Σ over RGB of Φ × the reflectance of its BSDF (diffuse albedo, plus the
 /// specular colour of a glossy one) × its adjoint shading-normal correction's constant
 /// factor |ω_in · n_s| / |ω_in · n_g| (which turns the shading cosine towards a receiver into
-/// the geometric one, as the importance and the estimates take it, at most [`CORRECTION_CAP`]: 1 on flat-shaded
+/// the geometric one, as the importance and the estimates take it, at most `CORRECTION_CAP`: 1 on flat-shaded
 /// surfaces, unbounded where light grazes a face whose shading normal it does not graze), or 0
 /// when its BSDF is inactive for its incoming direction (`active`). Either way the intensity
 /// is 0 only when every channel of Φ ∘ f_p is 0 in every direction: the light contributes

@@ -80,7 +80,7 @@ impl AutoPaths {
 pub struct Pilot {
     /// VPLs per light path.
     pub per_path: f64,
-    /// Of the light samples taken from the VPLs lit directly ([`PILOT_LIGHT_SAMPLES`] each,
+    /// Of the light samples taken from the VPLs lit directly (`PILOT_LIGHT_SAMPLES` each,
     /// towards a point drawn as
     /// next-event estimation draws it, on the emitter's front side and in front of the
     /// VPL's surface), the fraction that no surface blocks; 1 when there were none.

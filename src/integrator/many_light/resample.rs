@@ -18,7 +18,7 @@
 //!    `pir-bdpt`'s relative MSE 6.5 % lower at the same time, `docs/measurements.md`).
 //! 2. **The picks.** Within the window, with p̂_j an estimate of light j's unoccluded
 //!    contribution and T = Σ p̂_j, k picks by systematic sampling of the cumulative sums at
-//!    (u + i) T / k: light j is picked n_j times with E[n_j] = k p̂_j / T, and
+//!    (u + i) T / k: light j is picked n_j times with E\[n_j\] = k p̂_j / T, and
 //!    Σ_j n_j c_j V_j T / (k p̂_j) is unbiased for Σ_{window} c_j V_j as long as every light
 //!    with c_j ≠ 0 has p̂_j > 0. Only the picked lights' contributions c_j are evaluated.
 //!    For points p̂ is `VplLanes::estimates` (power × the clamped geometry term, four at a
@@ -31,7 +31,7 @@
 //!    T / k exactly.
 //!
 //! A glossy sphere's cone integral is stochastic ([`super::spheres`]): an estimate ĉ_j with
-//! E[ĉ_j] = c_j. Drawn after the pick, from numbers that did not choose it, or as the
+//! E\[ĉ_j\] = c_j. Drawn after the pick, from numbers that did not choose it, or as the
 //! candidate's own p̂ and value (n_j ĉ_j T / (k ĉ_j), whose expectation given ĉ_j is ĉ_j), the
 //! estimate stays unbiased. Only the k picked spheres and the narrow-lobed candidates pay for
 //! their integrals, not all m candidates (`docs/measurements.md`: 3.3× fewer instructions for
@@ -106,7 +106,7 @@ fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item = usi
 
 /// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes of
 /// points or of spheres): p̂ lane by lane, and the lane-wise sum of p̂ over the blocks. Blocks whose lights all contribute
-/// nothing are left out. Reused from receiver to receiver ([`with_candidates`]), so that a
+/// nothing are left out. Reused from receiver to receiver (`with_candidates`), so that a
 /// gather allocates nothing. Pushing is branch-light and sums lane-wise; the cumulative sums
 /// are formed only while picking, and only up to the last pick.
 #[derive(Default)]

@@ -90,7 +90,7 @@ pub const MAX_RADIUS: f32 = 0.04;
 pub const ROUNDS_PER_PI: f32 = 20.0;
 
 /// A glossy end's BSDF sampling joins the cone estimate only when the cone's half-angle
-/// exceeds this many times its roughness ([`Lobes::of`]).
+/// exceeds this many times its roughness (`Lobes::of`).
 pub const NARROW_CONE: f32 = 1.0;
 
 /// How the density radius is named in a render's parameters (EXR metadata, resume identity).

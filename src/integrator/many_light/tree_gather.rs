@@ -95,9 +95,9 @@
 //! - smallest depth of the node's lights above the receiver's `max_vpl_depth`;
 //! - the box wholly behind the plane of x's geometric normal or of its shading normal (the
 //!   receiver's BSDF is zero there), tested on the box's support n·(c − x) + |n|·h with a
-//!   margin [`PLANE_TOL`] relative to the coordinates involved;
+//!   margin `PLANE_TOL` relative to the coordinates involved;
 //! - every normal of the cone facing away from x at every point of the box: the light-side
-//!   cosine bound above is below −[`CONE_TOL`] (the f32 cosine algebra is exact to ~5·10⁻⁴ in
+//!   cosine bound above is below −`CONE_TOL` (the f32 cosine algebra is exact to ~5·10⁻⁴ in
 //!   angle near ±1; the margin is twenty times that).
 //!
 //! Everything else is viable and gets at least ε/2 at its branch.
