@@ -10,8 +10,9 @@ use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
 use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::{Connect, light_samples_for};
+use pir::integrator::many_light::path_count::PILOT_PATHS;
 use pir::integrator::{
-    BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, DEFAULT_LIGHT_SAMPLES, Gather, InstantRadiosity, Method,
+    BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather, InstantRadiosity, Method,
     MethodConfig, PathTracer, VirtualLights,
 };
 use pir::material::{Bsdf, Material};
@@ -203,7 +204,13 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
     let (slit_scene, cube_scene) = (slit_room(), closed_cube(diffuse(0.5, 1.0)));
     let resolve = |scene: &Scene, sampler: SamplerKind, threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pilot_job(sampler).with_context(scene, |ctx| pool.install(|| Pilot::run(ctx)))
+        let mut counters = Counters::default();
+        let pilot =
+            pilot_job(sampler).with_context(scene, |ctx| pool.install(|| Pilot::run(ctx, &mut counters)));
+        // Every light path is at least one query, and only the pilot's are counted.
+        assert!(counters.pilot_rays >= PILOT_PATHS as u64, "{counters:?}");
+        assert_eq!(Counters { pilot_rays: 0, ..counters }, Counters::default());
+        pilot
     };
     for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
         let (cube, slit) = (resolve(&cube_scene, sampler, 2), resolve(&slit_scene, sampler, 1));
@@ -223,6 +230,20 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
     }
 }
 
+/// A render counts its pilot's queries in its statistics (once, before the first iteration),
+/// and a render of a method without a pilot counts none.
+#[test]
+fn a_render_counts_its_pilots_queries() {
+    let scene = closed_cube(diffuse(0.5, 1.0));
+    let job = Job { width: 8, height: 8, iterations: 2, ..pilot_job(SamplerKind::Sobol) };
+    let stats = |method| {
+        job.run(&scene, MethodConfig::new(method).integrator(scene.bounds().diagonal()).as_mut()).stats
+    };
+    let bdpt = stats(Method::PirBdpt);
+    assert!(bdpt.counters.pilot_rays >= PILOT_PATHS as u64, "{:?}", bdpt.counters);
+    assert_eq!(stats(Method::Pt).counters.pilot_rays, 0);
+}
+
 /// `pir-bdpt` without `--light-samples` takes the count the pilot's visibility gives (more in
 /// the slit room, the default inside the cube) and reports it among its parameters; a
 /// count given is kept.
@@ -233,7 +254,8 @@ fn light_samples_follow_the_emitters_visibility_unless_given() {
         let mut config = MethodConfig::new(Method::PirBdpt);
         config.params.light_samples = given;
         let mut integrator = config.integrator(scene.bounds().diagonal());
-        pilot_job(SamplerKind::Sobol).with_context(scene, |ctx| integrator.prepare(ctx));
+        pilot_job(SamplerKind::Sobol)
+            .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
         let p = integrator.parameters();
         let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
         let v: f32 = value("emitter-visibility").unwrap().parse().unwrap();

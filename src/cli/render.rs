@@ -273,8 +273,10 @@ fn print_summary(a: &RenderArgs, plan: &Plan, renderer: &Renderer, stats: &Rende
     let secs = stats.elapsed.as_secs_f64();
     let (width, height) = renderer.resolution();
     let pixels = (width as u64 * height as u64) as f64;
+    let c = &stats.counters;
+    let pilot = if c.pilot_rays > 0 { format!(", {} pilot", c.pilot_rays) } else { String::new() };
     eprintln!(
-        "pir: {} iterations ({} spp in the image) in {:.2} s ({:.2} s pixels, {:.2} s preparation): {:.2} Msamples/s, {:.2} Mrays/s ({} closest-hit, {} shadow)",
+        "pir: {} iterations ({} spp in the image) in {:.2} s ({:.2} s pixels, {:.2} s preparation): {:.2} Msamples/s, {:.2} Mrays/s ({} closest-hit, {} shadow{pilot})",
         stats.rendered,
         stats.iterations,
         secs,
@@ -282,8 +284,8 @@ fn print_summary(a: &RenderArgs, plan: &Plan, renderer: &Renderer, stats: &Rende
         stats.prepare_time.as_secs_f64(),
         pixels * stats.rendered as f64 / secs.max(1e-9) / 1e6,
         stats.rays_per_second() / 1e6,
-        stats.counters.rays,
-        stats.counters.shadow_rays
+        c.rays,
+        c.shadow_rays
     );
     let mean = image.mean();
     eprintln!("pir: image mean RGB {:.5} {:.5} {:.5}", mean[0], mean[1], mean[2]);

@@ -70,6 +70,9 @@ pub struct Counters {
     pub light_paths: u64,
     /// Virtual lights created.
     pub vpls: u64,
+    /// Queries of a pilot before the first iteration (its light paths' closest hits and its
+    /// light samples' occlusion tests), counted by the render that runs it.
+    pub pilot_rays: u64,
 }
 
 impl std::ops::AddAssign for Counters {
@@ -79,6 +82,7 @@ impl std::ops::AddAssign for Counters {
         self.light_rays += o.light_rays;
         self.light_paths += o.light_paths;
         self.vpls += o.vpls;
+        self.pilot_rays += o.pilot_rays;
     }
 }
 
@@ -94,8 +98,8 @@ pub trait Integrator: Send + Sync {
 
     /// Work done once before the first iteration, with the scene (a count chosen by a
     /// pilot): a function of the scene, the seed and the sampler alone, so that a resumed or
-    /// sharded render prepares the same.
-    fn prepare(&mut self, _ctx: &RenderContext) {}
+    /// sharded render prepares the same. What it traces is counted in `counters`.
+    fn prepare(&mut self, _ctx: &RenderContext, _counters: &mut Counters) {}
 
     /// Work done once per iteration before any pixel (iterations count from 1), counting
     /// what it traces in `counters`.

@@ -69,7 +69,7 @@ pub struct RenderStats {
 impl RenderStats {
     pub fn rays_per_second(&self) -> f64 {
         let c = &self.counters;
-        (c.rays + c.shadow_rays + c.light_rays) as f64 / self.elapsed.as_secs_f64().max(1e-9)
+        (c.rays + c.shadow_rays + c.light_rays + c.pilot_rays) as f64 / self.elapsed.as_secs_f64().max(1e-9)
     }
 
     /// Occlusion queries per second of pixel time (the gather's rate for VPL methods).
@@ -127,7 +127,7 @@ pub fn render_from(
     let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
     let start = Instant::now();
     // (A no-op for an integrator the caller prepared already.)
-    integrator.prepare(ctx);
+    integrator.prepare(ctx, &mut stats.counters);
     stats.prepare_time += start.elapsed();
 
     loop {

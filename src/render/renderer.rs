@@ -31,7 +31,7 @@ use super::state::{Job, Shard, write_state};
 use super::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
 use crate::accel::{Accelerator, build_accelerator, set_flush_denormals};
 use crate::image::{RgbImage, write_exr, write_preview};
-use crate::integrator::{Integrator, MethodConfig, RenderContext};
+use crate::integrator::{Counters, Integrator, MethodConfig, RenderContext};
 use crate::light::Emitters;
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
@@ -132,7 +132,8 @@ impl<'s> Renderer<'s> {
     pub fn integrator(&self, config: &MethodConfig) -> Box<dyn Integrator> {
         let mut integrator = config.integrator(self.scene.bounds().diagonal());
         let ctx = self.context();
-        self.pool.install(|| integrator.prepare(&ctx));
+        // (What a pilot run here traces is not a render's: its count is dropped.)
+        self.pool.install(|| integrator.prepare(&ctx, &mut Counters::default()));
         integrator
     }
 

@@ -361,12 +361,12 @@ impl Integrator for InstantRadiosity {
     }
 
     /// The pilot, once, for counts chosen by the scene or the bidirectional weights.
-    fn prepare(&mut self, ctx: &RenderContext) {
+    fn prepare(&mut self, ctx: &RenderContext, counters: &mut Counters) {
         let bidirectional = matches!(self.lights, VirtualLights::Bidirectional(..));
         if self.pilot.is_some() || !(bidirectional || self.auto.is_some()) {
             return;
         }
-        let pilot = Pilot::run(ctx);
+        let pilot = Pilot::run(ctx, counters);
         if let Some(auto) = self.auto.take() {
             self.paths = auto.for_yield(pilot.per_path);
         }

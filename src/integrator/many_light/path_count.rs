@@ -92,21 +92,22 @@ impl Pilot {
     /// Traces [`PILOT_PATHS`] light paths (as deep as a VPL serves a camera vertex, max_depth
     /// − 2 segments), and light samples from each VPL lit directly, all from streams no
     /// iteration draws from, in order: the same for any thread count. Once per render where
-    /// the context keeps it.
-    pub fn run(ctx: &RenderContext) -> Pilot {
+    /// the context keeps it; its queries are added to `counters.pilot_rays` when it runs (not
+    /// when it comes from the cache).
+    pub fn run(ctx: &RenderContext, counters: &mut Counters) -> Pilot {
         match ctx.pilot {
-            Some(cell) => *cell.get_or_init(|| Pilot::trace(ctx)),
-            None => Pilot::trace(ctx),
+            Some(cell) => *cell.get_or_init(|| Pilot::trace(ctx, counters)),
+            None => Pilot::trace(ctx, counters),
         }
     }
 
     /// [`Pilot::run`] without the render's cache.
-    fn trace(ctx: &RenderContext) -> Pilot {
+    fn trace(ctx: &RenderContext, counters: &mut Counters) -> Pilot {
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-        let (vpls, _) =
+        let (vpls, rays) =
             trace_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, Counts::uniform(PILOT_PATHS as f32), max_vpl_depth);
         let streams = Streams::light_paths(ctx.sampler, ctx.seed, PILOT_SAMPLES_ITERATION);
-        let mut counters = Counters::default();
+        let mut samples = Counters::default();
         let (mut tried, mut visible) = (0u32, 0u32);
         for (j, vpl) in vpls.iter().enumerate().filter(|(_, v)| v.depth == 1) {
             let mut sampler = streams.sampler(j as u64);
@@ -118,11 +119,12 @@ impl Pilot {
                     continue;
                 }
                 tried += 1;
-                if !occluded(ctx, vpl.p, vpl.ng, es.point.p, es.point.ng, &mut counters) {
+                if !occluded(ctx, vpl.p, vpl.ng, es.point.p, es.point.ng, &mut samples) {
                     visible += 1;
                 }
             }
         }
+        counters.pilot_rays += rays + samples.shadow_rays;
         Pilot {
             per_path: vpls.len() as f64 / PILOT_PATHS as f64,
             visibility: if tried == 0 { 1.0 } else { visible as f32 / tried as f32 },
