@@ -96,8 +96,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let film = starting_film(&a, &renderer, &job, plan.shard)?;
     print_header(&a, &renderer, loaded, &memory);
     let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
-    let image = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
-    print_summary(&a, &plan, &renderer, &stats, &image);
+    let (image, attributes) = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
+    print_summary(&plan, &renderer, &stats, &image, &attributes);
     Ok(())
 }
 
@@ -217,7 +217,7 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &
 }
 
 /// Writes the EXR (resumable when asked) and the preview; at checkpoints, on interruption and
-/// at the end.
+/// at the end. Returns the image and the EXR's attributes.
 fn write_output(
     a: &RenderArgs,
     plan: &Plan,
@@ -225,11 +225,12 @@ fn write_output(
     job: &Job,
     film: &Film,
     stats: &RenderStats,
-) -> Result<RgbImage> {
+) -> Result<(RgbImage, Vec<(String, String)>)> {
     let attributes = renderer.attributes(&a.config, stats);
     let state = plan.resumable.then_some((job, plan.shard));
     let preview = plan.preview.as_deref().map(|p: &Path| (p, a.exposure));
-    renderer.write(&plan.out, film, &attributes, state, preview)
+    let image = renderer.write(&plan.out, film, &attributes, state, preview)?;
+    Ok((image, attributes))
 }
 
 /// Renders with a progress bar and checkpoints. Ctrl-C or SIGTERM finishes the running
@@ -269,7 +270,13 @@ fn render(
     Ok((film, stats))
 }
 
-fn print_summary(a: &RenderArgs, plan: &Plan, renderer: &Renderer, stats: &RenderStats, image: &RgbImage) {
+fn print_summary(
+    plan: &Plan,
+    renderer: &Renderer,
+    stats: &RenderStats,
+    image: &RgbImage,
+    attributes: &[(String, String)],
+) {
     let secs = stats.elapsed.as_secs_f64();
     let (width, height) = renderer.resolution();
     let pixels = (width as u64 * height as u64) as f64;
@@ -300,10 +307,11 @@ fn print_summary(a: &RenderArgs, plan: &Plan, renderer: &Renderer, stats: &Rende
             stats.shadow_rays_per_second() / 1e6
         );
     }
-    // What a method chose by the scene's pilot (`pir-bdpt`'s light samples), so that a user
-    // sees it without reading the EXR's attributes.
-    let params = renderer.integrator(&a.config).parameters();
-    let param = |key: &str| params.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+    // What a method chose by the scene's pilot (`pir-bdpt`'s light samples), read from the
+    // EXR's attributes, so that a user sees it without opening them.
+    let param = |key: &str| {
+        attributes.iter().find(|(k, _)| k.strip_prefix("pir.param.") == Some(key)).map(|(_, v)| v.clone())
+    };
     if let (Some(n), Some(v)) = (param("light-samples"), param("emitter-visibility")) {
         let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
         eprintln!(

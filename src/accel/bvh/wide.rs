@@ -75,33 +75,23 @@ pub(super) fn collapse(pairs: &[NodePair]) -> Pages<Node8> {
 /// Fills `nodes[at]` with the (up to [`WIDTH`]) descendants of the binary interior node `n`.
 fn fill(pairs: &[NodePair], n: &Node, at: usize, nodes: &mut Vec<Node8>) {
     let mut kids = [Node::default(); WIDTH];
-    // The half-area of each interior kid, −1 for a leaf (never opened).
-    let mut area = [-1.0f32; WIDTH];
-    let key = |k: &Node| if k.is_leaf() { -1.0 } else { half_area(k) };
     kids[..2].copy_from_slice(&pairs[n.index as usize].nodes);
-    area[0] = key(&kids[0]);
-    area[1] = key(&kids[1]);
     let mut len = 2;
     while len < WIDTH {
-        // Open the largest interior child (the last of equals).
-        let mut i = 0;
-        for j in 1..len {
-            if area[j] >= area[i] {
-                i = j;
-            }
-        }
-        if area[i] < 0.0 {
-            break;
-        }
+        // Open the largest interior child.
+        let best = kids[..len]
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| !k.is_leaf())
+            .max_by(|(_, a), (_, b)| half_area(a).total_cmp(&half_area(b)))
+            .map(|(i, _)| i);
+        let Some(i) = best else { break };
         // As `Vec::swap_remove` then a push of both grandchildren.
         let k = kids[i];
         kids[i] = kids[len - 1];
-        area[i] = area[len - 1];
         let [l, r] = pairs[k.index as usize].nodes;
         kids[len - 1] = l;
-        area[len - 1] = key(&l);
         kids[len] = r;
-        area[len] = key(&r);
         len += 1;
     }
     for (lane, k) in kids[..len].iter().enumerate() {
