@@ -15,7 +15,7 @@
 
 use glam::{Vec3, Vec4};
 
-use super::lanes::{DiffuseReceiver, LANES, LaneKind};
+use super::lanes::{DiffuseReceiver, EstimateReceiver, LANES, LaneKind};
 use super::light_paths::Vpl;
 use super::light_set::{LightSet, Lights, PointLights, Selection};
 use super::light_tree::LightTree;
@@ -177,17 +177,16 @@ impl PointLights {
             k,
             fx.is_active(),
             sampler,
-            |cands, chunk, _| {
-                let p = self.lanes.estimates(
-                    chunk,
-                    sp.p,
-                    sp.ng,
-                    sp.frame.n,
-                    self.bound,
-                    max_vpl_depth,
-                    lobe.as_ref(),
-                );
-                cands.push(chunk * LANES, p);
+            |cands, window, _| {
+                let r = EstimateReceiver {
+                    x: sp.p,
+                    ng: sp.ng,
+                    ns: sp.frame.n,
+                    bound: self.bound,
+                    max_depth: max_vpl_depth,
+                    lobe: lobe.as_ref(),
+                };
+                self.lanes.push_estimates(cands, window, &r);
             },
             |j, factor, _| {
                 let c =
@@ -286,15 +285,17 @@ impl SphereLights {
                 k,
                 rx.is_active(),
                 sampler,
-                |cands, block, sampler| {
-                    let (mut p, narrow) = self.lanes.estimates(block, &rx.end, max_vpl_depth);
-                    for i in (0..LANES).filter(|i| narrow >> i & 1 == 1) {
-                        let j = block * LANES + i;
-                        let c = self.contribution(j, &rx, sampler);
-                        p[i] = c.element_sum();
-                        exact.borrow_mut().push((j, c));
+                |cands, window, sampler| {
+                    for block in window.blocks() {
+                        let (mut p, narrow) = self.lanes.estimates(block, &rx.end, max_vpl_depth);
+                        for i in (0..LANES).filter(|i| narrow >> i & 1 == 1) {
+                            let j = block * LANES + i;
+                            let c = self.contribution(j, &rx, sampler);
+                            p[i] = c.element_sum();
+                            exact.borrow_mut().push((j, c));
+                        }
+                        cands.push(block * LANES, p)
                     }
-                    cands.push(block * LANES, p)
                 },
                 |j, factor, sampler| {
                     let evaluated = exact.borrow().iter().find(|e| e.0 == j).map(|e| e.1);

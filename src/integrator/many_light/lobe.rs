@@ -16,7 +16,7 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
 use crate::material::Bsdf;
 use crate::material::ggx::Ggx;
@@ -100,14 +100,13 @@ impl Lobe {
         self.scale / (a2 * t * t)
     }
 
-    /// The bound ρ_s D(θ/2) / (4 cos θ_o) of the module docs, four directions at once (cos θ =
-    /// `c` each).
+    /// The bound ρ_s D(θ/2) / (4 cos θ_o) of the module docs, towards a direction with
+    /// cos θ = `c`.
     #[inline(always)]
-    pub fn bound4(&self, c: Vec4) -> Vec4 {
+    pub fn bound(&self, c: f32) -> f32 {
         let a2 = self.alpha * self.alpha;
-        let one = Vec4::ONE;
-        let t = (one - c) * (1.0 / a2) + one + c;
-        Vec4::splat(self.scale / a2) / (t * t)
+        let t = (1.0 - c) * (1.0 / a2) + 1.0 + c;
+        (self.scale / a2) / (t * t)
     }
 }
 
@@ -119,7 +118,7 @@ mod tests {
     use crate::sampling::{Domain, Sampler};
 
     /// Over random glossy receivers and directions, the lobe's bound ρ_d/π cos θ_i +
-    /// [`Lobe::bound4`] is at least the BSDF's f · cos θ_i (channel mean, to f32 rounding),
+    /// [`Lobe::bound`] is at least the BSDF's f · cos θ_i (channel mean, to f32 rounding),
     /// and at the mirror direction it is tight up to the two G1 (at least 70 % of it for α up
     /// to 0.3, ω_o within 60° of the normal); [`Lobe::widened`] with θ_b = 0 is the same
     /// number.
@@ -152,19 +151,19 @@ mod tests {
                     }
                     let f = fx.eval(wi).element_sum() / 3.0;
                     let c = mirror.dot(wi);
-                    let bound = lobe.diffuse() * cos_i + lobe.bound4(Vec4::splat(c)).x;
+                    let bound = lobe.diffuse() * cos_i + lobe.bound(c);
                     assert!(
                         f <= bound * 1.001 + 1e-6,
                         "alpha {roughness}: f cos {f} above the bound {bound}"
                     );
-                    assert!((lobe.widened(c, 0.0) - lobe.bound4(Vec4::splat(c)).x).abs() <= 1e-4 * bound);
+                    assert!((lobe.widened(c, 0.0) - lobe.bound(c)).abs() <= 1e-4 * bound);
                     checked += 1;
                 }
                 // At the mirror direction the bound is f · cos up to the two G1, near 1 for
                 // a moderate roughness away from grazing.
                 if roughness <= 0.3 && wo.dot(n) > 0.5 {
                     let f = fx.eval(mirror).element_sum() / 3.0;
-                    let bound = lobe.diffuse() * mirror.dot(n) + lobe.bound4(Vec4::ONE).x;
+                    let bound = lobe.diffuse() * mirror.dot(n) + lobe.bound(1.0);
                     assert!(f >= 0.7 * bound, "alpha {roughness}: at the mirror {f} against {bound}");
                     tight += 1;
                 }
@@ -186,6 +185,6 @@ mod tests {
         assert_eq!(lobe.widened(1.0 + f32::EPSILON, 0.0), peak);
         let grazing = Vec3::new(1.0, 0.0, 1e-30).normalize();
         let lobe = Lobe::of(&mirror, Vec3::Z, grazing).unwrap();
-        assert!(lobe.bound4(Vec4::ONE).x.is_finite() && lobe.widened(1.0, 0.0) * 1e20 < f32::MAX);
+        assert!(lobe.bound(1.0).is_finite() && lobe.widened(1.0, 0.0) * 1e20 < f32::MAX);
     }
 }

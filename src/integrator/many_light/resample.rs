@@ -1,5 +1,5 @@
 //! The resampled gather: a receiver estimates the unoccluded contribution of a random window
-//! of m candidate lights (cheap: a four-wide kernel, no ray), then evaluates and traces
+//! of m candidate lights (cheap: an eight-wide kernel, no ray), then evaluates and traces
 //! shadow rays to only k of them, drawn in proportion to those estimates.
 //!
 //! Two stages, each unbiased given the one before, so the estimate is unbiased for the
@@ -21,8 +21,8 @@
 //!    (u + i) T / k: light j is picked n_j times with E\[n_j\] = k p̂_j / T, and
 //!    Σ_j n_j c_j V_j T / (k p̂_j) is unbiased for Σ_{window} c_j V_j as long as every light
 //!    with c_j ≠ 0 has p̂_j > 0. Only the picked lights' contributions c_j are evaluated.
-//!    For points p̂ is `VplLanes::estimates` (power × the clamped geometry term, four at a
-//!    time, the BSDFs' shapes left out). For spheres it is `SphereLanes::estimates`, in the
+//!    For points p̂ is `VplLanes::push_estimates` (power × the clamped geometry term, eight
+//!    at a time, the BSDFs' shapes left out). For spheres it is `SphereLanes::estimates`, in the
 //!    contribution's units: both ends taken as Lambertian of their reflectance, each cosine
 //!    at its largest over the cone, which bounds a Lambertian pair's contribution from above
 //!    (a pick's weight is then at most T / k); where either end has a narrow glossy lobe
@@ -59,7 +59,8 @@ fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
 
 /// The resampled gather over `blocks` blocks of [`LANES`] lights with `m` candidates and `k`
 /// picks: draws the window's start and the picks' number (two numbers of `sampler`, always,
-/// before any the candidates draw), lets `candidate` push each block of the window, then
+/// before any the candidates draw), lets `candidate` push the window's blocks in its order
+/// ([`Window::blocks`]), then
 /// calls `emit(j, factor, sampler)` for every light picked, with the window's scale n / w in
 /// the factor ([`Candidates::pick`]); `emit` may draw numbers of its own (a picked sphere's
 /// cone integral). With `active` false (a receiver that reflects nothing) only the
@@ -70,19 +71,17 @@ pub fn resample(
     k: usize,
     active: bool,
     sampler: &mut Sampler,
-    mut candidate: impl FnMut(&mut Candidates, usize, &mut Sampler),
+    mut candidate: impl FnMut(&mut Candidates, Window, &mut Sampler),
     mut emit: impl FnMut(usize, f32, &mut Sampler),
 ) {
     let w = window_blocks(blocks, m);
-    let window = window(blocks, w, sampler);
+    let window = Window::draw(blocks, w, sampler);
     let u = sampler.next_f32();
     if !active || blocks == 0 {
         return;
     }
     with_candidates(|cands| {
-        for block in window {
-            candidate(cands, block, sampler);
-        }
+        candidate(cands, window, sampler);
         cands.pick(k, u, blocks as f32 / w as f32, |j, factor| emit(j, factor, sampler));
     });
 }
@@ -94,14 +93,43 @@ pub fn window_blocks(blocks: usize, m: usize) -> usize {
     if blocks <= 2 * w { blocks.max(1) } else { w }
 }
 
-/// A window of `w` blocks of `n`, cyclic, from a uniform start: the blocks in order.
-fn window(n: usize, w: usize, sampler: &mut Sampler) -> impl Iterator<Item = usize> + use<> {
-    let w = w.min(n);
-    let start = uniform_index(n, sampler);
-    (0..w).map(move |t| {
-        let b = start + t;
-        if b >= n { b - n } else { b }
-    })
+/// A window of `w` consecutive blocks of `n`, cyclically, from `start`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    start: usize,
+    w: usize,
+    n: usize,
+}
+
+impl Window {
+    /// The window of `w` blocks of `n` (at most `n`) from `start`.
+    #[cfg(test)]
+    pub fn new(start: usize, w: usize, n: usize) -> Window {
+        assert!(start < n);
+        Window { start, w: w.min(n), n }
+    }
+
+    /// A window of `w` blocks of `n` (at most `n`) from a uniform start, one number of
+    /// `sampler`.
+    fn draw(n: usize, w: usize, sampler: &mut Sampler) -> Window {
+        Window { start: uniform_index(n, sampler), w: w.min(n), n }
+    }
+
+    /// The blocks in the window's order.
+    pub fn blocks(self) -> impl Iterator<Item = usize> {
+        (0..self.w).map(move |t| {
+            let b = self.start + t;
+            if b >= self.n { b - self.n } else { b }
+        })
+    }
+
+    /// The same blocks as at most two runs of consecutive ones, `(first, count)`, in the
+    /// window's order: from the start to the last block, then from block 0 (an empty second
+    /// run when the window does not wrap).
+    pub fn runs(self) -> [(usize, usize); 2] {
+        let first = self.w.min(self.n - self.start);
+        [(self.start, first), (0, self.w - first)]
+    }
 }
 
 /// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes of
@@ -169,6 +197,12 @@ impl Candidates {
     fn kept(p: Vec4) -> Option<Vec4> {
         let keep = p.cmpgt(Vec4::ZERO) & p.is_finite_mask();
         keep.any().then(|| Vec4::select(keep, p, Vec4::ZERO))
+    }
+
+    /// The blocks held: each one's first light and p̂.
+    #[cfg(test)]
+    pub fn blocks(&self) -> impl Iterator<Item = (u32, Vec4)> + '_ {
+        self.first.iter().copied().zip(self.p.iter().copied())
     }
 
     /// T = Σ p̂.
@@ -240,7 +274,10 @@ mod tests {
         let mut s = Sampler::new(1, 0, Domain::LightPath, 0);
         let draws = 70_000;
         for _ in 0..draws {
-            for b in window(n, w, &mut s) {
+            let window = Window::draw(n, w, &mut s);
+            let runs: Vec<usize> = window.runs().iter().flat_map(|&(b, c)| b..b + c).collect();
+            assert_eq!(runs, window.blocks().collect::<Vec<_>>());
+            for b in window.blocks() {
                 hits[b] += 1;
             }
         }
@@ -249,7 +286,7 @@ mod tests {
             assert!((h as f64 - expect).abs() < 5.0 * expect.sqrt(), "{hits:?}");
         }
         // A window at least as wide as the blocks is all of them, once each.
-        let all: Vec<usize> = window(4, 9, &mut s).collect();
+        let all: Vec<usize> = Window::draw(4, 9, &mut s).blocks().collect();
         let mut sorted = all.clone();
         sorted.sort();
         assert_eq!(sorted, vec![0, 1, 2, 3]);
