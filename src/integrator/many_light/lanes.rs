@@ -205,7 +205,7 @@ fn push_estimates_dispatch(lanes: &VplLanes, cands: &mut Candidates, window: Win
 
 impl VplLanes {
     /// `emitting[j]` is VPL `j`'s BSDF prepared for its incoming direction (importance mode),
-    /// `power[j]` its power for the estimates ([`Self::estimates`]).
+    /// `power[j]` its power for the estimates ([`Self::push_estimates`]).
     pub fn new(vpls: &[Vpl], emitting: &[PreparedBsdf], power: &[f32]) -> Self {
         assert_eq!(vpls.len(), emitting.len());
         assert_eq!(vpls.len(), power.len());
@@ -353,8 +353,8 @@ impl VplLanes {
         Vec4::from_slice(&self.estimates8(chunk, &r)[..LANES])
     }
 
-    /// Pushes the estimates p̂ ([`Self::estimates8`]) of the chunks of `window` to `cands`, in
-    /// the window's order, two chunks at a time.
+    /// Pushes the estimates p̂ of the chunks of `window` to `cands` (the private
+    /// `estimates8` says what they are), in the window's order, two chunks at a time.
     pub fn push_estimates(&self, cands: &mut Candidates, window: Window, r: &EstimateReceiver) {
         push_estimates_dispatch(self, cands, window, r);
     }
