@@ -12,8 +12,8 @@ use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::{Connect, light_samples_for};
 use pir::integrator::many_light::path_count::PILOT_PATHS;
 use pir::integrator::{
-    BDPT_AUTO_PATHS, BDPT_PATHS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather, InstantRadiosity, Method,
-    MethodConfig, PathTracer, VirtualLights,
+    BDPT_AUTO_PATHS, BDPT_PATHS, BDPT_VPLS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather,
+    InstantRadiosity, Method, MethodConfig, PathTracer, VirtualLights,
 };
 use pir::material::{Bsdf, Material};
 use pir::sampling::SamplerKind;
@@ -220,7 +220,7 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
         let n = auto.for_yield(slit.per_path);
         eprintln!("slit room, {sampler:?}: {n} light paths per iteration, {slit:?}");
         assert_eq!(resolve(&slit_scene, sampler, 2), slit, "{sampler:?}");
-        assert!((4 * BDPT_PATHS..=16 * BDPT_PATHS).contains(&n), "{sampler:?}: {n} light paths");
+        assert!((4 * BDPT_VPLS..=16 * BDPT_VPLS).contains(&n), "{sampler:?}: {n} light paths");
         // From the strip under the slit only a sliver of the panel shows through it.
         assert!(slit.visibility > 0.02 && slit.visibility < 0.4, "{sampler:?}: {slit:?}");
         // So the first vertex takes more light samples there than in the cube.

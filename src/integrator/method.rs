@@ -120,7 +120,7 @@ impl FromStr for Method {
 #[derive(Args, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
-    /// vertex) [default: 32; for pir-bdpt 64, or as many more as leave 64 VPLs where light
+    /// vertex) [default: 32; for pir-bdpt 256, or as many more as leave 64 VPLs where light
     /// paths seldom reach a surface that reflects them, chosen by a pilot, at most 4096].
     #[arg(long, value_name = "N")]
     pub vpls: Option<usize>,
@@ -213,18 +213,31 @@ pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64)
 /// pixels.
 pub const BDPT_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 128);
 /// The fewest light paths per iteration of `pir-bdpt` when `--vpls` is not given (see
-/// [`BDPT_GATHER`]), and the fewest VPLs: more paths where they leave fewer VPLs than that,
-/// up to [`BDPT_MAX_PATHS`] ([`MethodConfig::auto_paths`]).
-pub const BDPT_PATHS: usize = 64;
-/// The most light paths per iteration `pir-bdpt` chooses by itself: 64 times
-/// [`BDPT_PATHS`], for scenes where one light path in 64 or fewer reaches what the camera
-/// sees (an iteration of 4,096 paths that each leave no VPL costs 4,096 rays, a few
-/// hundredths of a 128 × 128 image's camera paths).
-pub const BDPT_MAX_PATHS: usize = 64 * BDPT_PATHS;
+/// [`BDPT_GATHER`]): more where they leave fewer than [`BDPT_VPLS`] VPLs, up to
+/// [`BDPT_MAX_PATHS`] ([`MethodConfig::auto_paths`]). 256 rather than 64 (2026-12-04,
+/// `docs/measurements.md`, "At least 256 light paths"): at equal time, HDR-FLIP 8.5 % lower
+/// on the Cornell box (six seeds, 20 s) and 4–10 % lower on the glossy Cornell box, the
+/// near-mirror floor, the dense scene lit indirectly and the bunny's Cornell box (two seeds
+/// each), level on the Mori knob; relative MSE level on the dense scene and the bunny's box,
+/// 2 % higher on the Cornell box and 4–8 % higher on the glossy scenes and the knob. An
+/// iteration's cost is the pixels', so four times the VPLs cost 1–3 % of its time; each
+/// receiver's window of candidates then holds a random quarter of them, so the VPLs'
+/// error is spread over more of them and less of it is in blotches shared by many pixels,
+/// which HDR-FLIP sees and relative MSE does not.
+pub const BDPT_PATHS: usize = 256;
+/// The fewest VPLs per iteration `pir-bdpt` aims at when it chooses its light paths: where
+/// [`BDPT_PATHS`] leave fewer (light that comes through an opening), it traces as many more
+/// paths as leave this many (the slit room: about 525).
+pub const BDPT_VPLS: usize = 64;
+/// The most light paths per iteration `pir-bdpt` chooses by itself, for scenes where one
+/// light path in 64 or fewer reaches what the camera sees (an iteration of 4,096 paths that
+/// each leave no VPL costs 4,096 rays, a few hundredths of a 128 × 128 image's camera
+/// paths).
+pub const BDPT_MAX_PATHS: usize = 4096;
 /// `pir-bdpt`'s light paths chosen by the scene: at least [`BDPT_PATHS`], as many as leave
-/// that many VPLs, at most [`BDPT_MAX_PATHS`].
+/// [`BDPT_VPLS`] VPLs, at most [`BDPT_MAX_PATHS`].
 pub const BDPT_AUTO_PATHS: AutoPaths =
-    AutoPaths { vpls: BDPT_PATHS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
+    AutoPaths { vpls: BDPT_VPLS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
 
 /// Candidates per camera vertex with `--gather resample` when `--gather-candidates` is not
 /// given: of 64, 128 and 256 candidates with 4 or 8 picks and 32 to 256 light paths, 128
@@ -433,8 +446,8 @@ impl MethodConfig {
     }
 
     /// Light paths chosen by the scene when `--vpls` is not given: `pir-bdpt` traces
-    /// [`BDPT_PATHS`] per iteration, or more where they leave fewer VPLs than that (up to
-    /// [`BDPT_MAX_PATHS`], [`AutoPaths`]). `None` for a fixed count.
+    /// [`BDPT_PATHS`] per iteration, or more where they leave fewer than [`BDPT_VPLS`] VPLs
+    /// (up to [`BDPT_MAX_PATHS`], [`AutoPaths`]). `None` for a fixed count.
     pub fn auto_paths(&self) -> Option<AutoPaths> {
         (self.method == Method::PirBdpt && self.params.vpls.is_none()).then_some(BDPT_AUTO_PATHS)
     }

@@ -27,9 +27,9 @@ pub mod walker;
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
 pub use method::{
-    BDPT_AUTO_PATHS, BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES,
-    GatherKind, MAX_GATHER_SAMPLES, MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method, MethodConfig,
-    MethodParams, Parameter,
+    BDPT_AUTO_PATHS, BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, BDPT_VPLS, DEFAULT_GATHER_SAMPLES,
+    DEFAULT_LIGHT_SAMPLES, GatherKind, MAX_GATHER_SAMPLES, MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method,
+    MethodConfig, MethodParams, Parameter,
 };
 pub use path::PathTracer;
 

@@ -112,8 +112,10 @@ const STATE_KEY: &str = "pir.job.state";
 /// VPL methods' images of a seed; a stored `pir-bdpt` job without `vpls` meant 64), format 6
 /// before `pir-bdpt` chose its light samples by the scene (a stored job's 2 meant the
 /// default, which is now more where the emitters are hidden) and before light samples of a
-/// count other than a power of two tiled the Sobol sequence (which changes their images).
-const FORMAT: &str = "7";
+/// count other than a power of two tiled the Sobol sequence (which changes their images),
+/// format 7 before `pir-bdpt` traced at least 256 light paths (a stored job without `vpls`
+/// meant at least 64).
+const FORMAT: &str = "8";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
