@@ -194,7 +194,9 @@ fn pilot_job(sampler: SamplerKind) -> Job {
 /// The light paths `pir-bdpt` chooses by the scene's yield of VPLs
 /// (`src/integrator/many_light/path_count.rs`): where every light path leaves VPLs (a closed
 /// cube) the fewest; in the slit room, where about one VPL is left per eight paths (one path
-/// in thirty gets through the opening), about eight times as many; the same count in pools of one and two threads, with either sampler.
+/// in thirty gets through the opening), as many as leave the VPL target: about eight times
+/// the target, more than the fewest; the same count in pools of one and two threads, with
+/// either sampler.
 /// And the pilot's visibility of the emitters from the points they light, which weighs the
 /// connections ([`Counts`](pir::integrator::many_light::bidirectional::Counts)): all of
 /// them inside the cube, a sliver through the slit.
@@ -221,6 +223,7 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
         eprintln!("slit room, {sampler:?}: {n} light paths per iteration, {slit:?}");
         assert_eq!(resolve(&slit_scene, sampler, 2), slit, "{sampler:?}");
         assert!((4 * BDPT_VPLS..=16 * BDPT_VPLS).contains(&n), "{sampler:?}: {n} light paths");
+        assert!(n > BDPT_PATHS, "{sampler:?}: {n} light paths, no more than the fewest");
         // From the strip under the slit only a sliver of the panel shows through it.
         assert!(slit.visibility > 0.02 && slit.visibility < 0.4, "{sampler:?}: {slit:?}");
         // So the first vertex takes more light samples there than in the cube.

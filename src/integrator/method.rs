@@ -204,7 +204,8 @@ pub const MAX_GATHER_SAMPLES: usize = 64;
 pub const MIS_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 64);
 
 /// The gather of `pir-bdpt` when not given: resampled, 4 of 128 candidates, with
-/// [`BDPT_PATHS`] light paths per iteration. Against [`MIS_GATHER`] with 32 paths
+/// [`BDPT_PATHS`] light paths per iteration. Measured with 64 paths (the default then),
+/// against [`MIS_GATHER`] with 32 paths
 /// (2026-12-04, `docs/measurements.md`, "Light paths and candidates of `pir-bdpt`"):
 /// relative MSE × time level on six scenes (0.97–1.06, three seeds), and HDR-FLIP at equal
 /// time 9 % lower on the Cornell box (four seeds, 20 s), 4–12 % lower in the slit room and on
@@ -219,7 +220,7 @@ pub const BDPT_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 12
 /// on the Cornell box (six seeds, 20 s) and 4–10 % lower on the glossy Cornell box, the
 /// near-mirror floor, the dense scene lit indirectly and the bunny's Cornell box (two seeds
 /// each), level on the Mori knob; relative MSE level on the dense scene and the bunny's box,
-/// 2 % higher on the Cornell box and 4–8 % higher on the glossy scenes and the knob. An
+/// 2 % higher on the Cornell box and 5–9 % higher on the glossy scenes and the knob. An
 /// iteration's cost is the pixels', so four times the VPLs cost 1–3 % of its time; each
 /// receiver's window of candidates then holds a random quarter of them, so the VPLs'
 /// error is spread over more of them and less of it is in blotches shared by many pixels,

@@ -12,8 +12,9 @@ use std::fmt;
 
 /// Bytes per triangle allowed for the acceleration structure.
 const ACCEL_PER_TRIANGLE: u64 = 128;
-/// Bytes per VPL: the light itself and its prepared BSDF.
-const PER_VPL: u64 = 256;
+/// Bytes per VPL: the light itself, its prepared BSDF and its lanes (the gather's chunks,
+/// and the resampled gather's pairs of chunks, which hold each lane twice: 88 bytes).
+const PER_VPL: u64 = 384;
 
 /// Estimated peak memory of a render, in bytes, by item.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

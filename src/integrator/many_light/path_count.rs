@@ -1,6 +1,8 @@
 //! How many light paths an iteration traces when `--vpls` is not given (`pir-bdpt`): its
-//! fewest paths, or more where they leave fewer VPLs than that, so that an iteration always
-//! holds about as many VPLs as its fewest paths leave where light spreads freely.
+//! fewest paths ([`BDPT_PATHS`](crate::integrator::BDPT_PATHS), 256), or more where they
+//! leave fewer VPLs than a target ([`BDPT_VPLS`](crate::integrator::BDPT_VPLS), 64), so that
+//! an iteration always holds at least that many VPLs. (Until 2026-12-04 the fewest paths
+//! and the target were both 64; the fewest went to 256 for HDR-FLIP's sake, `BDPT_PATHS`.)
 //!
 //! **Why the count is the scene's.** Where light spreads freely from the emitters, every
 //! light path leaves a VPL or more (the Cornell box: 156 from 64 paths). Where it enters
@@ -11,7 +13,7 @@
 //! and that shared error dominated `pir-bdpt`'s. A path that leaves no VPL costs a ray or
 //! two; what the VPLs cost is the gather, per receiver, which grows with their number up to
 //! the window of candidates ([`super::resample`]). So the count is raised only as far as it
-//! takes to leave the VPLs that the fewest paths leave where every path leaves one: in the
+//! takes to leave the VPL target, what 64 paths leave where every path leaves one: in the
 //! slit room about 520 paths against 64 (with the connections between Lambertian ends
 //! counted N, [`super::bidirectional::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 %
 //! and its relative MSE × time by 28 % (seeds 1–3, fixed iterations); filling the whole window of
