@@ -344,27 +344,36 @@ fn prefetch_child(v: View, c: ChildRef) {
     _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(192));
 }
 
+/// The [`Isa`] of the version it is expanded in (inside a `#[multiversion]` function, whose
+/// `match_target!` it uses): the AVX2 version prefetches deferred children of `$v` and takes
+/// its mask from one 8-wide comparison.
+macro_rules! isa {
+    ($v:ident) => {
+        match_target! {
+            "x86_64+avx2" => Isa {
+                prefetch: |c: ChildRef| {
+                    #[cfg(not(target_feature = "avx2"))]
+                    prefetch_child($v, c);
+                    #[cfg(target_feature = "avx2")]
+                    let _ = ($v, c);
+                },
+                mask: |e: &[f32; WIDTH], x: &[f32; WIDTH]| {
+                    #[cfg(not(target_feature = "avx2"))]
+                    return mask_avx(e, x);
+                    #[cfg(target_feature = "avx2")]
+                    mask_sse(e, x)
+                },
+            },
+            _ => Isa { prefetch: |_: ChildRef| {}, mask: mask_sse },
+        }
+    };
+}
+
 /// [`Bvh::closest_hit`], compiled for AVX2 as well as for the build's target and picked at run
 /// time by the CPU's features (see the module docs); the versions differ in their [`Isa`].
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn closest_hit_dispatch(v: View, ray: &Ray) -> Option<Hit> {
-    let isa = match_target! {
-        "x86_64+avx2" => Isa {
-            prefetch: |c: ChildRef| {
-                #[cfg(not(target_feature = "avx2"))]
-                prefetch_child(v, c);
-                #[cfg(target_feature = "avx2")]
-                let _ = (v, c);
-            },
-            mask: |e: &[f32; WIDTH], x: &[f32; WIDTH]| {
-                #[cfg(not(target_feature = "avx2"))]
-                return mask_avx(e, x);
-                #[cfg(target_feature = "avx2")]
-                mask_sse(e, x)
-            },
-        },
-        _ => Isa { prefetch: |_: ChildRef| {}, mask: mask_sse },
-    };
+    let isa = isa!(v);
     match v.closest_hit_with::<STACK>(ray, &isa) {
         Ok(hit) => hit,
         Err(Overflow) => v.closest_hit_with::<STACK_MAX>(ray, &isa).ok().flatten(),
@@ -374,23 +383,7 @@ fn closest_hit_dispatch(v: View, ray: &Ray) -> Option<Hit> {
 /// [`Bvh::any_hit`], compiled as [`closest_hit_dispatch`] is.
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn any_hit_dispatch(v: View, ray: &Ray) -> bool {
-    let isa = match_target! {
-        "x86_64+avx2" => Isa {
-            prefetch: |c: ChildRef| {
-                #[cfg(not(target_feature = "avx2"))]
-                prefetch_child(v, c);
-                #[cfg(target_feature = "avx2")]
-                let _ = (v, c);
-            },
-            mask: |e: &[f32; WIDTH], x: &[f32; WIDTH]| {
-                #[cfg(not(target_feature = "avx2"))]
-                return mask_avx(e, x);
-                #[cfg(target_feature = "avx2")]
-                mask_sse(e, x)
-            },
-        },
-        _ => Isa { prefetch: |_: ChildRef| {}, mask: mask_sse },
-    };
+    let isa = isa!(v);
     match v.any_hit_with::<STACK>(ray, &isa) {
         Ok(hit) => hit,
         Err(Overflow) => v.any_hit_with::<STACK_MAX>(ray, &isa).unwrap_or(true),
