@@ -114,8 +114,9 @@ const STATE_KEY: &str = "pir.job.state";
 /// default, which is now more where the emitters are hidden) and before light samples of a
 /// count other than a power of two tiled the Sobol sequence (which changes their images),
 /// format 7 before `pir-bdpt` traced at least 256 light paths (a stored job without `vpls`
-/// meant at least 64).
-const FORMAT: &str = "8";
+/// meant at least 64), format 8 before `pir-bdpt` counted a resampled connection between
+/// Lambertian ends 4k rather than 2k (which changes its images of a seed).
+const FORMAT: &str = "9";
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -238,7 +239,7 @@ pub fn read_state(path: &Path) -> Result<Saved> {
     };
     match get(FORMAT_KEY)? {
         FORMAT => {}
-        old @ ("1" | "2" | "3" | "4" | "5") => bail!(
+        old @ ("1" | "2" | "3" | "4" | "5" | "6" | "7" | "8") => bail!(
             "{}: written by an older pir (resumable-state format {old}), which this pir cannot resume or \
              merge (it reads format {FORMAT}): render it again with this pir",
             path.display()

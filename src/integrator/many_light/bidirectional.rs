@@ -98,6 +98,23 @@ use crate::light::emitted;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
+/// What a pick of the resampled gather counts, where the emitters are in view, in a
+/// connection between two Lambertian ends ([`Counts`]): 4, so that its k picks count 4k.
+///
+/// Why 4 rather than the 2 of a glossy end: the picks' VPLs are shared by the pixels whose
+/// windows hold them, and a larger count makes their shared error (blotches) a larger part
+/// of the image's; since an iteration traces at least 256 light paths and a window holds
+/// 128 of its 600-odd VPLs (the Cornell box), neighbouring pixels share far fewer of them
+/// than with 64 paths, where the window was every VPL. Measured (2026-12-04, `pir render
+/// … --method pir-bdpt --seed 1|2`, relative MSE against the references at fixed iterations,
+/// the same time; `docs/measurements.md`, "Lambertian connections count 4k"): 2 → 4 took 5.5 %
+/// off the Cornell box (three seeds), 15 % off the slit room, 4 % off the bunny's box, 3 % off
+/// the Mori knob and 0–1 % off the glossy Cornell box, the near-mirror floor, the glossy
+/// corner and the dense scene lit indirectly; HDR-FLIP at 20 s on the Cornell box was level
+/// (0.0248 → 0.0250). 8 took a little more off the slit room (9 %) and nothing more
+/// elsewhere, but raised the Cornell box's HDR-FLIP by 3 %.
+pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
+
 /// How many samples the weights count for a connection technique: a function of the
 /// iteration's light paths, the gather, the connection's two ends and how often next-event
 /// estimation finds the emitters unoccluded.
@@ -108,7 +125,7 @@ use crate::sampling::Sampler;
 /// - **The exhaustive gather** makes N connections per vertex, N samples of the technique:
 ///   every connection counts N.
 /// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
-///   contribution) counts at most 2k: its picks are k samples, and the VPLs they pick are
+///   contribution) counts at most 2k (4k between Lambertian ends, next item): its picks are k samples, and the VPLs they pick are
 ///   shared by every pixel, so that a larger count trades per-pixel noise for blotches.
 ///   Measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional weights"): 8
 ///   rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its worst pixel
@@ -117,7 +134,8 @@ use crate::sampling::Sampler;
 ///   between Lambertian ends lowered the Cornell box's relative MSE at 20 s by 10 % but
 ///   raised its HDR-FLIP by 15 % (`docs/measurements.md`,
 ///   "Connections counted by their ends").
-/// - **Between two Lambertian ends, the resampled gather** counts 2k / v, at most N, with v
+/// - **Between two Lambertian ends, the resampled gather** counts
+///   [`LAMBERTIAN_PICK_COUNT`] · k / v (4k / v), at most N, with v
 ///   the probability that next-event estimation from a point that light reaches directly
 ///   finds its emitter point unoccluded (measured by the pilot of
 ///   [`super::path_count::Pilot`]). The competitor of such a connection z_1 → z_2 is
@@ -125,7 +143,7 @@ use crate::sampling::Sampler;
 ///   hidden behind an opening (the slit room: v = 0.15–0.18), and whose effective count is then v
 ///   samples, not one; the connection's estimate is the unoccluded contribution itself but
 ///   for the albedos' colours (power × the geometry term, [`super::resample`]), so its picks
-///   are well placed. Where the emitters are in view (v ≈ 1) this is 2k as before. A glossy
+///   are well placed. Where the emitters are in view (v ≈ 1) this is 4k. A glossy
 ///   end keeps 2k: the estimate leaves the lobe out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Counts {
@@ -150,11 +168,12 @@ impl Counts {
             Gather::Tree { samples } => (n.min(2.0 * samples as f32), n.min(2.0 * samples as f32)),
             Gather::Resampled { samples, .. } => {
                 let k2 = 2.0 * samples as f32;
+                let in_view = LAMBERTIAN_PICK_COUNT * samples as f32;
                 // Not measured: as if in view; measured and nothing in view: N.
                 let lambertian = match visibility {
-                    v if v.is_nan() => k2,
+                    v if v.is_nan() => in_view,
                     v if v <= 0.0 => n,
-                    v => k2 / v.min(1.0),
+                    v => in_view / v.min(1.0),
                 };
                 (n.min(k2), n.min(lambertian))
             }
@@ -779,8 +798,8 @@ mod tests {
     }
 
     /// The counts' rule: the exhaustive gather N; the light tree and a glossy end 2k; two
-    /// Lambertian ends with the resampled gather 2k / v, at most N (N where nothing was in
-    /// view, 2k where nothing was measured).
+    /// Lambertian ends with the resampled gather 4k / v, at most N (N where nothing was in
+    /// view, 4k where nothing was measured).
     #[test]
     fn counts_follow_the_gather_the_ends_and_the_visibility() {
         let lambert = Bsdf::Diffuse { albedo: Vec3::splat(0.5) };
@@ -803,9 +822,9 @@ mod tests {
                 "{v}"
             );
             let expected = match v {
-                v if v.is_nan() => 8.0,
+                v if v.is_nan() => 16.0,
                 v if v <= 0.0 => 512.0,
-                v => (8.0 / v).min(512.0),
+                v => (16.0 / v).min(512.0),
             };
             assert!(close(count(c, &lambert, &lambert), expected), "{v}: {c:?}");
             assert_eq!(c.between(None, &glossy), 1.0);
