@@ -643,7 +643,8 @@ mod with_embree {
             let e =
                 Embree::with_settings(&p, &t, EmbreeSettings { packet_width: width, ..Default::default() })
                     .unwrap();
-            for len in [1, 3, 15, 16, 17, 100] {
+            // Tails of every packet width after whole packets of every width.
+            for len in [1, 3, 4, 5, 8, 9, 15, 16, 17, 20, 24, 25, 100] {
                 let rays = &rays[..len];
                 let mut hits = vec![None; len];
                 let mut occ = vec![true; len];
