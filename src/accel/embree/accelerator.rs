@@ -43,7 +43,7 @@ impl Accelerator for Embree<'_> {
         let natives: Vec<String> = d.native_packet_widths().iter().map(|w| w.to_string()).collect();
         format!(
             "embree {} (API {}, CPU ISA {}, native packets {}, tasking {}): {} triangles, {} quality, \
-             built in {:.1} ms, {} buffers, {}-wide batches",
+             built in {:.1} ms, {} buffers, batches in {}-wide packets (a short tail narrower)",
             d.version(),
             // SAFETY: a pure function of the shim returning a constant.
             unsafe { sys::pir_embree_major() },

@@ -23,8 +23,9 @@
 //!   convention as [`Hit`]. `primID` is the index into the `indices` slice.
 //! - Queries use the INCOHERENT flag (set in the C shim): COHERENT was ~2× slower for
 //!   divergent shadow rays here.
-//! - Batches are cut into packets of 4, 8 or 16 rays (the tail padded with inactive lanes),
-//!   one Embree call per packet that has an active lane.
+//! - Batches are cut into packets of the configured width (4, 8 or 16 rays), the tail into
+//!   the narrowest packet that holds it (padded with inactive lanes), one Embree call per
+//!   packet that has an active lane.
 
 use glam::Vec3;
 
@@ -166,8 +167,8 @@ impl CommittedScene<'_> {
 /// The packet width for the last `rest` rays of a batch traced `width` at a time (`rest` <
 /// `width`): the narrowest of 4, 8 and 16 that holds them. Why: Embree traverses a packet's
 /// tree once for all its lanes, so a 16-wide packet costs about as much whether 4 of its lanes
-/// are active or 16, and the resampled gather of `pir-mis` and `pir-bdpt` queues only its k = 4
-/// shadow rays per receiver. With a 16-wide packet for them, `pir-bdpt` on the Cornell box
+/// are active or 16, and the resampled gather (`pir-mis`, `pir-bdpt`, and the thesis'
+/// methods with `--gather resample`) queues only its k = 4 shadow rays per receiver. With a 16-wide packet for them, `pir-bdpt` on the Cornell box
 /// (AVX-512, 256², 64 iterations) took 9.5 CPU seconds; with 4-wide ones 8.8 (single rays:
 /// 8.7), for the same image. A width narrower than a native one is native too (a device's
 /// native widths are 4; 4 and 8; or 4, 8 and 16).

@@ -3,7 +3,7 @@
 //! | field | type | default | meaning |
 //! |---|---|---|---|
 //! | `quality` | [`BuildQuality`] | `Medium` | BVH build quality (`High` ≈ 5× slower build, for long renders) |
-//! | `packet_width` | [`PacketWidth`] | `Auto` | width of the packets used by the batch queries (`Auto`: widest native) |
+//! | `packet_width` | [`PacketWidth`] | `Auto` | width of the packets used by the batch queries, but for a batch's tail, which takes the narrowest that holds it (`Auto`: widest native) |
 
 use std::fmt;
 use std::str::FromStr;
@@ -54,7 +54,8 @@ impl FromStr for BuildQuality {
     }
 }
 
-/// The packet width used by `intersect_batch` / `occluded_batch`.
+/// The packet width used by `intersect_batch` / `occluded_batch` (a batch's tail goes in the
+/// narrowest of 4, 8 and 16 lanes that holds it).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PacketWidth {
     /// The widest width the device supports natively (16 with AVX-512, 8 with AVX2, else 4).
