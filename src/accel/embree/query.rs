@@ -138,29 +138,31 @@ impl CommittedScene<'_> {
     /// Closest hits for a batch, in packets of `width` (4, 8 or 16) rays, the tail in the
     /// narrowest packet that holds it ([`tail_width`]).
     pub(super) fn intersect_batch(&self, width: usize, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        assert_eq!(rays.len(), hits.len());
-        for (w, range) in packet_runs(rays.len(), width) {
-            let (rays, hits) = (&rays[range.clone()], &mut hits[range]);
-            match w {
-                16 => self.intersect16(rays, hits),
-                8 => self.intersect8(rays, hits),
-                _ => self.intersect4(rays, hits),
-            }
-        }
+        by_packets(width, rays, hits, |w, rays, hits| match w {
+            16 => self.intersect16(rays, hits),
+            8 => self.intersect8(rays, hits),
+            _ => self.intersect4(rays, hits),
+        });
     }
 
     /// Occlusion for a batch, in packets of `width` (4, 8 or 16) rays, the tail in the
     /// narrowest packet that holds it ([`tail_width`]).
     pub(super) fn occluded_batch(&self, width: usize, rays: &[Ray], occluded: &mut [bool]) {
-        assert_eq!(rays.len(), occluded.len());
-        for (w, range) in packet_runs(rays.len(), width) {
-            let (rays, occluded) = (&rays[range.clone()], &mut occluded[range]);
-            match w {
-                16 => self.occluded16(rays, occluded),
-                8 => self.occluded8(rays, occluded),
-                _ => self.occluded4(rays, occluded),
-            }
-        }
+        by_packets(width, rays, occluded, |w, rays, occluded| match w {
+            16 => self.occluded16(rays, occluded),
+            8 => self.occluded8(rays, occluded),
+            _ => self.occluded4(rays, occluded),
+        });
+    }
+}
+
+/// Traces `rays` into `out` run by run ([`packet_runs`] of `width`), handing `trace` each
+/// run's packet width and its rays and results.
+#[inline(always)]
+fn by_packets<T>(width: usize, rays: &[Ray], out: &mut [T], mut trace: impl FnMut(usize, &[Ray], &mut [T])) {
+    assert_eq!(rays.len(), out.len());
+    for (w, range) in packet_runs(rays.len(), width) {
+        trace(w, &rays[range.clone()], &mut out[range]);
     }
 }
 
@@ -168,10 +170,11 @@ impl CommittedScene<'_> {
 /// `width`): the narrowest of 4, 8 and 16 that holds them. Why: Embree traverses a packet's
 /// tree once for all its lanes, so a 16-wide packet costs about as much whether 4 of its lanes
 /// are active or 16, and the resampled gather (`pir-mis`, `pir-bdpt`, and the thesis'
-/// methods with `--gather resample`) queues only its k = 4 shadow rays per receiver. With a 16-wide packet for them, `pir-bdpt` on the Cornell box
-/// (AVX-512, 256², 64 iterations) took 9.5 CPU seconds; with 4-wide ones 8.8 (single rays:
-/// 8.7), for the same image. A width narrower than a native one is native too (a device's
-/// native widths are 4; 4 and 8; or 4, 8 and 16).
+/// methods with `--gather resample`) queues only its k = 4 shadow rays per receiver. With a
+/// 16-wide packet for them, `pir-bdpt` on the Cornell box (AVX-512, 256², 64 iterations)
+/// took 9.5 CPU seconds; with 4-wide ones 8.8 (single rays: 8.7), for the same image. A
+/// width narrower than a native one is native too (a device's native widths are 4; 4 and 8;
+/// or 4, 8 and 16).
 fn tail_width(rest: usize, width: usize) -> usize {
     [4, 8, 16].into_iter().find(|&w| w >= rest).unwrap_or(width).min(width)
 }

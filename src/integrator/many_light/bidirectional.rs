@@ -106,13 +106,14 @@ use crate::sampling::Sampler;
 /// of the image's; since an iteration traces at least 256 light paths and a window holds
 /// 128 of its 600-odd VPLs (the Cornell box), neighbouring pixels share far fewer of them
 /// than with 64 paths, where the window was every VPL. Measured (2026-12-04, `pir render
-/// … --method pir-bdpt --seed s`, seeds 1–2, 1–3 on the Cornell box, relative MSE against the references at fixed iterations,
-/// the same time; `docs/measurements.md`, "Lambertian connections count 4k"): 2 → 4 took 5.5 %
-/// off the Cornell box (three seeds), 15 % off the slit room, 4 % off the bunny's box, 3 % off
-/// the Mori knob and 0–1 % off the glossy Cornell box, the near-mirror floor, the glossy
-/// corner and the dense scene lit indirectly; HDR-FLIP at 20 s on the Cornell box was level
-/// (0.0251 either way, the mean of six seeds). 8 took a little more off the slit room (9 %) and nothing more
-/// elsewhere, but raised the Cornell box's HDR-FLIP by 3 %.
+/// … --method pir-bdpt --seed s`, seeds 1–2, 1–3 on the Cornell box, relative MSE against
+/// the references at fixed iterations, the same time; `docs/measurements.md`, "Lambertian
+/// connections count 4k"): 2 → 4 took 5.5 % off the Cornell box, 15 % off the slit room,
+/// 4 % off the bunny's box, 3 % off the Mori knob and 0–1 % off the glossy Cornell box, the
+/// near-mirror floor, the glossy corner and the dense scene lit indirectly; HDR-FLIP at 20 s
+/// on the Cornell box was level (0.0251 either way, the mean of six seeds). 8 took a little
+/// more off the slit room (9 %) and nothing more elsewhere, but raised the Cornell box's
+/// HDR-FLIP by 3 %.
 pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 
 /// How many samples the weights count for a connection technique: a function of the
@@ -126,7 +127,8 @@ pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 ///   every connection counts N.
 /// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
 ///   contribution) counts at most 2k (the resampled gather between Lambertian ends 4k / v,
-///   next item): its picks are k samples, and the VPLs they pick are shared by every pixel, so that a larger count trades per-pixel noise for blotches.
+///   next item): its picks are k samples, and the VPLs they pick are shared by every pixel,
+///   so that a larger count trades per-pixel noise for blotches.
 ///   Measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional weights"): 8
 ///   rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its worst pixel
 ///   by 20 %, the near-mirror floor's by 8 % and 54 %; with 64 paths, 64 rather than 8

@@ -15,8 +15,9 @@
 //! Parameters (flags of `pir render`):
 //! - `--vpls N` light paths per iteration (default [`DEFAULT_PATHS`]; `pir-bdpt`
 //!   [`BDPT_PATHS`](crate::integrator::BDPT_PATHS), or more where they leave fewer than
-//!   [`BDPT_VPLS`](crate::integrator::BDPT_VPLS) VPLs, chosen by the scene: [`path_count`]). Each leaves a virtual light at every non-delta
-//!   vertex that reflects the light it receives.
+//!   [`BDPT_VPLS`](crate::integrator::BDPT_VPLS) VPLs, chosen by the scene: [`path_count`]).
+//!   Each leaves a virtual light at every non-delta vertex that reflects the light it
+//!   receives.
 //! - `--clamp B` the bound b (`ir-clamp`) or b_1 (`pir-clamp`), in 1/length². Default
 //!   ([`Clamping::default_bound`]): 100 / diagonal², the G of two facing surfaces a tenth of
 //!   the scene's diagonal apart, so the default needs no tuning whatever the scene's units.
