@@ -16,10 +16,12 @@
 //!
 //! **Traversal** ([`traverse`]): per ray, the inverse direction and direction signs are
 //! precomputed; one ray is tested against a node's eight boxes at once, with loops over the
-//! lanes that LLVM vectorises (safe code), compiled for SSE2 and for AVX2 (one `ymm` operation
-//! per plane), the version picked at run time by the CPU's features. The slab test picks each
+//! lanes that LLVM vectorises (safe code), compiled for SSE2, for AVX2 (one `ymm` operation
+//! per plane) and for AVX-512 (the same, with 32 registers), the version picked at run time by
+//! the CPU's features. The slab test picks each
 //! axis' near and far planes from the sign, with a finite inverse direction so that a ray in a
 //! box's plane gives no NaN (`0 · ∞`), and combines the axes as a tree of minima and maxima.
+//! Several hit children are ordered by rank (an 8-wide comparison each), not by a sort loop.
 //! Closest-hit visits children nearest first, keeps the others on a stack with their entry
 //! distances (prefetching them on large trees) and drops any that starts beyond the closest hit
 //! so far. `occluded` stops at the first hit. A pack's four triangles are tested at once with
