@@ -21,7 +21,7 @@
 //! the CPU's features. The slab test picks each
 //! axis' near and far planes from the sign, with a finite inverse direction so that a ray in a
 //! box's plane gives no NaN (`0 · ∞`), and combines the axes as a tree of minima and maxima.
-//! Several hit children are ordered by rank (an 8-wide comparison each), not by a sort loop.
+//! Three or more hit children are ordered by rank (an 8-wide comparison each), not by a loop.
 //! Closest-hit visits children nearest first, keeps the others on a stack with their entry
 //! distances (prefetching them on large trees) and drops any that starts beyond the closest hit
 //! so far. `occluded` stops at the first hit. A pack's four triangles are tested at once with

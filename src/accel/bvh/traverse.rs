@@ -26,17 +26,17 @@
 //! 0.91, 0.89 → 0.85, 0.80 (dragon) of Embree's rate and the rest level to 7 % slower: the hardware
 //! predicts that branch far better than the simulation does.
 //!
-//! Measured the same day, before the ranks, and not kept: a tree whose leaves are split further while the wide node
-//! they land in has free lanes (Embree's builder does this: a node, once split, splits its
-//! largest children until it has eight, whatever the SAH says of a child; pir's binary SAH
-//! made a leaf of up to eight triangles whenever it was cheaper than a split, and the collapse
-//! never opens a leaf). With such "soft" splits, undone into one leaf where the wide node is
-//! full, the trees' statistics matched Embree's own (`verbose=2`: bunny 17,698 leaves against
-//! 17,779, SAH of the leaves 2.54 against 2.55 instead of 3.36; dragon 4.19 against 4.10
-//! instead of 4.91), instructions fell 2–3 %, and the rates did not move (occlusion bunny 0.72,
-//! 0.71 → 0.73, 0.73; dragon 0.74, 0.72 → 0.72, 0.69; closest hit 1–8 % lower). The slab test's
-//! minimum-and-maximum form (see below) was measured again on this machine: 10 % fewer
-//! instructions, occlusion bunny 0.74, 0.73 → 0.72, 0.72, dragon 0.75, 0.73 → 0.67, 0.70.
+//! Measured the same day, before the ranks, and not kept: a tree whose leaves are split further
+//! while the wide node they land in has free lanes (Embree's builder does this: a node, once split,
+//! splits its largest children until it has eight, whatever the SAH says of a child; pir's binary
+//! SAH made a leaf of up to eight triangles whenever it was cheaper than a split, and the collapse
+//! never opens a leaf). With such "soft" splits, undone into one leaf where the wide node is full,
+//! the trees' statistics matched Embree's own (`verbose=2`: bunny 17,698 leaves against 17,779, SAH
+//! of the leaves 2.54 against 2.55 instead of 3.36; dragon 4.19 against 4.10 instead of 4.91),
+//! instructions fell 2–3 %, and the rates did not move (occlusion bunny 0.72, 0.71 → 0.73, 0.73;
+//! dragon 0.74, 0.72 → 0.72, 0.69; closest hit 1–8 % lower). The slab test's minimum-and-maximum
+//! form (see below) was measured again on this machine: 10 % fewer instructions, occlusion bunny
+//! 0.74, 0.73 → 0.72, 0.72, dragon 0.75, 0.73 → 0.67, 0.70.
 //!
 //! **AVX-512 at run time (2026-12-04).** A third version of the two entry points is compiled
 //! for AVX-512, which `multiversion` picks only on CPUs with Ice Lake's set of AVX-512
@@ -92,34 +92,31 @@
 //! as fast (interleaved `accel_ratio`, three runs of 15 rounds), but the 1M scene's gather
 //! pattern fell from 1.48 to 0.97× Embree's rate in the same runs: not kept.
 //!
-//! **AVX2 at run time.** The default build targets plain x86-64 (SSE2), where eight lanes take
-//! two 4-wide operations. The two entry points are therefore compiled twice with the
-//! `multiversion` crate, once more for AVX2 + FMA, and the version the CPU supports is picked
-//! at run time (safe code; the choice is cached). The box test is written as plain loops over
-//! `[f32; 8]` lanes, which LLVM turns into one `ymm` operation per plane in the AVX2 version,
-//! except the lanes' mask, which that version takes from one 8-wide comparison
-//! ([`mask_avx`], an intrinsic called where AVX is enabled): with the mask made from two
-//! 4-lane halves, as the SSE2 version does, LLVM also computed the exit distances in halves,
-//! and a node's test took about 60 instructions instead of 38. Under callgrind the bunny's
-//! occlusion went from 61.5 to 55.7 M instructions; interleaved `accel_ratio` rounds
-//! (2026-12-04, one thread, 1 M rays, median of five) gave closest hit 0.80 → 0.83 (bunny),
-//! 0.76 → 0.80 (dragon), 0.78 → 0.83 (1M scene) of Embree's rate, the bunny's occlusion 0.73 →
-//! 0.77 and its gather pattern 0.83 → 0.89; the dragon's and the 1M scene's occlusion and
-//! gather, which wait on memory, level. A third version for AVX-512 (F, BW, VL, DQ), which this
-//! machine kind's Intel CPUs have, was measured there the same day and not kept then: bunny
-//! occlusion 0.74 → 0.71 and closest hit 0.77 → 0.73, dragon 0.70 → 0.72 and 0.74 → 0.77 (it
-//! is now, see above). Nor was a
-//! traversal specialised for each of the eight direction octants (the near and far planes'
-//! offsets constants, a match on the octant per ray, eight copies of the loop): interleaved
-//! `accel_ratio` rounds, current → specialised, closest hit 0.83 → 0.74 (bunny), 0.84 →
-//! 0.76 (dragon), 0.84 → 0.80 (1M scene), occlusion 1–4 % lower, the gather pattern 0.91 →
-//! 0.93, 0.94 → 1.05, 1.66 → 1.71.
-//! Both versions perform the same IEEE operations (Rust never fuses a multiply and an add on
-//! its own), so they give identical hits. The AVX2 version also prefetches the children it
-//! pushes, on trees larger than a core's L2 cache: traversal mostly waits on node and leaf
-//! loads, and a deferred child is usually visited later (always by any-hit). That gave
-//! 1.05–1.2× on the bunny, dragon and 1M scene and cost a few percent on a tiny scene, hence
-//! the size threshold.
+//! **AVX2 at run time.** The default build targets plain x86-64 (SSE2), where eight lanes take two
+//! 4-wide operations. The two entry points are therefore compiled more than once with the
+//! `multiversion` crate, once more for AVX2 + FMA (and for AVX-512: see above), and the version the
+//! CPU supports is picked at run time (safe code; the choice is cached). The box test is written as
+//! plain loops over `[f32; 8]` lanes, which LLVM turns into one `ymm` operation per plane in the
+//! AVX2 version, except the lanes' mask, which that version takes from one 8-wide comparison
+//! ([`mask_avx`], an intrinsic called where AVX is enabled): with the mask made from two 4-lane
+//! halves, as the SSE2 version does, LLVM also computed the exit distances in halves, and a node's
+//! test took about 60 instructions instead of 38. Under callgrind the bunny's occlusion went from
+//! 61.5 to 55.7 M instructions; interleaved `accel_ratio` rounds (2026-12-04, one thread, 1 M rays,
+//! median of five) gave closest hit 0.80 → 0.83 (bunny), 0.76 → 0.80 (dragon), 0.78 → 0.83 (1M
+//! scene) of Embree's rate, the bunny's occlusion 0.73 → 0.77 and its gather pattern 0.83 → 0.89;
+//! the dragon's and the 1M scene's occlusion and gather, which wait on memory, level. A third
+//! version for AVX-512 (F, BW, VL, DQ), which this machine kind's Intel CPUs have, was measured
+//! there the same day and not kept then: bunny occlusion 0.74 → 0.71 and closest hit 0.77 → 0.73,
+//! dragon 0.70 → 0.72 and 0.74 → 0.77 (it is now, see above). Nor was a traversal specialised for
+//! each of the eight direction octants (the near and far planes' offsets constants, a match on the
+//! octant per ray, eight copies of the loop): interleaved `accel_ratio` rounds, current →
+//! specialised, closest hit 0.83 → 0.74 (bunny), 0.84 → 0.76 (dragon), 0.84 → 0.80 (1M scene),
+//! occlusion 1–4 % lower, the gather pattern 0.91 → 0.93, 0.94 → 1.05, 1.66 → 1.71. All versions
+//! perform the same IEEE operations (Rust never fuses a multiply and an add on its own), so they
+//! give identical hits. The AVX2 and AVX-512 versions also prefetch the children they push, on
+//! trees larger than a core's L2 cache: traversal mostly waits on node and leaf loads, and a
+//! deferred child is usually visited later (always by any-hit). That gave 1.05–1.2× on the bunny,
+//! dragon and 1M scene and cost a few percent on a tiny scene, hence the size threshold.
 //!
 //! The slab test picks each axis' near and far planes from the direction's sign, as an index
 //! (`bounds[axis][negative]`, the minima and maxima of an axis being adjacent arrays) rather
@@ -337,7 +334,8 @@ fn cmp_sse(entry: &[f32; WIDTH], e: f32) -> (u32, u32) {
 }
 
 /// What the traversal's versions (see [`closest_hit_dispatch`]) do differently: `prefetch` a
-/// deferred child ([`prefetch_child`] in the AVX2 version, nothing otherwise), make the
+/// deferred child ([`prefetch_child`] in the AVX2 and AVX-512 versions, nothing otherwise), make
+/// the
 /// mask of the lanes whose entry is at most their exit ([`mask_avx`] or [`mask_sse`]), and
 /// compare one entry distance with all eight ([`cmp_avx`] or [`cmp_sse`]).
 struct Isa<P, M, C> {
@@ -378,7 +376,7 @@ fn mask_avx(entry: &[f32; WIDTH], exit: &[f32; WIDTH]) -> u32 {
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(e, x)) as u32
 }
 
-/// [`cmp_sse`] on all eight lanes at once, for the AVX2 version (see [`mask_avx`]).
+/// [`cmp_sse`] on all eight lanes at once, for the AVX2 and AVX-512 versions (see [`mask_avx`]).
 #[cfg(target_arch = "x86_64")]
 #[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "avx")]
@@ -397,12 +395,15 @@ fn cmp_avx(entry: &[f32; WIDTH], e: f32) -> (u32, u32) {
 
 /// Prefetches the node or the triangle packs of a deferred child (four cache lines: a node, or
 /// a leaf's first pack and a half) on trees large enough to profit (`Bvh::prefetch`). Called
-/// from the AVX2 versions only, where it was measured to pay; the intrinsic, and so this
-/// function, is safe to call only where the target features are enabled, as in those versions.
+/// from the AVX2 and AVX-512 versions only, where it was measured to pay; the intrinsic, and so
+/// this function, is safe to call only where the target features are enabled, as in those
+/// versions.
 ///
 /// A build whose own target already has AVX2 (`RUSTFLAGS="-C target-cpu=native"` on such a
-/// CPU) does not prefetch: `multiversion` then compiles the traversal once, without a
-/// `#[target_feature]` context, from which the intrinsic cannot be called in safe code.
+/// CPU) does not prefetch: `multiversion` then compiles its baseline version without a
+/// `#[target_feature]` context, from which the intrinsic cannot be called in safe code, and the
+/// `cfg` that keeps the call out of it applies to every version of that build (its AVX-512
+/// version, where the CPU has one, also takes the 4-lane mask and comparison).
 #[cfg(target_arch = "x86_64")]
 #[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "sse")]
@@ -426,8 +427,9 @@ fn prefetch_child(v: View, c: ChildRef) {
 }
 
 /// The [`Isa`] of the version it is expanded in (inside a `#[multiversion]` function, whose
-/// `match_target!` it uses): the AVX2 version prefetches deferred children of `$v` and takes
-/// its mask from one 8-wide comparison.
+/// `match_target!` it uses): the AVX2 and AVX-512 versions prefetch deferred children of `$v`,
+/// take the mask from one 8-wide comparison and compare an entry distance with all lanes in
+/// one.
 macro_rules! isa {
     ($v:ident) => {
         match_target! {
@@ -458,7 +460,9 @@ macro_rules! isa {
 
 /// [`Bvh::closest_hit`], compiled for AVX-512 and AVX2 as well as for the build's target and
 /// picked at run time by the CPU's features (see the module docs); the versions differ in their
-/// [`Isa`] (the AVX-512 version takes the AVX2 one's).
+/// [`Isa`] (the AVX-512 version takes the AVX2 one's). `multiversion` adds Ice Lake's AVX-512
+/// extensions (VBMI, VNNI, GFNI and others) to the features listed for the AVX-512 version, so
+/// older AVX-512 CPUs, which slow down under it, get the AVX2 version.
 #[multiversion(targets("x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
 fn closest_hit_dispatch(v: View, ray: &Ray) -> Option<Hit> {
     let isa = isa!(v);
@@ -649,34 +653,69 @@ mod tests {
         assert_eq!(enters(Vec3::new(0.5, 0.5, 2.0), Vec3::Z), 0, "box behind the ray");
     }
 
+    /// [`push_sorted`] in the version the entry points dispatch to (with [`cmp_avx`] on a CPU
+    /// with AVX2).
+    #[multiversion(targets("x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
+    fn push_dispatched(
+        v: View,
+        n: &Node8,
+        mask: u32,
+        entry: &[f32; WIDTH],
+        stack: &mut [(ChildRef, f32); 16],
+        sp: &mut usize,
+    ) -> ChildRef {
+        let isa = isa!(v);
+        let _ = v; // (unused by the baseline version's `Isa`)
+        push_sorted(&isa.prefetch, &isa.cmp, n, mask, entry, stack, sp)
+    }
+
     /// Hit children are pushed farthest first, ties in lane order, and the nearest is returned:
-    /// for every set of two or more hit lanes, over distances with many ties.
+    /// for every set of two or more hit lanes, over distances with many ties (zeros of both
+    /// signs, which compare equal, and an infinity), in the build's version and the dispatched
+    /// one.
     #[test]
     fn push_sorted_orders_children_farthest_first() {
+        let bvh = Bvh::new(&testmesh::cornell_like().positions, &testmesh::cornell_like().indices);
         let mut n = Node8::EMPTY;
         for (lane, c) in n.child.iter_mut().enumerate() {
             *c = ChildRef { index: 100 + lane as u32, count: 0 };
         }
-        let entry: [f32; WIDTH] = [2.0, 1.0, 2.0, 0.5, 1.0, 3.0, 1.0, 0.0];
-        for mask in 0u32..256 {
-            if mask.count_ones() < 2 {
-                continue;
-            }
-            let mut want: Vec<usize> = (0..WIDTH).filter(|&l| mask >> l & 1 == 1).collect();
-            want.sort_by(|&a, &b| entry[b].total_cmp(&entry[a]).then(a.cmp(&b)));
-            let mut stack = [(ChildRef::default(), 0f32); 16];
-            let mut sp = 3;
-            let isa = Isa::BASELINE;
-            let near = push_sorted(&isa.prefetch, &isa.cmp, &n, mask, &entry, &mut stack, &mut sp);
-            assert_eq!(sp, 3 + want.len() - 1, "{mask:08b}");
-            assert_eq!(near, n.child[*want.last().unwrap()], "{mask:08b}");
-            for (k, &lane) in want[..want.len() - 1].iter().enumerate() {
-                assert_eq!(stack[3 + k], (n.child[lane], entry[lane]), "{mask:08b}: slot {k}");
+        let entries: [[f32; WIDTH]; 2] =
+            [[2.0, 1.0, 2.0, 0.5, 1.0, 3.0, 1.0, 0.0], [0.0, -0.0, 1.0, f32::INFINITY, 0.0, 1.0, -0.0, 1.0]];
+        for entry in &entries {
+            for mask in 0u32..256 {
+                if mask.count_ones() < 2 {
+                    continue;
+                }
+                let mut want: Vec<usize> = (0..WIDTH).filter(|&l| mask >> l & 1 == 1).collect();
+                want.sort_by(|&a, &b| entry[b].partial_cmp(&entry[a]).unwrap().then(a.cmp(&b)));
+                let isa = Isa::BASELINE;
+                let baseline = |stack: &mut _, sp: &mut _| {
+                    push_sorted(&isa.prefetch, &isa.cmp, &n, mask, entry, stack, sp)
+                };
+                let dispatched =
+                    |stack: &mut _, sp: &mut _| push_dispatched(bvh.view(), &n, mask, entry, stack, sp);
+                for push in [&baseline as &dyn Fn(&mut _, &mut _) -> ChildRef, &dispatched] {
+                    let mut stack = [(ChildRef::default(), 0f32); 16];
+                    let mut sp = 3;
+                    let near = push(&mut stack, &mut sp);
+                    assert_eq!(sp, 3 + want.len() - 1, "{mask:08b}");
+                    assert_eq!(near, n.child[*want.last().unwrap()], "{mask:08b}");
+                    for (k, &lane) in want[..want.len() - 1].iter().enumerate() {
+                        let (c, t) = stack[3 + k];
+                        assert_eq!(
+                            (c, t.to_bits()),
+                            (n.child[lane], entry[lane].to_bits()),
+                            "{mask:08b}: {k}"
+                        );
+                    }
+                }
             }
         }
     }
 
-    /// The dispatched entry points (the AVX2 version on a CPU that has it) give the same hits,
+    /// The dispatched entry points (the AVX-512 or AVX2 version on a CPU that has it) give the
+    /// same hits,
     /// bit for bit, as the traversal compiled for the build's target, which this test calls
     /// directly; random rays, and axis-aligned rays that meet boxes' faces edge-on.
     #[test]
