@@ -116,7 +116,7 @@ const STATE_KEY: &str = "pir.job.state";
 /// format 7 before `pir-bdpt` traced at least 256 light paths (a stored job without `vpls`
 /// meant at least 64), format 8 before `pir-bdpt` counted a resampled connection between
 /// Lambertian ends 4k rather than 2k (which changes its images of a seed).
-const FORMAT: &str = "9";
+const FORMAT: u32 = 9;
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -237,17 +237,16 @@ pub fn read_state(path: &Path) -> Result<Saved> {
             )
         })
     };
-    match get(FORMAT_KEY)? {
-        FORMAT => {}
-        old @ ("1" | "2" | "3" | "4" | "5" | "6" | "7" | "8") => bail!(
-            "{}: written by an older pir (resumable-state format {old}), which this pir cannot resume or \
-             merge (it reads format {FORMAT}): render it again with this pir",
-            path.display()
-        ),
-        other => bail!(
-            "{}: resumable-state format {other} is not the one this pir reads ({FORMAT})",
-            path.display()
-        ),
+    let format = get(FORMAT_KEY)?;
+    if format != FORMAT.to_string() {
+        if (1..FORMAT).any(|old| old.to_string() == format) {
+            bail!(
+                "{}: written by an older pir (resumable-state format {format}), which this pir cannot resume \
+                 or merge (it reads format {FORMAT}): render it again with this pir",
+                path.display()
+            );
+        }
+        bail!("{}: resumable-state format {format} is not the one this pir reads ({FORMAT})", path.display());
     }
     let StoredState { job, shard, iterations } = serde_json::from_str(get(STATE_KEY)?)
         .with_context(|| format!("{}: malformed {STATE_KEY}", path.display()))?;

@@ -10,8 +10,8 @@
 //! steps that depends on the distances; valgrind's branch simulation counted 9.4 mispredicted
 //! branches per occlusion ray on the bunny against Embree's 7.3, 1.3 of them in that loop. Each
 //! hit child now goes straight to its slot: its rank is the number of hit children farther than
-//! it, or as far and in an earlier lane (one 8-wide comparison of its distance with all lanes,
-//! `>` and `==`, and a popcount), which gives the same order. Same trees, same hits; 3.6 % fewer
+//! it, or as far and in an earlier lane (its distance compared with all lanes both ways by the
+//! box test's 8-wide mask, and a popcount), which gives the same order. Same trees, same hits; 3.6 % fewer
 //! instructions (bunny occlusion 55.7 → 53.8 M under callgrind), and on the AMD EPYC (Zen 4)
 //! machine, `RAYS=1000000 accel_ratio ratio SCENE WORKLOAD 5`, two pairs of runs, old → new
 //! BVH/Embree rate: occlusion bunny 0.71, 0.74 → 0.80, 0.82, dragon 0.74, 0.71 → 0.81, 0.80;
@@ -249,11 +249,7 @@ impl RayBoxes {
         &self,
         n: &Node8,
         tmax: f32,
-        isa: &Isa<
-            impl Fn(ChildRef),
-            impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32,
-            impl Fn(&[f32; WIDTH], f32) -> (u32, u32),
-        >,
+        isa: &Isa<impl Fn(ChildRef), impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32>,
     ) -> (u32, [f32; WIDTH]) {
         let mut t0 = [[0.0; WIDTH]; 3];
         let mut t1 = [[0.0; WIDTH]; 3];
@@ -280,8 +276,7 @@ impl RayBoxes {
 /// and returns the nearest one, which is not pushed.
 #[inline(always)]
 fn push_sorted<const N: usize>(
-    pf: &impl Fn(ChildRef),
-    cmp: &impl Fn(&[f32; WIDTH], f32) -> (u32, u32),
+    isa: &Isa<impl Fn(ChildRef), impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32>,
     n: &Node8,
     mut mask: u32,
     entry: &[f32; WIDTH],
@@ -295,59 +290,47 @@ fn push_sorted<const N: usize>(
         let second = rest.trailing_zeros() as usize;
         let (near, far) = if entry[first] < entry[second] { (first, second) } else { (second, first) };
         stack[*sp] = (n.child[far], entry[far]);
-        pf(n.child[far]);
+        (isa.prefetch)(n.child[far]);
         *sp += 1;
         return n.child[near];
     }
     // Three or more: each hit child goes straight to its place, farthest first, its rank the
     // number of hit children that come before it (farther, or as far and in an earlier lane):
-    // no data-dependent loop, whose exits a branch predictor misses.
+    // no data-dependent loop, whose exits a branch predictor misses. The box test's mask
+    // compares the distance with all lanes, both ways (no distance is NaN): the lanes at least
+    // as far (`ge`) and at most as far (`le`); farther is `ge` but not `le`.
     let all = mask;
     let k = all.count_ones() as usize;
     while mask != 0 {
         let lane = mask.trailing_zeros() as usize;
         mask &= mask - 1;
         let e = entry[lane];
-        let (gt, eq) = cmp(entry, e);
+        let ge = (isa.mask)(&[e; WIDTH], entry);
+        let le = (isa.mask)(entry, &[e; WIDTH]);
         let before = (1u32 << lane) - 1;
-        let rank = (all & (gt | (eq & before))).count_ones() as usize;
+        let rank = (all & ge & (!le | before)).count_ones() as usize;
         stack[*sp + rank] = (n.child[lane], e);
     }
     for &(c, _) in &stack[*sp..*sp + k - 1] {
-        pf(c);
+        (isa.prefetch)(c);
     }
     *sp += k - 1;
     stack[*sp].0
 }
 
-/// The lanes of `entry` greater than `e` and those equal to it (bit per lane).
-#[inline(always)]
-fn cmp_sse(entry: &[f32; WIDTH], e: f32) -> (u32, u32) {
-    let (mut gt, mut eq) = (0, 0);
-    let s = Vec4::splat(e);
-    for k in 0..WIDTH / 4 {
-        let x = Vec4::from_slice(&entry[4 * k..]);
-        gt |= x.cmpgt(s).bitmask() << (4 * k);
-        eq |= x.cmpeq(s).bitmask() << (4 * k);
-    }
-    (gt, eq)
-}
-
 /// What the traversal's versions (see [`closest_hit_dispatch`]) do differently: `prefetch` a
-/// deferred child ([`prefetch_child`] in the AVX2 and AVX-512 versions, nothing otherwise), make
-/// the
-/// mask of the lanes whose entry is at most their exit ([`mask_avx`] or [`mask_sse`]), and
-/// compare one entry distance with all eight ([`cmp_avx`] or [`cmp_sse`]).
-struct Isa<P, M, C> {
+/// deferred child ([`prefetch_child`] in the AVX2 and AVX-512 versions, nothing otherwise), and
+/// make the mask of the lanes whose first distances are at most the second ([`mask_avx`] or
+/// [`mask_sse`]: the box test's entry against exit, and the ranks of [`push_sorted`]).
+struct Isa<P, M> {
     prefetch: P,
     mask: M,
-    cmp: C,
 }
 
-impl Isa<fn(ChildRef), fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32, fn(&[f32; WIDTH], f32) -> (u32, u32)> {
+impl Isa<fn(ChildRef), fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32> {
     /// The version for the build's target, which the tests compare the dispatched one with.
     #[cfg(test)]
-    const BASELINE: Self = Isa { prefetch: |_| {}, mask: mask_sse, cmp: cmp_sse };
+    const BASELINE: Self = Isa { prefetch: |_| {}, mask: mask_sse };
 }
 
 /// Bit `l` set where `entry[l] <= exit[l]`, four lanes at a time with glam's `bitmask`
@@ -374,23 +357,6 @@ fn mask_avx(entry: &[f32; WIDTH], exit: &[f32; WIDTH]) -> u32 {
     use std::arch::x86_64::{__m256, _CMP_LE_OQ, _mm256_cmp_ps, _mm256_movemask_ps};
     let (e, x): (__m256, __m256) = (bytemuck::cast(*entry), bytemuck::cast(*exit));
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(e, x)) as u32
-}
-
-/// [`cmp_sse`] on all eight lanes at once, for the AVX2 and AVX-512 versions (see [`mask_avx`]).
-#[cfg(target_arch = "x86_64")]
-#[cfg_attr(target_feature = "avx2", allow(dead_code))]
-#[target_feature(enable = "avx")]
-#[inline]
-fn cmp_avx(entry: &[f32; WIDTH], e: f32) -> (u32, u32) {
-    use std::arch::x86_64::{
-        __m256, _CMP_EQ_OQ, _CMP_GT_OQ, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_set1_ps,
-    };
-    let x: __m256 = bytemuck::cast(*entry);
-    let s = _mm256_set1_ps(e);
-    (
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(x, s)) as u32,
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(x, s)) as u32,
-    )
 }
 
 /// Prefetches the node or the triangle packs of a deferred child (four cache lines: a node, or
@@ -427,9 +393,8 @@ fn prefetch_child(v: View, c: ChildRef) {
 }
 
 /// The [`Isa`] of the version it is expanded in (inside a `#[multiversion]` function, whose
-/// `match_target!` it uses): the AVX2 and AVX-512 versions prefetch deferred children of `$v`,
-/// take the mask from one 8-wide comparison and compare an entry distance with all lanes in
-/// one.
+/// `match_target!` it uses): the AVX2 and AVX-512 versions prefetch deferred children of `$v`
+/// and take the mask from one 8-wide comparison.
 macro_rules! isa {
     ($v:ident) => {
         match_target! {
@@ -446,14 +411,8 @@ macro_rules! isa {
                     #[cfg(target_feature = "avx2")]
                     mask_sse(e, x)
                 },
-                cmp: |e: &[f32; WIDTH], x: f32| {
-                    #[cfg(not(target_feature = "avx2"))]
-                    return cmp_avx(e, x);
-                    #[cfg(target_feature = "avx2")]
-                    cmp_sse(e, x)
-                },
             },
-            _ => Isa { prefetch: |_: ChildRef| {}, mask: mask_sse, cmp: cmp_sse },
+            _ => Isa { prefetch: |_: ChildRef| {}, mask: mask_sse },
         }
     };
 }
@@ -516,11 +475,7 @@ impl View<'_> {
     fn closest_hit_with<const N: usize>(
         self,
         ray: &Ray,
-        isa: &Isa<
-            impl Fn(ChildRef),
-            impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32,
-            impl Fn(&[f32; WIDTH], f32) -> (u32, u32),
-        >,
+        isa: &Isa<impl Fn(ChildRef), impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32>,
     ) -> Result<Option<Hit>, Overflow> {
         let (nodes, packs) = (self.nodes, self.packs);
         let rb = RayBoxes::new(ray);
@@ -550,7 +505,7 @@ impl View<'_> {
                     } else if sp + WIDTH > N {
                         return Err(Overflow);
                     } else {
-                        push_sorted(&isa.prefetch, &isa.cmp, n, mask, &entry, &mut stack, &mut sp)
+                        push_sorted(isa, n, mask, &entry, &mut stack, &mut sp)
                     };
                     continue;
                 }
@@ -575,11 +530,7 @@ impl View<'_> {
     fn any_hit_with<const N: usize>(
         self,
         ray: &Ray,
-        isa: &Isa<
-            impl Fn(ChildRef),
-            impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32,
-            impl Fn(&[f32; WIDTH], f32) -> (u32, u32),
-        >,
+        isa: &Isa<impl Fn(ChildRef), impl Fn(&[f32; WIDTH], &[f32; WIDTH]) -> u32>,
     ) -> Result<bool, Overflow> {
         let (nodes, packs) = (self.nodes, self.packs);
         let rb = RayBoxes::new(ray);
@@ -605,7 +556,7 @@ impl View<'_> {
                     } else if sp + WIDTH > N {
                         return Err(Overflow);
                     } else {
-                        push_sorted(&isa.prefetch, &isa.cmp, n, mask, &entry, &mut stack, &mut sp)
+                        push_sorted(isa, n, mask, &entry, &mut stack, &mut sp)
                     };
                     continue;
                 }
@@ -653,7 +604,7 @@ mod tests {
         assert_eq!(enters(Vec3::new(0.5, 0.5, 2.0), Vec3::Z), 0, "box behind the ray");
     }
 
-    /// [`push_sorted`] in the version the entry points dispatch to (with [`cmp_avx`] on a CPU
+    /// [`push_sorted`] in the version the entry points dispatch to (with [`mask_avx`] on a CPU
     /// with AVX2).
     #[multiversion(targets("x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma", "x86_64+avx2+fma"))]
     fn push_dispatched(
@@ -666,7 +617,7 @@ mod tests {
     ) -> ChildRef {
         let isa = isa!(v);
         let _ = v; // (unused by the baseline version's `Isa`)
-        push_sorted(&isa.prefetch, &isa.cmp, n, mask, entry, stack, sp)
+        push_sorted(&isa, n, mask, entry, stack, sp)
     }
 
     /// Hit children are pushed farthest first, ties in lane order, and the nearest is returned:
@@ -690,9 +641,7 @@ mod tests {
                 let mut want: Vec<usize> = (0..WIDTH).filter(|&l| mask >> l & 1 == 1).collect();
                 want.sort_by(|&a, &b| entry[b].partial_cmp(&entry[a]).unwrap().then(a.cmp(&b)));
                 let isa = Isa::BASELINE;
-                let baseline = |stack: &mut _, sp: &mut _| {
-                    push_sorted(&isa.prefetch, &isa.cmp, &n, mask, entry, stack, sp)
-                };
+                let baseline = |stack: &mut _, sp: &mut _| push_sorted(&isa, &n, mask, entry, stack, sp);
                 let dispatched =
                     |stack: &mut _, sp: &mut _| push_dispatched(bvh.view(), &n, mask, entry, stack, sp);
                 for push in [&baseline as &dyn Fn(&mut _, &mut _) -> ChildRef, &dispatched] {

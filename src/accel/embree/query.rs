@@ -174,9 +174,9 @@ fn by_packets<T>(width: usize, rays: &[Ray], out: &mut [T], mut trace: impl FnMu
 /// 16-wide packet for them, `pir-bdpt` on the Cornell box (AVX-512, 256², 64 iterations)
 /// took 9.5 CPU seconds; with 4-wide ones 8.8 (single rays: 8.7), for the same image. A
 /// width narrower than a native one is native too (a device's native widths are 4; 4 and 8;
-/// or 4, 8 and 16).
+/// or 4, 8 and 16), and `width` itself is one of the candidates, so the pick never exceeds it.
 fn tail_width(rest: usize, width: usize) -> usize {
-    [4, 8, 16].into_iter().find(|&w| w >= rest).unwrap_or(width).min(width)
+    [4, 8, 16].into_iter().find(|&w| w >= rest).unwrap_or(width)
 }
 
 /// The runs of a batch of `len` rays in packets of `width`: the whole packets as one run of
