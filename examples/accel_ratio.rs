@@ -18,11 +18,16 @@
 //! `target/release/examples/accel_ratio` aside, change the code, build again, and run both in
 //! turn.
 //!
+//! Diagnostics, from the environment: `SPLIT=occluded` or `SPLIT=free` keeps only the rays that
+//! are (or are not) occluded, by brute force (which rays of the gather pattern cost what), and
+//! `REPEAT=K` traces each ray K times in a row, so that all but the first find the tree's nodes
+//! and triangles in cache (the work per ray without the memory traffic).
+//!
 //! Instruction counts of the traversal alone: `valgrind --tool=callgrind
 //! --toggle-collect='*hit_dispatch*' target/release/examples/accel_ratio bvh bunny occluded 1`.
 
 use pir::accel::testmesh::{self, Mesh, Workloads};
-use pir::accel::{Accelerator, Backend, Bvh, build_accelerator};
+use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};
 use pir::geometry::{Ray, VertexBuffer};
 
 /// CPU time of this thread in nanoseconds.
@@ -94,7 +99,21 @@ fn main() {
     if workload == "build" {
         return builds(mode, scene_name, &m, n);
     }
-    let rs = rays(&m, workload);
+    let mut rs = rays(&m, workload);
+    if let Ok(split) = std::env::var("SPLIT") {
+        let want = match split.as_str() {
+            "occluded" => true,
+            "free" => false,
+            _ => panic!("SPLIT={split}: expected occluded or free"),
+        };
+        let oracle = BruteForce::new(&m.positions, &m.indices);
+        rs.retain(|r| oracle.occluded(r) == want);
+        eprintln!("SPLIT={split}: {} rays", rs.len());
+    }
+    if let Ok(k) = std::env::var("REPEAT") {
+        let k: usize = k.parse().expect("REPEAT: a count");
+        rs = rs.iter().flat_map(|r| std::iter::repeat_n(*r, k)).collect();
+    }
     let query = match workload.as_str() {
         "closest" => Query::Closest,
         w if w.ends_with("-batch") => Query::OccludedBatch,
