@@ -43,7 +43,11 @@
 //! primitives and more (where the in-place partition has shuffled the mesh's order least): 1M
 //! scene 186, 189 ms → 182, 188 (4,096) and 184, 184 (16,384), dragon level. The SAH's `C_TRAV`
 //! at 0.5 or 2 instead of 1: traversal rates moved both ways by up to 8 % (bunny, dragon;
-//! random rays, segments, gather pattern), no consistent change.
+//! random rays, segments, gather pattern), no consistent change. A leaf of five to eight
+//! costed 1.3 pack tests instead of 2, since the AVX versions test both packs at once
+//! (2026-12-05, `accel_ratio`, two runs each): occlusion 0.90 → 0.93 (bunny), 0.88 → 0.90
+//! (dragon) of Embree's rate, but the gather pattern 0.97 → 0.94 (bunny), level (dragon), and
+//! the 1M scene's gather 1.43 → 1.32 and occlusion 1.03 → 0.90: not kept.
 
 use glam::{BVec3A, BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
