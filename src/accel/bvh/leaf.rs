@@ -127,6 +127,7 @@ impl Hits8 {
 /// order, so every lane gives bit for bit what `Tri4::hit` gives. The intrinsics are safe to
 /// call here, where AVX is enabled; so is this function, from code where it is.
 #[cfg(target_arch = "x86_64")]
+#[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "avx")]
 #[inline]
 pub(super) fn hit_pair_avx(p: &Tri4, q: &Tri4, r: &Ray4, tmin: f32, tmax: f32) -> Hits8 {

@@ -214,7 +214,7 @@ use multiversion::target::match_target;
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 use super::leaf::hit_pair_avx;
 use super::leaf::{Hits8, Ray4, Tri4};
 use super::wide::{ChildRef, Node8, WIDTH};
