@@ -24,7 +24,9 @@
 //! and triangles in cache (the work per ray without the memory traffic).
 //!
 //! Instruction counts of the traversal alone: `valgrind --tool=callgrind
-//! --toggle-collect='*hit_dispatch*' target/release/examples/accel_ratio bvh bunny occluded 1`.
+//! --toggle-collect='*hit_dispatch*' target/release/examples/accel_ratio bvh bunny occluded 1`
+//! (valgrind runs the AVX2 versions, pir's and Embree's); of the code the CPU really runs, AVX-512
+//! included, per ray of either backend: `docs/stepcount.py`, by single-stepping in gdb.
 
 use pir::accel::testmesh::{self, Mesh, Workloads};
 use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};

@@ -24,7 +24,11 @@
 //! its closest hits at 0.78–0.79× Embree's rate against 0.82×, and the 1M scene's occlusion
 //! (whose nodes, 10 MB, then stay on small pages too) at 0.70–0.71× against 0.74×. A render
 //! builds once, from fresh memory, where huge pages fault faster than small ones (48 MB: 6 ms
-//! against 16 ms once the machine has backed the memory).
+//! against 16 ms once the machine has backed the memory). Measured again for the bunny's
+//! queries (2026-12-05, `RAYS=3000000 accel_ratio ratio bunny WORKLOAD 7`, two or three runs,
+//! medians): from 2 MiB, its packs (4 MB) on huge pages, the gather pattern 0.939 → 0.949 of
+//! Embree's rate, occlusion 0.866 → 0.887, closest hit 1.028 → 1.038, within the runs'
+//! scatter; Embree's process had no huge pages for the bunny either (`AnonHugePages` 0).
 //!
 //! No `unsafe`: `memmap2` maps and advises, `bytemuck` views the bytes as `T` (the element
 //! types are plain old data, and a mapping is page-aligned, which satisfies their alignment).

@@ -37,6 +37,42 @@
 //! 0.910, bunny, and 1.000 → 0.977, dragon); lane order instead of the nearest first for two
 //! hit children (bunny gather 0.92 → 0.84, dragon 0.97 → 0.91, occlusion level).
 //!
+//! **Instructions on par with Embree's AVX-512 kernel (2026-12-05, later).** Counted with
+//! `docs/stepcount.py`, which single-steps the real code in gdb (valgrind cannot run AVX-512):
+//! the first 256 rays of the bunny's gather pattern take 819 instructions each in this
+//! traversal's AVX-512 version, from the dispatch on, and 794 in Embree's, from
+//! `rtcOccluded1` on. This traversal visits fewer nodes (6.7 a ray against 7.6) and tests more
+//! packs (2.9, a two-pack leaf counted as two, against 2.36). Embree's kernel, read from the
+//! same trace:
+//! - the slab test in the FMA form, and the entry-exit comparison on the integer bits into a
+//!   mask register (`vpcmpled`);
+//! - any-hit in lane order: the last hit lane entered, the others pushed unsorted, every child
+//!   prefetched;
+//! - a four-wide leaf test that checks `U`, `V` and the determinant first and leaves before
+//!   computing `T` when no lane passes.
+//!
+//! With each ray traced eight times in a row (caches warm, `REPEAT=8`) the BVH now runs at 0.89
+//! and 0.90 of Embree's rate (0.79 before the changes above), 0.94–0.95 cold. So what is left
+//! lies in how fast the same number of instructions runs (mispredicted branches, the
+//! node-to-node chain), which this VM cannot measure: it has no performance counters.
+//!
+//! Measured the same day, not kept (binaries alternating, `RAYS=3000000 accel_ratio ratio
+//! SCENE WORKLOAD 7`, two or three runs, medians, before → after):
+//! - Embree's leaf exit before `T` (the same hits: a lane that fails `u`, `v` or the
+//!   determinant fails either way). Bunny gather 0.939 → 0.939, occlusion 0.874 → 0.889, but
+//!   the box's gather 1.027 → 0.863 and 0.950: its large triangles pass `u` and `v` often, and
+//!   the exit branch then mispredicts.
+//! - Any-hit as a loop down the nodes with the leaf test after it, as Embree's kernel has it,
+//!   so that reaching a child by descent and by a pop are separate branches: bunny gather
+//!   0.948 → 0.952, the box's 1.027 → 0.974.
+//! - Both: bunny gather 0.939 → 0.949, dragon 0.976 → 0.992, the box's gather 1.027 → 0.905
+//!   and occlusion 0.879 → 0.826.
+//! - The FMA slab test in the AVX versions on top of both, without the guards that make it
+//!   conservative (only to see the gain), compiled to six `vfmadd` per node: bunny gather
+//!   0.949 → 0.948. Two cycles fewer on the node-to-node chain bought nothing measurable.
+//! - Two prefetched lines instead of four: bunny gather 0.937 → 0.951, dragon occlusion
+//!   0.829 → 0.799.
+//!
 //! **Sorting without a branch per comparison (2026-12-04).** Two hit children take one
 //! comparison. Three or more were sorted by insertion, whose inner loop ends after a number of
 //! steps that depends on the distances; valgrind's branch simulation counted 9.4 mispredicted
