@@ -7,8 +7,10 @@
 //! of single rays). Backends: Embree when pir is built with it, the BVH, and brute force on
 //! small meshes. Workloads run one after another, each on every backend in turn, so that the
 //! rates of one ratio are measured close together in time. Build times for the BVH and Embree. Scenes: a generated
-//! Cornell-like box, a generated ~1M-triangle closed scene and, when present, the Stanford bunny
-//! and dragon from `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
+//! Cornell-like box, a generated ~1M-triangle closed scene, the conference room of
+//! `scenes/conference-room` (331k triangles, many of them wall- or table-sized) and, when
+//! present, the Stanford bunny and dragon from `../shared/scenes` (or `../../shared/scenes`
+//! from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
 //! brute force only runs on small meshes.
 //!
 //! Run: `RAYON_NUM_THREADS=1 cargo bench --bench accel -- --noplot` (add `--quick` for a fast
@@ -49,6 +51,9 @@ fn load_obj(path: &Path) -> Option<Mesh> {
 
 fn scenes() -> Vec<(&'static str, Mesh)> {
     let mut v = vec![("cornell", testmesh::cornell_like()), ("closed1m", testmesh::closed_scene(1_000_000))];
+    // The production scene of `docs/batch.md`, in the repository.
+    let conference = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/conference.obj");
+    v.extend(load_obj(&conference).map(|m| ("conference", m)));
     let shared = testmesh::shared_scenes();
     for (name, file) in [("bunny", "bunny/bun_zipper.obj"), ("dragon", "dragon/dragon_vrip_res2.obj")] {
         if let Some(m) = load_obj(&shared.join(file)) {

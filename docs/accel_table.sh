@@ -11,8 +11,9 @@
 # shared machine; ratios taken within one run hold better). The ratio printed is the median
 # over runs of each run's ratio; Embree's own rate in parentheses is the median of its rates.
 # Builds run on every core (Embree's TBB threads and rayon's), and the BVH once more on one
-# thread. Scenes: the generated Cornell-like box and 1M-triangle closed scene, and the
-# Stanford bunny and dragon when `../shared/scenes` is present (see benches/accel.rs).
+# thread. Scenes: the generated Cornell-like box and 1M-triangle closed scene, the conference
+# room of scenes/conference-room, and the Stanford bunny and dragon when `../shared/scenes` is
+# present (see benches/accel.rs).
 # Without Embree, the BVH's absolute rates are printed instead of ratios.
 #
 # Environment: RUNS (overrides the argument), KEEP=DIR keeps criterion's output and the logs
@@ -34,7 +35,7 @@ else
     trap 'rm -rf "$out"' EXIT
 fi
 
-queries='^(cornell|bunny|dragon|closed1m)/(embree/(closest|occluded|gather)(-batch)?|bvh/(closest|occluded|gather))$'
+queries='^(cornell|bunny|dragon|closed1m|conference)/(embree/(closest|occluded|gather)(-batch)?|bvh/(closest|occluded|gather))$'
 if [[ -n ${BENCH:-} ]]; then
     bench() { "$BENCH" --bench "$@"; }
 else
@@ -94,7 +95,7 @@ def med(xs):
     return statistics.median(xs) if xs else None
 
 names = {"cornell": "Cornell-like box", "bunny": "bunny", "dragon": "dragon",
-         "closed1m": "generated closed scene"}
+         "closed1m": "generated closed scene", "conference": "conference room"}
 work = {"closest": "closest hit, random rays", "occluded": "occlusion, random segments",
         "gather": "one point → 1,024 targets"}
 
