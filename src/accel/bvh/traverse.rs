@@ -4,8 +4,9 @@
 //! directly; with several, they are sorted by entry distance, the nearest is entered and the
 //! others are pushed (farthest first) with their entry distance, which closest-hit checks again
 //! when it pops them: anything starting beyond the closest hit so far is skipped. Any-hit,
-//! which stops at the first hit, sorts two hit children the same way but three or more by exit
-//! distance: the box the ray leaves first is entered first (below).
+//! which stops at the first hit, sorts two hit children the same way (and by exit distance
+//! where their entries are equal) but three or more by exit distance: the box the ray leaves
+//! first is entered first (below).
 //!
 //! **Any-hit's order for three or more hit children (2026-12-05).** The conference room
 //! (`scenes/conference-room`, 331k triangles, added to `accel_ratio` for this) showed the
@@ -24,6 +25,15 @@
 //!   1.000 → 0.974 (its runs scatter by ±3 %);
 //! - occlusion: conference room 0.908 → 0.906, 1M scene 0.893 → 0.971, bunny 0.867 → 0.887,
 //!   dragon 0.833 → 0.841, box 0.891 → 0.891.
+//!
+//! Two hit children at the same entry distance (typically both boxes hold the ray's origin,
+//! which makes their entries `tmin`) were entered in lane order, the higher lane first. By exit
+//! distance instead, on top of the above (same command, two runs for the gather pattern, one
+//! for occlusion): gather pattern bunny 0.929 → 1.022, dragon 0.984 → 1.050, 1M scene 1.374 →
+//! 1.574, conference room 0.746 → 0.766, box 1.026 → 1.028; occlusion bunny 0.898 → 0.885,
+//! dragon 0.861 → 0.851, 1M scene 0.975 → 0.970, conference room 0.917 → 0.897, box 0.891 →
+//! 0.877 (single runs, within their scatter). A gather point in open space lies inside many
+//! of the upper levels' boxes, whose entries are then all `tmin`.
 //!
 //! Measured the same day for three or more, one run each (conference room, bunny, 1M scene
 //! gather): lane order 0.85, 0.98, 1.01; the farthest entry first 0.65, 0.51, 0.71; the longest
@@ -391,9 +401,10 @@ impl RayBoxes {
 
 /// Pushes all hit children of `n` (lanes in `mask`, at least two) on the stack with their entry
 /// distances, the child to visit last first, and returns the one to visit first, which is not
-/// pushed. Two children go by `entry`, the nearer first; three or more by `order`, its least
-/// first: closest-hit passes the entry distances (nearest first), any-hit the exit distances
-/// (the box the ray leaves first, first: see the module docs).
+/// pushed. Two children go by `entry`, the nearer first, and at the same entry by `order`;
+/// three or more by `order`, its least first. Closest-hit passes the entry distances (nearest
+/// first), any-hit the exit distances (the box the ray leaves first, first: see the module
+/// docs).
 #[inline(always)]
 fn push_sorted<const N: usize>(
     isa: &Isa<impl Prefetch, impl LaneMask, impl PairTest>,
@@ -404,12 +415,14 @@ fn push_sorted<const N: usize>(
     stack: &mut [(ChildRef, f32); N],
     sp: &mut usize,
 ) -> ChildRef {
-    // Two children, the most common case after one: a single comparison (ties as below).
+    // Two children, the most common case after one: a comparison (ties of both keys as below).
     let first = mask.trailing_zeros() as usize;
     let rest = mask & (mask - 1);
     if rest & (rest - 1) == 0 {
         let second = rest.trailing_zeros() as usize;
-        let (near, far) = if entry[first] < entry[second] { (first, second) } else { (second, first) };
+        let first_nearer =
+            entry[first] < entry[second] || (entry[first] == entry[second] && order[first] < order[second]);
+        let (near, far) = if first_nearer { (first, second) } else { (second, first) };
         stack[*sp] = (n.child[far], entry[far]);
         (isa.prefetch)(n.child[far]);
         *sp += 1;
@@ -867,8 +880,8 @@ mod tests {
     }
 
     /// Hit children are pushed with their entry distances, the greatest key first, ties in lane
-    /// order, and the least is returned; the key is the entry distance for two children and
-    /// `order` for three or more: for every set of two or more hit lanes, over distances with
+    /// order, and the least is returned; the key is the entry distance for two children (then
+    /// `order` where their entries are equal) and `order` for three or more: for every set of two or more hit lanes, over distances with
     /// many ties (zeros of both signs, which compare equal, and an infinity), with `order` the
     /// entries themselves (closest-hit) and other distances (any-hit's exits), in the build's
     /// version and the dispatched one.
@@ -892,9 +905,13 @@ mod tests {
                 if mask.count_ones() < 2 {
                     continue;
                 }
-                let key = if mask.count_ones() == 2 { entry } else { order };
+                // Two: by entry, then by order; three or more: by order; then by lane.
+                let (first, then) = if mask.count_ones() == 2 { (entry, order) } else { (order, order) };
                 let mut want: Vec<usize> = (0..WIDTH).filter(|&l| mask >> l & 1 == 1).collect();
-                want.sort_by(|&a, &b| key[b].partial_cmp(&key[a]).unwrap().then(a.cmp(&b)));
+                want.sort_by(|&a, &b| {
+                    let by = |k: &[f32; WIDTH]| k[b].partial_cmp(&k[a]).unwrap();
+                    by(first).then(by(then)).then(a.cmp(&b))
+                });
                 let isa = Isa::BASELINE;
                 let baseline =
                     |stack: &mut _, sp: &mut _| push_sorted(&isa, &n, mask, entry, order, stack, sp);
