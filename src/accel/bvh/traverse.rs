@@ -881,10 +881,10 @@ mod tests {
 
     /// Hit children are pushed with their entry distances, the greatest key first, ties in lane
     /// order, and the least is returned; the key is the entry distance for two children (then
-    /// `order` where their entries are equal) and `order` for three or more: for every set of two or more hit lanes, over distances with
-    /// many ties (zeros of both signs, which compare equal, and an infinity), with `order` the
-    /// entries themselves (closest-hit) and other distances (any-hit's exits), in the build's
-    /// version and the dispatched one.
+    /// `order` where their entries are equal) and `order` for three or more: for every set of
+    /// two or more hit lanes, over distances with many ties (zeros of both signs, which compare
+    /// equal, and an infinity), with `order` the entries themselves (closest-hit) and other
+    /// distances (any-hit's exits), in the build's version and the dispatched one.
     #[test]
     fn push_sorted_orders_children_farthest_first() {
         let bvh = Bvh::new(&testmesh::cornell_like().positions, &testmesh::cornell_like().indices);
