@@ -52,8 +52,7 @@ fn load_obj(path: &Path) -> Option<Mesh> {
 fn scenes() -> Vec<(&'static str, Mesh)> {
     let mut v = vec![("cornell", testmesh::cornell_like()), ("closed1m", testmesh::closed_scene(1_000_000))];
     // The production scene of `docs/batch.md`, in the repository.
-    let conference = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/conference.obj");
-    v.extend(load_obj(&conference).map(|m| ("conference", m)));
+    v.extend(load_obj(&testmesh::conference_room()).map(|m| ("conference", m)));
     let shared = testmesh::shared_scenes();
     for (name, file) in [("bunny", "bunny/bun_zipper.obj"), ("dragon", "dragon/dragon_vrip_res2.obj")] {
         if let Some(m) = load_obj(&shared.join(file)) {

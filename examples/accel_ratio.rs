@@ -29,8 +29,6 @@
 //! (valgrind runs the AVX2 versions, pir's and Embree's); of the code the CPU really runs, AVX-512
 //! included, per ray of either backend: `docs/stepcount.py`, by single-stepping in gdb.
 
-use std::path::Path;
-
 use pir::accel::testmesh::{self, Mesh, Workloads};
 use pir::accel::{Accelerator, Backend, BruteForce, Bvh, build_accelerator};
 use pir::geometry::{Ray, VertexBuffer};
@@ -52,7 +50,7 @@ fn scene(name: &str) -> Mesh {
         "bunny" => obj("bunny/bun_zipper.obj"),
         "dragon" => obj("dragon/dragon_vrip_res2.obj"),
         "conference" => {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/conference.obj");
+            let path = testmesh::conference_room();
             Mesh::from_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         }
         _ => panic!("unknown scene {name}"),

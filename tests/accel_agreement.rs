@@ -88,18 +88,13 @@ fn check_all_with(m: &Mesh, rays: &[Ray], what: &str, max_borderline: f64) -> us
     let hits = rays.iter().filter(|r| brute.intersect(r).is_some()).count();
     for acc in backends(&vertices, &m.indices) {
         let acc = acc.as_ref();
-        let mut batch = vec![None; rays.len()];
-        acc.intersect_batch(rays, &mut batch);
-        let mut occ = vec![false; rays.len()];
-        acc.occluded_batch(rays, &mut occ);
         if exact(acc) {
-            rays.iter().for_each(|r| _ = check(acc, &brute, r, what));
-            // The batched forms give the same answers.
-            for (i, r) in rays.iter().enumerate() {
-                assert_eq!(batch[i], acc.intersect(r), "{what}: batch");
-                assert_eq!(occ[i], batch[i].is_some(), "{what}: occluded batch");
-            }
+            check_exact(acc, &brute, rays, what);
         } else {
+            let mut batch = vec![None; rays.len()];
+            acc.intersect_batch(rays, &mut batch);
+            let mut occ = vec![false; rays.len()];
+            acc.occluded_batch(rays, &mut occ);
             let (mut th, mut to, mut tb) = (Tally::default(), Tally::default(), Tally::default());
             for (i, r) in rays.iter().enumerate() {
                 let want = brute.intersect(r);
@@ -114,6 +109,21 @@ fn check_all_with(m: &Mesh, rays: &[Ray], what: &str, max_borderline: f64) -> us
             to.assert_ok(&format!("{what}: {name} occluded"), max_borderline);
             tb.assert_ok(&format!("{what}: {name} batches vs single rays"), max_borderline);
         }
+    }
+    hits
+}
+
+/// Checks all `rays` on an exact backend against the oracle ([`check`]), and its batched forms
+/// against its single rays; returns how many hit.
+fn check_exact(acc: &dyn Accelerator, brute: &BruteForce, rays: &[Ray], what: &str) -> usize {
+    let hits = rays.iter().filter(|r| check(acc, brute, r, what)).count();
+    let mut batch = vec![None; rays.len()];
+    acc.intersect_batch(rays, &mut batch);
+    let mut occ = vec![false; rays.len()];
+    acc.occluded_batch(rays, &mut occ);
+    for (i, r) in rays.iter().enumerate() {
+        assert_eq!(batch[i], acc.intersect(r), "{what}: batch");
+        assert_eq!(occ[i], batch[i].is_some(), "{what}: occluded batch");
     }
     hits
 }
@@ -317,8 +327,7 @@ fn cornell_segments_and_gather_agree() {
 /// harness's tolerance; `accel_ratio ratio conference WORKLOAD` compares it with the BVH.)
 #[test]
 fn conference_room_agrees() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/conference.obj");
-    let m = Mesh::from_obj(&path).expect("the conference room's mesh");
+    let m = Mesh::from_obj(&testmesh::conference_room()).expect("the conference room's mesh");
     let b = m.bounds();
     let brute = oracle(&m);
     let vertices = VertexBuffer::from(m.positions.clone());
@@ -329,15 +338,7 @@ fn conference_room_agrees() {
         ("gather", testmesh::gather_rays(&m, b.min.lerp(b.max, 0.85), 300, 23)),
     ];
     for (what, rays) in &workloads {
-        let hits = rays.iter().filter(|r| check(bvh.as_ref(), &brute, r, what)).count();
-        let mut batch = vec![None; rays.len()];
-        bvh.intersect_batch(rays, &mut batch);
-        let mut occ = vec![false; rays.len()];
-        bvh.occluded_batch(rays, &mut occ);
-        for (i, r) in rays.iter().enumerate() {
-            assert_eq!(batch[i], bvh.intersect(r), "{what}: batch");
-            assert_eq!(occ[i], batch[i].is_some(), "{what}: occluded batch");
-        }
+        let hits = check_exact(bvh.as_ref(), &brute, rays, what);
         if *what != "random rays" {
             assert!(hits > 0 && hits < rays.len(), "{what}: {hits} of {} blocked", rays.len());
         }

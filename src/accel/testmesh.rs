@@ -239,6 +239,12 @@ pub fn random_segments(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// The conference room's mesh in the repository (`scenes/conference-room`, 331k triangles, many
+/// of them wall- or table-sized): the production scene of `docs/batch.md`.
+pub fn conference_room() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/conference-room/conference.obj")
+}
+
 /// The project's shared scene folder: `../shared/scenes` beside the checkout, or
 /// `../../shared/scenes` from a worktree in `wt/`; the first when neither exists.
 pub fn shared_scenes() -> PathBuf {
