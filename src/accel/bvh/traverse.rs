@@ -333,12 +333,21 @@ fn min(a: f32, b: f32) -> f32 {
 
 impl RayBoxes {
     /// The inverse direction is kept finite, ±`f32::MAX` for a zero component (`1 / ±0 =
-    /// ±∞`), so that no plane distance is `0 · ∞ = NaN` (see the module docs). A `tmin` of −0
-    /// becomes +0 (`−0 + 0 = +0`), whose bits are the smallest of any `f32` at least 0: the
-    /// entry distances' integer maxima in [`RayBoxes::enter`] need that.
+    /// ±∞`), so that no plane distance is `0 · ∞ = NaN` (see the module docs); and non-zero:
+    /// under flush-to-zero, which rendering threads set, a component beyond 2¹²⁶ has a
+    /// subnormal inverse, flushed to ±0, and the empty lanes' infinite planes would then give
+    /// `∞ · 0` (with all three components that large, the float version entered the empty
+    /// lanes, whose child is the root). Such an inverse becomes ±`f32::MIN_POSITIVE`, the
+    /// nearest value flush-to-zero can hold (that axis' distances up to twice the exact ones,
+    /// on rays whose triangle tests are at the edge of `f32`'s range anyway). A `tmin` of −0 becomes +0 (`−0 + 0 = +0`), whose
+    /// bits are the smallest of any `f32` at least 0: the entry distances' integer maxima in
+    /// [`RayBoxes::enter`] need that.
     #[inline]
     fn new(ray: &Ray) -> Self {
-        let inv = (1.0 / ray.dir).to_array().map(|i| i.clamp(-f32::MAX, f32::MAX));
+        let inv = (1.0 / ray.dir).to_array().map(|i| {
+            // (`== 0.0` is also true of a subnormal under denormals-are-zero.)
+            if i == 0.0 { f32::MIN_POSITIVE.copysign(i) } else { i.clamp(-f32::MAX, f32::MAX) }
+        });
         RayBoxes {
             o: ray.origin.to_array(),
             inv,
@@ -798,6 +807,54 @@ mod tests {
         assert_eq!(enters(Vec3::new(1.0, 1.0, 2.0), -Vec3::Z), 1, "along an edge, backwards");
         assert_eq!(enters(Vec3::new(1.0 + 1e-6, 0.5, -1.0), Vec3::Z), 0, "outside the x slab");
         assert_eq!(enters(Vec3::new(0.5, 0.5, 2.0), Vec3::Z), 0, "box behind the ray");
+    }
+
+    /// Under flush-to-zero a direction component beyond 2¹²⁶, whose inverse is subnormal, has an
+    /// inverse of 0, and the empty lanes' infinite planes then gave `∞ · 0 = NaN`: with all
+    /// three components that large, the float version entered the empty lanes (their child is
+    /// the root, so the traversal looped until its stack overflowed and any-hit answered "hit").
+    /// The BVH must answer as brute force does, in the build's version and the dispatched one.
+    #[test]
+    fn huge_directions_under_flush_to_zero() {
+        std::thread::spawn(|| {
+            use crate::accel::Accelerator;
+            crate::accel::set_flush_denormals();
+            let m = testmesh::sphere(12, 24);
+            let bvh = Bvh::new(&m.positions, &m.indices);
+            let brute = crate::accel::BruteForce::new(&m.positions, &m.indices);
+            let big = 2f32.powi(127);
+            let (mut hits, mut tried) = (0, 0);
+            // Origins near the unit sphere, so that the triangle test's products stay finite.
+            let dirs = [Vec3::splat(big), Vec3::new(-big, big, big), Vec3::new(big, 1.0, -big)];
+            for o in [
+                Vec3::ZERO,
+                Vec3::splat(0.1),
+                Vec3::splat(-1.5),
+                Vec3::new(1.5, -1.5, -1.5),
+                Vec3::new(-2.0, 0.3, 2.0),
+            ] {
+                for d in dirs {
+                    let r = Ray::new(o, d);
+                    // (Brute force may pick another triangle at the same distance: an edge.)
+                    let hit = brute.intersect(&r);
+                    assert!(hit.is_none_or(|h| h.u.is_finite() && h.v.is_finite()), "{o} {d}");
+                    let want = (hit.map(|h| h.t.to_bits()), brute.occluded(&r));
+                    let base = bvh.view().closest_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok().flatten();
+                    let base_any = bvh.view().any_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok();
+                    assert_eq!((base.map(|h| h.t.to_bits()), base_any), (want.0, Some(want.1)), "{o} {d}");
+                    assert_eq!(
+                        (bvh.view().closest_hit(&r), bvh.view().any_hit(&r)),
+                        (base, want.1),
+                        "{o} {d}"
+                    );
+                    hits += usize::from(want.1);
+                    tried += 1;
+                }
+            }
+            assert!(hits >= 3 && hits < tried, "{hits} of {tried}");
+        })
+        .join()
+        .unwrap();
     }
 
     /// [`RayBoxes::enter`] in the version the entry points dispatch to (with integer minima and
