@@ -217,8 +217,10 @@
 //! octant per ray, eight copies of the loop): interleaved `accel_ratio` rounds, current →
 //! specialised, closest hit 0.83 → 0.74 (bunny), 0.84 → 0.76 (dragon), 0.84 → 0.80 (1M scene),
 //! occlusion 1–4 % lower, the gather pattern 0.91 → 0.93, 0.94 → 1.05, 1.66 → 1.71. All versions
-//! perform the same IEEE operations (Rust never fuses a multiply and an add on its own), so they
-//! give identical hits. The AVX2 and AVX-512 versions also prefetch the children they push, on
+//! give identical hits: their arithmetic is the same IEEE operations (Rust never fuses a
+//! multiply and an add on its own), their integer minima and maxima give the same entries and
+//! masks but for boxes behind the ray ([`RayBoxes::enter`]), and [`hit_pair_avx`] the lanes of
+//! two [`Tri4::hit`]s. The AVX2 and AVX-512 versions also prefetch the children they push, on
 //! trees larger than a core's L2 cache: traversal mostly waits on node and leaf loads, and a
 //! deferred child is usually visited later (always by any-hit). That gave 1.05–1.2× on the bunny,
 //! dragon and 1M scene and cost a few percent on a tiny scene, hence the size threshold.
@@ -358,20 +360,24 @@ impl RayBoxes {
     }
 
     /// Which of `n`'s boxes the ray enters within `(tmin, tmax)` (bit per lane), and the entry
-    /// and exit distances. Plain loops over the lanes, which LLVM turns into one vector operation per
-    /// plane (two SSE or one AVX operation for eight lanes); the three axes' distances are
-    /// combined as a tree of minima and maxima, two deep, since the node-to-node chain of
-    /// dependent operations is what a traversal waits on.
+    /// and exit distances. Plain loops over the lanes, which LLVM turns into one vector
+    /// operation per plane (two SSE or one AVX operation for eight lanes); the three axes'
+    /// distances are combined as a tree of minima and maxima, two deep, since the node-to-node
+    /// chain of dependent operations is what a traversal waits on.
     ///
     /// With `integer_minmax` (the AVX2 and AVX-512 versions) the minima and maxima are taken
     /// of the distances' bits as `i32` (`vpminsd`, one cycle, against two or more for `vminps`;
     /// Embree does the same). For floats at least +0 the order of their bits is theirs, and
-    /// every entry includes `tmin` ≥ +0, so the entries are the floating-point maxima, but for
-    /// the sign of a zero. Among negative floats the order of the bits is reversed, so an exit
-    /// with a negative candidate comes out as some negative float or −0 instead of the most
-    /// negative: a box that the float test culls as behind the ray may then be entered when its
-    /// entry is 0. Nothing in such a box lies in `(tmin, tmax)`, and the other lanes keep their
-    /// order, so hits stay those of the float test, bit for bit (`all_versions_agree`).
+    /// every entry includes `tmin`, made +0 or more, which the float maxima return over a
+    /// candidate −0: the entries are the float test's, bit for bit. Among negative floats the
+    /// order of the bits is reversed, and −0 is the least `i32` of all, so an exit with a
+    /// negative or −0 candidate comes out as some negative float or −0 instead of the most
+    /// negative: a box that the float test culls as behind the ray may then be entered when
+    /// its entry is +0 (the ray leaves it through a face its origin lies on, exit −0). Nothing
+    /// in such a box lies in `(tmin, tmax)`. On the lanes both enter, the exits are equal as
+    /// floats (a zero's sign may differ). So any-hit's order may differ, never an answer, and
+    /// hits stay those of the float test, bit for bit (`box_test_versions_agree`,
+    /// `all_versions_agree`).
     #[inline(always)]
     fn enter(
         &self,
@@ -467,7 +473,8 @@ fn push_sorted<const N: usize>(
 /// - make the `mask` of the lanes whose first distances are at most the second ([`mask_avx`] or
 ///   [`mask_sse`]: the box test's entry against exit, and the ranks of [`push_sorted`]);
 /// - test both packs of a two-pack leaf (`pair`: [`hit_pair_avx`], eight lanes per operation,
-///   or [`pair_sse`], two four-lane tests);
+///   or [`pair_sse`], two four-lane tests, the second even when the first has hit: on CPUs
+///   without AVX2, and in builds whose target has it, see [`prefetch_child`]);
 /// - combine a box's plane distances with `integer_minmax` (see [`RayBoxes::enter`]).
 struct Isa<P, M, H> {
     prefetch: P,
@@ -533,8 +540,10 @@ fn mask_avx(entry: &[f32; WIDTH], exit: &[f32; WIDTH]) -> u32 {
 /// A build whose own target already has AVX2 (`RUSTFLAGS="-C target-cpu=native"` on such a
 /// CPU) does not prefetch: `multiversion` then compiles its baseline version without a
 /// `#[target_feature]` context, from which the intrinsic cannot be called in safe code, and the
-/// `cfg` that keeps the call out of it applies to every version of that build (its AVX-512
-/// version, where the CPU has one, also takes the 4-lane mask and comparison).
+/// `cfg` that keeps the call out of it applies to every version of that build (its AVX2 and
+/// AVX-512 versions also take the 4-lane mask and test a two-pack leaf as two packs with
+/// [`pair_sse`], whose second pack is tested even when the first has hit: any-hit's early exit
+/// and closest-hit's tighter `tmax` between the packs are lost, at a cost not measured).
 #[cfg(target_arch = "x86_64")]
 #[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "sse")]
@@ -943,7 +952,7 @@ mod tests {
     /// equal, and an infinity), with `order` the entries themselves (closest-hit) and other
     /// distances (any-hit's exits), in the build's version and the dispatched one.
     #[test]
-    fn push_sorted_orders_children_farthest_first() {
+    fn push_sorted_orders_children_by_key() {
         let bvh = Bvh::new(&testmesh::cornell_like().positions, &testmesh::cornell_like().indices);
         let mut n = Node8::EMPTY;
         for (lane, c) in n.child.iter_mut().enumerate() {
@@ -994,13 +1003,93 @@ mod tests {
         }
     }
 
+    /// Whether the entry points dispatch to a version with integer minima and maxima (on this
+    /// CPU: the AVX2 and AVX-512 versions, or every version of a build whose target has AVX2).
+    fn dispatches_integer_minmax() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            ["avx2", "fma", "bmi1", "bmi2", "lzcnt", "popcnt"].iter().all(|f| match *f {
+                "avx2" => std::arch::is_x86_feature_detected!("avx2"),
+                "fma" => std::arch::is_x86_feature_detected!("fma"),
+                "bmi1" => std::arch::is_x86_feature_detected!("bmi1"),
+                "bmi2" => std::arch::is_x86_feature_detected!("bmi2"),
+                "lzcnt" => std::arch::is_x86_feature_detected!("lzcnt"),
+                _ => std::arch::is_x86_feature_detected!("popcnt"),
+            })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// Rays that leave one of `n`'s boxes at `t = 0` through one face (their origin on it, the
+    /// exit distance −0) with the box behind them along another axis: the float test culls
+    /// the box, the integer minima (which take −0 as the least) enter it (see
+    /// [`RayBoxes::enter`]). One ray per non-empty lane.
+    fn behind_the_ray(n: &Node8) -> Vec<Ray> {
+        (0..WIDTH)
+            .filter(|&l| n.bounds[0][0][l] <= n.bounds[0][1][l])
+            .map(|l| {
+                let b = |a: usize, side: usize| n.bounds[a][side][l];
+                let o = Vec3::new(b(0, 0), 0.5 * (b(1, 0) + b(1, 1)), b(2, 1) + 0.5);
+                Ray::new(o, Vec3::new(-1.0, 0.0, 1.0))
+            })
+            .collect()
+    }
+
+    /// The box test's versions agree: every lane the float test enters, the dispatched version
+    /// enters at the same entry and exit distances (equal as floats: an exit of zero may differ
+    /// in its sign); a lane only the integer version enters is one the ray left at or before
+    /// `tmin` (entry +0, exit at most 0; the float exit negative). Every node of a tree, random
+    /// rays, segments and the rays of [`behind_the_ray`], which make the versions differ.
+    #[test]
+    fn box_test_versions_agree() {
+        let m = testmesh::sphere(20, 40);
+        let bvh = Bvh::new(&m.positions, &m.indices);
+        let b = m.bounds();
+        let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
+        let mut rays = testmesh::random_rays(&grown, 300, 11);
+        rays.extend(testmesh::gather_rays(&m, b.max * 1.5, 100, 12));
+        rays.extend(bvh.view().nodes.iter().flat_map(behind_the_ray));
+        let (mut entered, mut differ) = (0, 0);
+        for r in &rays {
+            let rb = RayBoxes::new(r);
+            for n in bvh.view().nodes.iter() {
+                for tmax in [r.tmax, 0.5] {
+                    let (mask, entry, exit) = rb.enter(n, tmax, &Isa::BASELINE);
+                    let (got, got_entry, got_exit) = enter_dispatched(bvh.view(), &rb, n, tmax);
+                    assert_eq!(got & mask, mask, "{r:?}");
+                    for l in (0..WIDTH).filter(|l| mask >> l & 1 == 1) {
+                        assert_eq!(got_entry[l].to_bits(), entry[l].to_bits(), "{r:?} {l}");
+                        assert_eq!(got_exit[l], exit[l], "{r:?} {l}");
+                    }
+                    for l in (0..WIDTH).filter(|l| (got ^ mask) >> l & 1 == 1) {
+                        assert!(got_entry[l].to_bits() == 0 && got_exit[l] <= 0.0 && exit[l] < 0.0, "{r:?}");
+                    }
+                    entered += mask.count_ones();
+                    differ += (got ^ mask).count_ones();
+                }
+            }
+        }
+        assert!(entered > 1000, "{entered}");
+        assert_eq!(differ > 0, dispatches_integer_minmax(), "{differ} lanes differ");
+    }
+
     /// The dispatched entry points (the AVX-512 or AVX2 version on a CPU that has it) give the
-    /// same hits,
-    /// bit for bit, as the traversal compiled for the build's target, which this test calls
-    /// directly; random rays, and axis-aligned rays that meet boxes' faces edge-on.
+    /// same hits, bit for bit, as the traversal compiled for the build's target, which this
+    /// test calls directly; random rays, axis-aligned rays that meet boxes' faces edge-on, the
+    /// gather pattern, the rays of [`behind_the_ray`] (where the versions enter different
+    /// boxes), and the same mesh with every triangle twice (ties between packs and leaves, which
+    /// the versions must break alike).
     #[test]
     fn all_versions_agree() {
         let m = testmesh::sphere(40, 80);
+        let twice = testmesh::Mesh { positions: m.positions.clone(), indices: m.indices.repeat(2) };
+        for m in [m, twice] {
+            versions_agree_on(&m);
+        }
+    }
+
+    fn versions_agree_on(m: &testmesh::Mesh) {
         let bvh = Bvh::new(&m.positions, &m.indices);
         let b = m.bounds();
         let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
@@ -1012,8 +1101,9 @@ mod tests {
             }
         }
         // The gather pattern: segments ending just short of the surface, from outside and inside.
-        rays.extend(testmesh::gather_rays(&m, b.max * 1.5, 500, 8));
-        rays.extend(testmesh::gather_rays(&m, b.min.lerp(b.max, 0.4), 500, 9));
+        rays.extend(testmesh::gather_rays(m, b.max * 1.5, 500, 8));
+        rays.extend(testmesh::gather_rays(m, b.min.lerp(b.max, 0.4), 500, 9));
+        rays.extend(bvh.view().nodes.iter().flat_map(behind_the_ray));
         let mut hits = 0;
         for r in &rays {
             let base = bvh.view().closest_hit_with::<STACK_MAX>(r, &Isa::BASELINE).ok().flatten();
