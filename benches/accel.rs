@@ -6,11 +6,11 @@
 //! and with the batched calls (`*-batch`: Embree's 16-wide packets; the BVH's batch is a loop
 //! of single rays). Backends: Embree when pir is built with it, the BVH, and brute force on
 //! small meshes. Workloads run one after another, each on every backend in turn, so that the
-//! rates of one ratio are measured close together in time. Build times for the BVH and Embree. Scenes: a generated
-//! Cornell-like box, a generated ~1M-triangle closed scene, the conference room of
-//! `scenes/conference-room` (331k triangles, many of them wall- or table-sized) and, when
-//! present, the Stanford bunny and dragon from `../shared/scenes` (or `../../shared/scenes`
-//! from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
+//! rates of one ratio are measured close together in time. Build times for the BVH and
+//! Embree. Scenes: a generated Cornell-like box, a generated ~1M-triangle closed scene, the
+//! conference room ([`testmesh::conference_room`], in the repository: a missing or broken
+//! file fails the run) and, when present, the Stanford bunny and dragon from
+//! `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
 //! brute force only runs on small meshes.
 //!
 //! Run: `RAYON_NUM_THREADS=1 cargo bench --bench accel -- --noplot` (add `--quick` for a fast
@@ -51,8 +51,10 @@ fn load_obj(path: &Path) -> Option<Mesh> {
 
 fn scenes() -> Vec<(&'static str, Mesh)> {
     let mut v = vec![("cornell", testmesh::cornell_like()), ("closed1m", testmesh::closed_scene(1_000_000))];
-    // The production scene of `docs/batch.md`, in the repository.
-    v.extend(load_obj(&testmesh::conference_room()).map(|m| ("conference", m)));
+    // The production scene of `docs/batch.md`, in the repository: never skipped.
+    let path = testmesh::conference_room();
+    let room = Mesh::from_obj(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    v.push(("conference", room));
     let shared = testmesh::shared_scenes();
     for (name, file) in [("bunny", "bunny/bun_zipper.obj"), ("dragon", "dragon/dragon_vrip_res2.obj")] {
         if let Some(m) = load_obj(&shared.join(file)) {

@@ -5,10 +5,10 @@
 //!     accel_ratio bvh SCENE WORKLOAD PASSES     the BVH alone (for valgrind --tool=callgrind)
 //!     accel_ratio embree SCENE WORKLOAD PASSES  Embree alone
 //!
-//! SCENE: cornell, bunny, dragon (from ../shared/scenes), closed1m or conference (the conference
-//! room of `scenes/conference-room`, 331k triangles, many of them wall- or table-sized); WORKLOAD: closest,
-//! occluded or gather, the rays of `benches/accel.rs`, occluded-batch or gather-batch, the same
-//! rays in one batched call (Embree's 16-wide packets; the BVH traces a batch ray by ray), or
+//! SCENE: cornell, bunny, dragon (from ../shared/scenes), closed1m or conference
+//! (`testmesh::conference_room`); WORKLOAD: closest, occluded or gather, the rays of
+//! `benches/accel.rs`, occluded-batch or gather-batch, the same rays in one batched call
+//! (Embree's 16-wide packets; the BVH traces a batch ray by ray), or
 //! `build`: the BVH's build time over Embree's (medium quality), both on every core (rayon's
 //! and TBB's threads), timed in wall time, alternating, a build of each per round (the ratio is
 //! of times: lower is better; `bvh SCENE build N` builds N times, for profilers). A round

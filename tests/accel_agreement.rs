@@ -321,8 +321,9 @@ fn cornell_segments_and_gather_agree() {
 /// The conference room (`scenes/conference-room`): 331k triangles, among them wall-, floor- and
 /// table-sized ones whose large, overlapping boxes give the BVH's any-hit order the most to do
 /// (see `src/accel/bvh/traverse.rs`); random rays, random segments and the gather pattern of
-/// the accel benchmark, a few hundred each, pir's BVH against brute force, exactly, single rays
-/// and batches. (Embree is left out here: on this scene's large triangles its barycentrics
+/// the accel benchmark, a few hundred each, pir's BVH against brute force with no borderline
+/// case allowed ([`check_exact`]: the same verdicts, distances within 1e-5), single rays and
+/// batches. (Embree is left out here: on this scene's large triangles its barycentrics
 /// differ from the oracle's by up to 4e-3 on a few gather rays in a hundred, beyond the
 /// harness's tolerance; `accel_ratio ratio conference WORKLOAD` compares it with the BVH.)
 #[test]
