@@ -3,8 +3,7 @@
 # cannot run (it reports a CPU without AVX-512, so that pir and Embree run their AVX2 code).
 #
 #     cargo build --release --example accel_ratio
-#     strip --strip-debug -o /tmp/ar target/release/examples/accel_ratio   # gdb steps slowly
-#                                                                       # through debug info
+#     strip --strip-debug -o /tmp/ar target/release/examples/accel_ratio   # (faster steps)
 #     BIN=/tmp/ar BACKEND=bvh SCENE=bunny WORKLOAD=gather RAYS=256 OUT=/tmp/bvh.txt \
 #         gdb -q -batch -x docs/stepcount.py
 #
@@ -40,7 +39,7 @@ gdb.execute("set pagination off")
 gdb.execute("set confirm off")
 gdb.execute("file " + binary)
 if backend == "embree":
-    gdb.execute("break " + ("rtcIntersect1" if closest else "rtcOccluded1"))
+    gdb.execute("break *" + ("rtcIntersect1" if closest else "rtcOccluded1"))
 elif backend == "bvh":
     entry = "closest_hit_dispatch" if closest else "any_hit_dispatch"
     version = env.get("VERSION", "avx512")
@@ -60,7 +59,7 @@ elif backend == "bvh":
     ]
     if not found:
         raise SystemExit(f"no {version} version of {entry} in {binary}")
-    gdb.execute("break " + found[0])
+    gdb.execute(f"break *'{found[0]}'")
 else:
     raise SystemExit(f"BACKEND={backend}: expected bvh or embree")
 
@@ -71,7 +70,12 @@ counts = []
 where = collections.Counter()
 inferior = gdb.selected_inferior()
 for k in range(skip + rays):
-    # At the entry breakpoint the return address is on top of the stack; step until it.
+    if not inferior.pid:
+        print(f"the program ended after {k} queries: fewer than SKIP + RAYS")
+        break
+    # The breakpoint is on the function's first instruction (`break *`: a plain `break`
+    # skips a prologue, after which the return address is no longer on top of the stack);
+    # step until the return.
     sp = int(gdb.parse_and_eval("$sp"))
     ret = int.from_bytes(bytes(inferior.read_memory(sp, 8)), "little")
     n = 0
@@ -87,9 +91,11 @@ for k in range(skip + rays):
         counts.append(n)
     gdb.execute("continue", to_string=True)
 
+mean = sum(counts) / max(len(counts), 1)
 with open(out, "w") as f:
-    f.write(f"{backend} {scene} {workload}: {len(counts)} rays, mean {sum(counts) / len(counts):.1f} instructions\n")
+    f.write(f"{backend} {scene} {workload}: {len(counts)} rays, mean {mean:.1f} instructions\n")
     f.write("per ray: " + " ".join(map(str, counts)) + "\n")
     for pc, c in sorted(where.items()):
         f.write(f"{pc:x} {c}\n")
-gdb.execute("kill")
+if inferior.pid:
+    gdb.execute("kill")
