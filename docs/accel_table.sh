@@ -9,7 +9,8 @@
 # second of each backend's single-ray calls, and of Embree's 16-wide packets, as ratios to
 # Embree's single-ray rate of the same run (absolute rates drift by ±15 % from run to run on a
 # shared machine; ratios taken within one run hold better). The ratio printed is the median
-# over runs of each run's ratio; Embree's own rate in parentheses is the median of its rates.
+# over runs of each run's ratio, with the range of the runs' ratios in brackets; Embree's own
+# rate in parentheses is the median of its rates.
 # Builds run on every core (Embree's TBB threads and rayon's), and the BVH once more on one
 # thread. Scenes: the generated Cornell-like box and 1M-triangle closed scene, the conference
 # room of scenes/conference-room, and the Stanford bunny and dragon when `../shared/scenes` is
@@ -90,6 +91,11 @@ def rate(res, key):
     ns, n = res[key]
     return n / ns * 1e3  # M elements per second
 
+def spread(rs):
+    """The median of per-run ratios, and their range when there are several."""
+    m = f"{statistics.median(rs):.2f}"
+    return m + (f" [{min(rs):.2f}–{max(rs):.2f}]" if len(rs) > 1 else "")
+
 def med(xs):
     xs = [x for x in xs if x is not None]
     return statistics.median(xs) if xs else None
@@ -106,7 +112,7 @@ scenes = [s for s in names if s in tris]
 have_embree = any(k.startswith(f"{s}/embree/") for s in scenes for k in runs_q[0])
 today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
 print(f"Measured {today} on {model} ({cores} cores){', Embree ' + embree if embree else ''}; "
-      f"median of {runs} runs of `docs/accel_table.sh`.")
+      f"median of {runs} runs of `docs/accel_table.sh` [their range].")
 print()
 if have_embree:
     print("| scene (triangles) | workload | Embree single (M rays/s) | Embree 16-wide | pir BVH |")
@@ -125,7 +131,7 @@ for s in scenes:
                     a, b = rate(q, k), rate(q, f"{s}/embree/{w}")
                     if a is not None and b:
                         rs.append(a / b)
-                return f"{statistics.median(rs):.2f}" if rs else "–"
+                return spread(rs) if rs else "–"
             print(f"| {label} | 1 ({e:.2f}) | {ratio(f'{s}/embree/{w}-batch')} | {ratio(f'{s}/bvh/{w}')} |")
         else:
             print(f"| {label} | {med(rate(q, f'{s}/bvh/{w}') for q in runs_q):.2f} |")
@@ -150,6 +156,6 @@ if have_embree:
     for s in scenes:
         rs = [b[f"build/bvh/{s}"][0] / b[f"build/embree/{s}"][0] for b in runs_b
               if f"build/bvh/{s}" in b and f"build/embree/{s}" in b]
-        cells.append(f"{statistics.median(rs):.2f}" if rs else "–")
+        cells.append(spread(rs) if rs else "–")
     print(f"| BVH / Embree ({cores} threads, ratio per run) | " + " | ".join(cells) + " |")
 EOF
