@@ -77,10 +77,12 @@
 //! `docs/stepcount.py`, which single-steps the real code in gdb (valgrind cannot run AVX-512):
 //! the first 256 rays of the bunny's gather pattern take 819 instructions each in this
 //! traversal's AVX-512 version, from the dispatch on, and 794 in Embree's, from
-//! `rtcOccluded1` on (after any-hit's exit order, above: 849, and 658 for random segments
-//! against Embree's 577, though the gather pattern runs faster than it did with 819). This traversal visits fewer nodes (6.7 a ray against 7.6) and tests more
-//! packs (2.9, a two-pack leaf counted as two, against 2.36). Embree's kernel, read from the
-//! same trace:
+//! `rtcOccluded1` on. This traversal visits fewer nodes (6.7 a ray against 7.6) and tests more
+//! packs (2.9, a two-pack leaf counted as two, against 2.36). (After any-hit's exit order,
+//! above: 849 against 794, and 658 against 577 for random segments, though the gather pattern
+//! runs faster than it did with 819. The dragon's random segments: 763 against 639, with 6.66
+//! node visits a segment against Embree's 6.84, the node test 34 instructions against 24.)
+//! Embree's kernel, read from the same trace:
 //! - the slab test in the FMA form, and the entry-exit comparison on the integer bits into a
 //!   mask register (`vpcmpled`);
 //! - any-hit in lane order: the last hit lane entered, the others pushed unsorted, every child
