@@ -562,7 +562,9 @@ fn prefetch_child(v: View, c: ChildRef) {
         v.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>()
     };
     // Four lines either way: a fixed count unrolls into four instructions without a loop
-    // branch, and the fourth line of a leaf is the start of its second pack.
+    // branch, and the fourth line of a leaf is the start of its second pack. (Two lines more
+    // for a two-pack leaf, all of its 320 bytes: dragon occlusion 0.848 → 0.849 of Embree's
+    // rate, `accel_ratio`, three alternating pairs, 2026-12-05; not kept.)
     _mm_prefetch::<_MM_HINT_T0>(p);
     _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
     _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
