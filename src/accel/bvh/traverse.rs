@@ -343,8 +343,10 @@ impl RayBoxes {
     /// subnormal inverse, flushed to ±0, and the empty lanes' infinite planes would then give
     /// `∞ · 0` (with all three components that large, the float version entered the empty
     /// lanes, whose child is the root). Such an inverse becomes ±`f32::MIN_POSITIVE`, the
-    /// nearest value flush-to-zero can hold (that axis' distances up to twice the exact ones,
-    /// on rays whose triangle tests are at the edge of `f32`'s range anyway). A `tmin` of −0 becomes +0 (`−0 + 0 = +0`), whose
+    /// nearest value flush-to-zero can hold: that axis' distances come out up to four times the
+    /// exact ones (the exact inverse is at least 2⁻¹²⁸), which is not conservative (a box the
+    /// ray enters could in principle be culled), on rays whose triangle tests are at the edge of
+    /// `f32`'s range anyway. A `tmin` of −0 becomes +0 (`−0 + 0 = +0`), whose
     /// bits are the smallest of any `f32` at least 0: the entry distances' integer maxima in
     /// [`RayBoxes::enter`] need that.
     #[inline]
@@ -476,8 +478,8 @@ fn push_sorted<const N: usize>(
 /// - make the `mask` of the lanes whose first distances are at most the second ([`mask_avx`] or
 ///   [`mask_sse`]: the box test's entry against exit, and the ranks of [`push_sorted`]);
 /// - test both packs of a two-pack leaf (`pair`: [`hit_pair_avx`], eight lanes per operation,
-///   or [`pair_sse`], two four-lane tests, the second even when the first has hit: on CPUs
-///   without AVX2, and in builds whose target has it, see [`prefetch_child`]);
+///   or [`pair_sse`], two four-lane tests with the same `tmax`, as the eight lanes have: on
+///   CPUs without AVX2, and in builds whose target has it, see [`prefetch_child`]);
 /// - combine a box's plane distances with `integer_minmax` (see [`RayBoxes::enter`]).
 struct Isa<P, M, H> {
     prefetch: P,
@@ -544,9 +546,8 @@ fn mask_avx(entry: &[f32; WIDTH], exit: &[f32; WIDTH]) -> u32 {
 /// CPU) does not prefetch: `multiversion` then compiles its baseline version without a
 /// `#[target_feature]` context, from which the intrinsic cannot be called in safe code, and the
 /// `cfg` that keeps the call out of it applies to every version of that build (its AVX2 and
-/// AVX-512 versions also take the 4-lane mask and test a two-pack leaf as two packs with
-/// [`pair_sse`], whose second pack is tested even when the first has hit: any-hit's early exit
-/// and closest-hit's tighter `tmax` between the packs are lost, at a cost not measured).
+/// AVX-512 versions also take the 4-lane mask and test a two-pack leaf as two 4-lane tests
+/// with [`pair_sse`] instead of one 8-lane test, at a cost not measured).
 #[cfg(target_arch = "x86_64")]
 #[cfg_attr(target_feature = "avx2", allow(dead_code))]
 #[target_feature(enable = "sse")]
@@ -562,7 +563,7 @@ fn prefetch_child(v: View, c: ChildRef) {
         v.nodes.as_ptr().wrapping_add(c.index as usize).cast::<i8>()
     };
     // Four lines either way: a fixed count unrolls into four instructions without a loop
-    // branch, and the fourth line of a leaf is the start of its second pack. (Two lines more
+    // branch, and a leaf's second pack starts at byte 160, in its third line. (Two lines more
     // for a two-pack leaf, all of its 320 bytes: dragon occlusion 0.848 → 0.849 of Embree's
     // rate, `accel_ratio`, three alternating pairs, 2026-12-05; not kept.)
     _mm_prefetch::<_MM_HINT_T0>(p);
@@ -830,45 +831,55 @@ mod tests {
     /// The BVH must answer as brute force does, in the build's version and the dispatched one.
     #[test]
     fn huge_directions_under_flush_to_zero() {
-        std::thread::spawn(|| {
-            use crate::accel::Accelerator;
-            crate::accel::set_flush_denormals();
-            let m = testmesh::sphere(12, 24);
-            let bvh = Bvh::new(&m.positions, &m.indices);
-            let brute = crate::accel::BruteForce::new(&m.positions, &m.indices);
-            let big = 2f32.powi(127);
-            let (mut hits, mut tried) = (0, 0);
-            // Origins near the unit sphere, so that the triangle test's products stay finite.
-            let dirs = [Vec3::splat(big), Vec3::new(-big, big, big), Vec3::new(big, 1.0, -big)];
-            for o in [
-                Vec3::ZERO,
-                Vec3::splat(0.1),
-                Vec3::splat(-1.5),
-                Vec3::new(1.5, -1.5, -1.5),
-                Vec3::new(-2.0, 0.3, 2.0),
-            ] {
-                for d in dirs {
-                    let r = Ray::new(o, d);
-                    // (Brute force may pick another triangle at the same distance: an edge.)
-                    let hit = brute.intersect(&r);
-                    assert!(hit.is_none_or(|h| h.u.is_finite() && h.v.is_finite()), "{o} {d}");
-                    let want = (hit.map(|h| h.t.to_bits()), brute.occluded(&r));
-                    let base = bvh.view().closest_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok().flatten();
-                    let base_any = bvh.view().any_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok();
-                    assert_eq!((base.map(|h| h.t.to_bits()), base_any), (want.0, Some(want.1)), "{o} {d}");
-                    assert_eq!(
-                        (bvh.view().closest_hit(&r), bvh.view().any_hit(&r)),
-                        (base, want.1),
-                        "{o} {d}"
-                    );
-                    hits += usize::from(want.1);
-                    tried += 1;
+        use crate::accel::Accelerator;
+        // Built here, not on the thread that sets flush-to-zero: the build may start rayon's
+        // pool, whose threads would inherit the setting for the rest of the test binary.
+        let m = testmesh::sphere(12, 24);
+        let bvh = Bvh::new(&m.positions, &m.indices);
+        let brute = crate::accel::BruteForce::new(&m.positions, &m.indices);
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                crate::accel::set_flush_denormals();
+                #[cfg(target_arch = "x86_64")]
+                assert!(crate::accel::flush_denormals_enabled());
+                // (Through `black_box`, so that no inverse is computed at compile time.)
+                let big = std::hint::black_box(2f32.powi(127));
+                let (mut hits, mut tried) = (0, 0);
+                // Origins near the unit sphere, so that the triangle test's products stay finite.
+                let dirs = [Vec3::splat(big), Vec3::new(-big, big, big), Vec3::new(big, 1.0, -big)];
+                for o in [
+                    Vec3::ZERO,
+                    Vec3::splat(0.1),
+                    Vec3::splat(-1.5),
+                    Vec3::new(1.5, -1.5, -1.5),
+                    Vec3::new(-2.0, 0.3, 2.0),
+                ] {
+                    for d in dirs {
+                        let r = Ray::new(o, d);
+                        // (Brute force may pick another triangle at the same distance: an edge.)
+                        let hit = brute.intersect(&r);
+                        assert!(hit.is_none_or(|h| h.u.is_finite() && h.v.is_finite()), "{o} {d}");
+                        let want = (hit.map(|h| h.t.to_bits()), brute.occluded(&r));
+                        let base =
+                            bvh.view().closest_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok().flatten();
+                        let base_any = bvh.view().any_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok();
+                        assert_eq!(
+                            (base.map(|h| h.t.to_bits()), base_any),
+                            (want.0, Some(want.1)),
+                            "{o} {d}"
+                        );
+                        assert_eq!(
+                            (bvh.view().closest_hit(&r), bvh.view().any_hit(&r)),
+                            (base, want.1),
+                            "{o} {d}"
+                        );
+                        hits += usize::from(want.1);
+                        tried += 1;
+                    }
                 }
-            }
-            assert!(hits >= 3 && hits < tried, "{hits} of {tried}");
-        })
-        .join()
-        .unwrap();
+                assert!(hits >= 3 && hits < tried, "{hits} of {tried}");
+            });
+        });
     }
 
     /// [`RayBoxes::enter`] in the version the entry points dispatch to (with integer minima and
