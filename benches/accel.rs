@@ -10,8 +10,8 @@
 //! Embree. Scenes: a generated Cornell-like box, a generated ~1M-triangle closed scene, the
 //! conference room ([`testmesh::conference_room`], in the repository: a missing or broken
 //! file fails the run) and, when present, the Stanford bunny and dragon from
-//! `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list of `Box<dyn Accelerator>`;
-//! brute force only runs on small meshes.
+//! `../shared/scenes` (or `../../shared/scenes` from a worktree). Backends come from one list
+//! of `Box<dyn Accelerator>`; brute force only runs on small meshes.
 //!
 //! Run: `RAYON_NUM_THREADS=1 cargo bench --bench accel -- --noplot` (add `--quick` for a fast
 //! pass; `RAYON_NUM_THREADS=1` makes the BVH build single-threaded too; Embree builds with its

@@ -112,7 +112,7 @@ scenes = [s for s in names if s in tris]
 have_embree = any(k.startswith(f"{s}/embree/") for s in scenes for k in runs_q[0])
 today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
 print(f"Measured {today} on {model} ({cores} cores){', Embree ' + embree if embree else ''}; "
-      f"median of {runs} runs of `docs/accel_table.sh` [their range].")
+      f"median of {runs} runs of `docs/accel_table.sh`{' [their range]' if runs > 1 else ''}.")
 print()
 if have_embree:
     print("| scene (triangles) | workload | Embree single (M rays/s) | Embree 16-wide | pir BVH |")

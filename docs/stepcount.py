@@ -36,6 +36,8 @@ out = env.get("OUT", "/dev/stdout")
 closest = workload == "closest"
 
 gdb.execute("set pagination off")
+# The quoted symbol names below are C syntax (gdb would pick Rust's from debug info).
+gdb.execute("set language c")
 gdb.execute("set confirm off")
 gdb.execute("file " + binary)
 if backend == "embree":
