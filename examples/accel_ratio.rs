@@ -144,10 +144,7 @@ fn run() -> Result<()> {
         _ => Query::Occluded,
     };
     let vertices = VertexBuffer::from(m.positions.clone());
-    let embree = || {
-        build_accelerator(Backend::Embree, &vertices, &m.indices)
-            .map_err(|e| anyhow::anyhow!("a build with Embree: {e}"))
-    };
+    let embree = || build_embree(&vertices, &m);
     match mode.as_str() {
         "bvh" => {
             let bvh = Bvh::new(&m.positions, &m.indices);
@@ -202,6 +199,12 @@ fn run() -> Result<()> {
     Ok(())
 }
 
+/// Embree's scene of `m`, or the reason there is none (a build of pir without Embree).
+fn build_embree<'a>(vertices: &'a VertexBuffer, m: &'a Mesh) -> Result<Box<dyn Accelerator + 'a>> {
+    build_accelerator(Backend::Embree, vertices, &m.indices)
+        .map_err(|e| anyhow::anyhow!("a build with Embree: {e}"))
+}
+
 /// The `build` workload: wall time of builds on every core.
 fn builds(mode: &str, scene_name: &str, m: &Mesh, n: usize) -> Result<()> {
     let vertices = VertexBuffer::from(m.positions.clone());
@@ -214,12 +217,9 @@ fn builds(mode: &str, scene_name: &str, m: &Mesh, n: usize) -> Result<()> {
     if mode != "bvh" {
         // (Fails early, before anything is timed, on a build without Embree; `bvh` mode, for
         // profilers, builds no Embree scene at all.)
-        build_accelerator(Backend::Embree, &vertices, &m.indices)
-            .map_err(|e| anyhow::anyhow!("a build with Embree: {e}"))?;
+        build_embree(&vertices, m)?;
     }
-    let embree = || {
-        drop(std::hint::black_box(build_accelerator(Backend::Embree, &vertices, &m.indices).expect("Embree")))
-    };
+    let embree = || drop(std::hint::black_box(build_embree(&vertices, m).expect("Embree")));
     match mode {
         "bvh" => (0..n).for_each(|_| bvh()),
         "embree" => (0..n).for_each(|_| embree()),

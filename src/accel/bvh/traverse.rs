@@ -1019,19 +1019,19 @@ mod tests {
         }
     }
 
+    /// `b` scaled by two about the origin: a box around a mesh centred there, for rays that
+    /// start outside it.
+    fn doubled(b: crate::geometry::Aabb) -> crate::geometry::Aabb {
+        crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 }
+    }
+
     /// Whether the entry points dispatch to a version with integer minima and maxima (on this
     /// CPU: the AVX2 and AVX-512 versions, or every version of a build whose target has AVX2).
     fn dispatches_integer_minmax() -> bool {
         #[cfg(target_arch = "x86_64")]
         {
-            ["avx2", "fma", "bmi1", "bmi2", "lzcnt", "popcnt"].iter().all(|f| match *f {
-                "avx2" => std::arch::is_x86_feature_detected!("avx2"),
-                "fma" => std::arch::is_x86_feature_detected!("fma"),
-                "bmi1" => std::arch::is_x86_feature_detected!("bmi1"),
-                "bmi2" => std::arch::is_x86_feature_detected!("bmi2"),
-                "lzcnt" => std::arch::is_x86_feature_detected!("lzcnt"),
-                _ => std::arch::is_x86_feature_detected!("popcnt"),
-            })
+            use std::arch::is_x86_feature_detected as has;
+            has!("avx2") && has!("fma") && has!("bmi1") && has!("bmi2") && has!("lzcnt") && has!("popcnt")
         }
         #[cfg(not(target_arch = "x86_64"))]
         false
@@ -1062,7 +1062,7 @@ mod tests {
         let m = testmesh::sphere(20, 40);
         let bvh = Bvh::new(&m.positions, &m.indices);
         let b = m.bounds();
-        let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
+        let grown = doubled(b);
         let mut rays = testmesh::random_rays(&grown, 300, 11);
         rays.extend(testmesh::gather_rays(&m, b.max * 1.5, 100, 12));
         rays.extend(bvh.view().nodes.iter().flat_map(behind_the_ray));
@@ -1108,7 +1108,7 @@ mod tests {
     fn versions_agree_on(m: &testmesh::Mesh) {
         let bvh = Bvh::new(&m.positions, &m.indices);
         let b = m.bounds();
-        let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
+        let grown = doubled(b);
         let mut rays = testmesh::random_rays(&grown, 2_000, 5);
         for d in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z] {
             for k in 0..50 {
@@ -1142,7 +1142,7 @@ mod tests {
         let m = testmesh::sphere(60, 120);
         let bvh = Bvh::new(&m.positions, &m.indices);
         let b = m.bounds();
-        let grown = crate::geometry::Aabb { min: b.min * 2.0, max: b.max * 2.0 };
+        let grown = doubled(b);
         let mut overflows = 0;
         for r in testmesh::random_rays(&grown, 2_000, 9) {
             let full = bvh.view().closest_hit_with::<STACK_MAX>(&r, &Isa::BASELINE).ok().flatten();
