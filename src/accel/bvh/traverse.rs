@@ -112,6 +112,40 @@
 //! - Two prefetched lines instead of four: bunny gather 0.937 → 0.951, dragon occlusion
 //!   0.829 → 0.799.
 //!
+//! **The dragon's random segments (2026-12-05, afternoon),** the workload whose ratio to
+//! Embree varies most between runs. Split by brute force (`SPLIT`), the 69 % of segments that
+//! are occluded run at 0.85 of Embree's rate and the others at 0.97; with caches warm
+//! (`REPEAT=8`) the whole workload runs at 0.88 and its occluded segments at 0.85, so the gap
+//! is work per segment, not memory: 763 instructions against Embree's 639 (`stepcount.py`,
+//! the first 256 segments), of which the node tests take 226 against 164 (34 instructions a
+//! node against 24, as many nodes) plus some 50 of dispatch and loads of the next child, the
+//! ranks and pushes of three or more hit children about 130 (once a segment, 3.4 children),
+//! the setup 114 against Embree's 127 (its API checks included), the leaves 97 against 105.
+//! The work per segment also decides how the ratio moves when the machine is busy: with a
+//! loop of fused multiply-adds running on the VM's other core (`taskset`, so not on the same
+//! virtual core) the BVH's rate fell by 14 % (4.0 → 3.45 M segments a second) and Embree's by
+//! 7 % (4.4 → 4.1), ratio 0.90 → 0.87 (two runs each way). A memory-bound loop there (random
+//! reads over 512 MB) slowed both by 13 %, ratio 0.905 → 0.877; one over 16 MB, 0.915.
+//! Measured the same day, not kept (binaries alternating, `RAYS=3000000 accel_ratio ratio
+//! dragon occluded 7`, three runs, medians):
+//! - The fused slab test with the same inverse direction for both planes and one product of
+//!   origin and inverse per axis (nine broadcast values, as many as the unfused test holds, so
+//!   nothing spills; not conservative without guards, only to bound the gain): 0.857 → 0.873,
+//!   warm 0.889 → 0.915. Guards that make it conservative (the product moved outwards by the
+//!   rounding of the largest distance that matters, a per-ray fallback to the unfused form for
+//!   rays whose product overflows) would take part of that 2–3 % back. The first try, with
+//!   twelve broadcast values (a widened inverse for the far planes), spilled six of them to the
+//!   stack and ran at 0.815 against 0.901.
+//! - For three or more hit children, only the one the ray leaves first found (a horizontal
+//!   minimum) and the others pushed in lane order: dragon occlusion 0.864 → 0.801, bunny
+//!   gather 1.009 → 1.024. The order of the deferred children matters on these segments.
+//! - Ranks from unique keys (a distance's bits with its lane in the lowest three, so one
+//!   comparison a lane instead of two both ways: 16 instructions a hit child instead of 21):
+//!   dragon occlusion 0.855 → 0.809, bunny gather 1.017 → 0.951, conference room gather 0.764
+//!   → 0.735, 1M scene gather 1.534 → 1.514 (one run each for the last two). The keys are made
+//!   before the first rank, and the ranks are on the chain from the node test to the next node
+//!   (the child to visit is read back from the top of the stack they write).
+//!
 //! **Sorting without a branch per comparison (2026-12-04).** Two hit children take one
 //! comparison. Three or more were sorted by insertion, whose inner loop ends after a number of
 //! steps that depends on the distances; valgrind's branch simulation counted 9.4 mispredicted
