@@ -145,6 +145,10 @@
 //!   → 0.735, 1M scene gather 1.534 → 1.514 (one run each for the last two). The keys are made
 //!   before the first rank, and the ranks are on the chain from the node test to the next node
 //!   (the child to visit is read back from the top of the stack they write).
+//! - That child taken from the ranks instead (a conditional move on `rank == k − 1`), off the
+//!   stack's store and reload: dragon occlusion 0.813 → 0.823 and 0.909 → 0.825 (two series of
+//!   three pairs, medians), bunny gather 1.031 → 1.038, conference room gather 0.777 → 0.799
+//!   (one run): no gain on the workload it was for.
 //!
 //! **Sorting without a branch per comparison (2026-12-04).** Two hit children take one
 //! comparison. Three or more were sorted by insertion, whose inner loop ends after a number of
