@@ -92,7 +92,9 @@ def rate(res, key):
     return n / ns * 1e3  # M elements per second
 
 def spread(rs):
-    """The median of per-run ratios, and their range when there are several."""
+    """The median of per-run ratios and their range when there are several ("–" for none)."""
+    if not rs:
+        return "–"
     m = f"{statistics.median(rs):.2f}"
     return m + (f" [{min(rs):.2f}–{max(rs):.2f}]" if len(rs) > 1 else "")
 
@@ -131,7 +133,7 @@ for s in scenes:
                     a, b = rate(q, k), rate(q, f"{s}/embree/{w}")
                     if a is not None and b:
                         rs.append(a / b)
-                return spread(rs) if rs else "–"
+                return spread(rs)
             print(f"| {label} | 1 ({e:.2f}) | {ratio(f'{s}/embree/{w}-batch')} | {ratio(f'{s}/bvh/{w}')} |")
         else:
             print(f"| {label} | {med(rate(q, f'{s}/bvh/{w}') for q in runs_q):.2f} |")
@@ -156,6 +158,6 @@ if have_embree:
     for s in scenes:
         rs = [b[f"build/bvh/{s}"][0] / b[f"build/embree/{s}"][0] for b in runs_b
               if f"build/bvh/{s}" in b and f"build/embree/{s}" in b]
-        cells.append(spread(rs) if rs else "–")
+        cells.append(spread(rs))
     print(f"| BVH / Embree ({cores} threads, ratio per run) | " + " | ".join(cells) + " |")
 EOF

@@ -144,19 +144,18 @@ fn run() -> Result<()> {
         _ => Query::Occluded,
     };
     let vertices = VertexBuffer::from(m.positions.clone());
-    let embree = || build_embree(&vertices, &m);
     match mode.as_str() {
         "bvh" => {
             let bvh = Bvh::new(&m.positions, &m.indices);
             println!("{} hits", (0..n).map(|_| trace(&bvh, &rs, query)).sum::<usize>());
         }
         "embree" => {
-            let e = embree()?;
+            let e = build_embree(&vertices, &m)?;
             println!("{} hits", (0..n).map(|_| trace(e.as_ref(), &rs, query)).sum::<usize>());
         }
         "ratio" => {
             let bvh = Bvh::new(&m.positions, &m.indices);
-            let e = embree()?;
+            let e = build_embree(&vertices, &m)?;
             // The two backends' triangle tests differ on rays through a shared edge or vertex,
             // which one of them may count as a hit and the other not (the conference room's
             // closest hits: one ray in 65,536). Up to one ray in 10,000 is tolerated (none in a

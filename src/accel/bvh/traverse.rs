@@ -643,36 +643,45 @@ macro_rules! isa {
     };
 }
 
-/// [`Bvh::closest_hit`], compiled for AVX-512 and AVX2 as well as for the build's target and
-/// picked at run time by the CPU's features (see the module docs); the versions differ in their
-/// [`Isa`] (the AVX-512 version takes the AVX2 one's). `multiversion` adds Ice Lake's AVX-512
-/// extensions (VBMI, VNNI, GFNI and others) to the features listed for the AVX-512 version, so
-/// older AVX-512 CPUs, which slow down under it, get the AVX2 version. Both list the scalar bit
-/// instructions of x86-64-v3 (BMI1, BMI2, LZCNT, POPCNT), which every AVX2 CPU has: without
-/// them `count_ones` in [`push_sorted`] compiled to a sequence of five instructions, two of
-/// them multiplications, instead of `popcnt`.
-#[multiversion(targets(
-    "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
-))]
-fn closest_hit_dispatch(v: View, ray: &Ray) -> Option<Hit> {
-    let isa = isa!(v);
-    match v.closest_hit_with::<STACK>(ray, &isa) {
-        Ok(hit) => hit,
-        Err(Overflow) => v.closest_hit_with::<STACK_MAX>(ray, &isa).ok().flatten(),
+/// The function given, compiled as the traversal's versions (see [`closest_hit_dispatch`]):
+/// for AVX-512, for AVX2 and for the build's target, the version picked at run time. The one
+/// list of those versions, for the entry points and for the tests' calls into them.
+macro_rules! versions {
+    ($($item:tt)*) => {
+        #[multiversion(targets(
+            "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+            "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
+        ))]
+        $($item)*
+    };
+}
+
+versions! {
+    /// [`Bvh::closest_hit`], compiled for AVX-512 and AVX2 as well as for the build's target and
+    /// picked at run time by the CPU's features (see the module docs); the versions differ in their
+    /// [`Isa`] (the AVX-512 version takes the AVX2 one's). `multiversion` adds Ice Lake's AVX-512
+    /// extensions (VBMI, VNNI, GFNI and others) to the features listed for the AVX-512 version, so
+    /// older AVX-512 CPUs, which slow down under it, get the AVX2 version. Both list the scalar bit
+    /// instructions of x86-64-v3 (BMI1, BMI2, LZCNT, POPCNT), which every AVX2 CPU has: without
+    /// them `count_ones` in [`push_sorted`] compiled to a sequence of five instructions, two of
+    /// them multiplications, instead of `popcnt`.
+    fn closest_hit_dispatch(v: View, ray: &Ray) -> Option<Hit> {
+        let isa = isa!(v);
+        match v.closest_hit_with::<STACK>(ray, &isa) {
+            Ok(hit) => hit,
+            Err(Overflow) => v.closest_hit_with::<STACK_MAX>(ray, &isa).ok().flatten(),
+        }
     }
 }
 
-/// [`Bvh::any_hit`], compiled as [`closest_hit_dispatch`] is.
-#[multiversion(targets(
-    "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
-))]
-fn any_hit_dispatch(v: View, ray: &Ray) -> bool {
-    let isa = isa!(v);
-    match v.any_hit_with::<STACK>(ray, &isa) {
-        Ok(hit) => hit,
-        Err(Overflow) => v.any_hit_with::<STACK_MAX>(ray, &isa).unwrap_or(true),
+versions! {
+    /// [`Bvh::any_hit`], compiled as [`closest_hit_dispatch`] is.
+    fn any_hit_dispatch(v: View, ray: &Ray) -> bool {
+        let isa = isa!(v);
+        match v.any_hit_with::<STACK>(ray, &isa) {
+            Ok(hit) => hit,
+            Err(Overflow) => v.any_hit_with::<STACK_MAX>(ray, &isa).unwrap_or(true),
+        }
     }
 }
 
@@ -920,28 +929,24 @@ mod tests {
         });
     }
 
-    /// [`RayBoxes::enter`] in the version the entry points dispatch to (with integer minima and
-    /// maxima on a CPU with AVX2).
-    #[multiversion(targets(
-        "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-        "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
-    ))]
-    fn enter_dispatched(v: View, rb: &RayBoxes, n: &Node8, tmax: f32) -> (u32, [f32; WIDTH], [f32; WIDTH]) {
-        let isa = isa!(v);
-        let _ = v; // (unused by the baseline version's `Isa`)
-        rb.enter(n, tmax, &isa)
+    versions! {
+        /// [`RayBoxes::enter`] in the version the entry points dispatch to (with integer minima and
+        /// maxima on a CPU with AVX2).
+        fn enter_dispatched(v: View, rb: &RayBoxes, n: &Node8, tmax: f32) -> (u32, [f32; WIDTH], [f32; WIDTH]) {
+            let isa = isa!(v);
+            let _ = v; // (unused by the baseline version's `Isa`)
+            rb.enter(n, tmax, &isa)
+        }
     }
 
-    /// A two-pack leaf's test in the version the entry points dispatch to ([`hit_pair_avx`] on
-    /// a CPU with AVX2).
-    #[multiversion(targets(
-        "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-        "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
-    ))]
-    fn pair_dispatched(v: View, p: &Tri4, q: &Tri4, r: &Ray4, tmin: f32, tmax: f32) -> Hits8 {
-        let isa = isa!(v);
-        let _ = v; // (unused by the baseline version's `Isa`)
-        (isa.pair)(p, q, r, tmin, tmax)
+    versions! {
+        /// A two-pack leaf's test in the version the entry points dispatch to ([`hit_pair_avx`] on
+        /// a CPU with AVX2).
+        fn pair_dispatched(v: View, p: &Tri4, q: &Tri4, r: &Ray4, tmin: f32, tmax: f32) -> Hits8 {
+            let isa = isa!(v);
+            let _ = v; // (unused by the baseline version's `Isa`)
+            (isa.pair)(p, q, r, tmin, tmax)
+        }
     }
 
     /// The dispatched two-pack test gives bit for bit what two [`Tri4::hit`]s give, in every
@@ -979,24 +984,22 @@ mod tests {
         assert!(hits > 100, "{hits}");
     }
 
-    /// [`push_sorted`] in the version the entry points dispatch to (with [`mask_avx`] on a CPU
-    /// with AVX2).
-    #[multiversion(targets(
-        "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
-        "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
-    ))]
-    fn push_dispatched(
-        v: View,
-        n: &Node8,
-        mask: u32,
-        entry: &[f32; WIDTH],
-        order: &[f32; WIDTH],
-        stack: &mut [(ChildRef, f32); 16],
-        sp: &mut usize,
-    ) -> ChildRef {
-        let isa = isa!(v);
-        let _ = v; // (unused by the baseline version's `Isa`)
-        push_sorted(&isa, n, mask, entry, order, stack, sp)
+    versions! {
+        /// [`push_sorted`] in the version the entry points dispatch to (with [`mask_avx`] on a CPU
+        /// with AVX2).
+        fn push_dispatched(
+            v: View,
+            n: &Node8,
+            mask: u32,
+            entry: &[f32; WIDTH],
+            order: &[f32; WIDTH],
+            stack: &mut [(ChildRef, f32); 16],
+            sp: &mut usize,
+        ) -> ChildRef {
+            let isa = isa!(v);
+            let _ = v; // (unused by the baseline version's `Isa`)
+            push_sorted(&isa, n, mask, entry, order, stack, sp)
+        }
     }
 
     /// Hit children are pushed with their entry distances, the greatest key first, ties in lane
