@@ -155,10 +155,7 @@ impl Bvh {
         let built = build::build(&mut prims);
         let make_packs = || {
             let mut packs = Pages::<Tri4>::zeroed(built.packs.len());
-            packs.par_iter_mut().zip(&built.packs).with_min_len(1024).for_each(|(pack, &(first, count))| {
-                let tris = &built.order[first as usize..(first + count) as usize];
-                *pack = Tri4::new(tris.iter().map(|&p| (verts(&indices[p as usize]), p)));
-            });
+            leaf::write_packs(&mut packs, &built.packs, &built.order, positions, indices);
             packs
         };
         // The collapse is sequential: on large trees it runs on this thread while the others
