@@ -11,8 +11,9 @@
 # shared machine; ratios taken within one run hold better). The ratio printed is the median
 # over runs of each run's ratio, with the range of the runs' ratios in brackets; Embree's own
 # rate in parentheses is the median of its rates.
-# Builds run on every core (Embree's TBB threads and rayon's), and the BVH once more on one
-# thread. Scenes: the generated Cornell-like box and 1M-triangle closed scene, the conference
+# Builds run on every core (Embree's TBB threads, and a rayon pool of one thread per core that
+# the bench makes for the BVH, whatever RAYON_NUM_THREADS says), and the BVH once more on one
+# thread (benches/accel.rs, `bench_build`). Scenes: the generated Cornell-like box and 1M-triangle closed scene, the conference
 # room of scenes/conference-room, and the Stanford bunny and dragon when `../shared/scenes` is
 # present (see benches/accel.rs).
 # Without Embree, the BVH's absolute rates are printed instead of ratios.
@@ -47,12 +48,9 @@ for ((r = 1; r <= runs; r++)); do
     echo "run $r of $runs: queries (1 thread)" >&2
     RAYON_NUM_THREADS=1 CRITERION_HOME="$out/run$r/queries" \
         bench --noplot "$queries" >"$out/run$r-queries.log" 2>&1
-    echo "run $r of $runs: builds (all cores)" >&2
+    echo "run $r of $runs: builds (all cores, and the BVH on one thread)" >&2
     CRITERION_HOME="$out/run$r/build" \
         bench --noplot '^build/' >"$out/run$r-build.log" 2>&1
-    echo "run $r of $runs: BVH build (1 thread)" >&2
-    RAYON_NUM_THREADS=1 CRITERION_HOME="$out/run$r/build1" \
-        bench --noplot '^build/bvh/' >"$out/run$r-build1.log" 2>&1
 done
 
 model=$(lscpu | sed -n 's/^Model name: *//p' | head -1)
@@ -76,7 +74,6 @@ def results(d):
 
 runs_q = [results(f"{out}/run{r}/queries") for r in range(1, runs + 1)]
 runs_b = [results(f"{out}/run{r}/build") for r in range(1, runs + 1)]
-runs_b1 = [results(f"{out}/run{r}/build1") for r in range(1, runs + 1)]
 
 # Triangle counts from the bench's own description of the BVH.
 tris = {}
@@ -144,7 +141,7 @@ def build_ms(rs, backend, s):
 
 print("| build (ms) | " + " | ".join(f"{names[s]}" for s in scenes) + " |")
 print("|---|" + "---|" * len(scenes))
-rows = [(f"pir BVH ({cores} threads)", runs_b, "bvh"), ("pir BVH (1 thread)", runs_b1, "bvh")]
+rows = [(f"pir BVH ({cores} threads)", runs_b, "bvh"), ("pir BVH (1 thread)", runs_b, "bvh-1thread")]
 if have_embree:
     rows.append((f"Embree, medium quality (TBB, {cores} threads)", runs_b, "embree"))
 for label, rs, backend in rows:
