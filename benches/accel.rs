@@ -128,11 +128,10 @@ fn bench_build(c: &mut Criterion) {
     let pool = |threads: usize| {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a rayon pool for the builds")
     };
-    let mut cases = vec![("bvh".to_string(), Backend::Bvh, pool(cores))];
-    cases.push(("bvh-1thread".to_string(), Backend::Bvh, pool(1)));
+    let mut cases = vec![("bvh", Backend::Bvh, pool(cores)), ("bvh-1thread", Backend::Bvh, pool(1))];
     if Backend::Embree.is_available() {
         // (Embree's builds run on its own TBB threads; the pool only calls it.)
-        cases.push((Backend::Embree.to_string(), Backend::Embree, pool(1)));
+        cases.push(("embree", Backend::Embree, pool(1)));
     }
     for (name, backend, pool) in &cases {
         let mut g = c.benchmark_group(format!("build/{name}"));

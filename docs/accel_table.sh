@@ -13,9 +13,9 @@
 # rate in parentheses is the median of its rates.
 # Builds run on every core (Embree's TBB threads, and a rayon pool of one thread per core that
 # the bench makes for the BVH, whatever RAYON_NUM_THREADS says), and the BVH once more on one
-# thread (benches/accel.rs, `bench_build`). Scenes: the generated Cornell-like box and 1M-triangle closed scene, the conference
-# room of scenes/conference-room, and the Stanford bunny and dragon when `../shared/scenes` is
-# present (see benches/accel.rs).
+# thread (benches/accel.rs, `bench_build`). Scenes: the generated Cornell-like box and
+# 1M-triangle closed scene, the conference room of scenes/conference-room, and the Stanford
+# bunny and dragon when `../shared/scenes` is present (see benches/accel.rs).
 # Without Embree, the BVH's absolute rates are printed instead of ratios.
 #
 # Environment: RUNS (overrides the argument), KEEP=DIR keeps criterion's output and the logs

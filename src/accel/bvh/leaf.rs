@@ -30,6 +30,8 @@
 use glam::{BVec4A, Vec3, Vec4};
 use rayon::prelude::*;
 
+use super::build::PackRange;
+
 /// The id of an unused lane.
 pub(super) const NO_PRIM: u32 = u32::MAX;
 
@@ -260,7 +262,7 @@ const BATCH: usize = 64;
 /// runs each).
 pub(super) fn write_packs(
     packs: &mut [Tri4],
-    ranges: &[(u32, u32)],
+    ranges: &[PackRange],
     order: &[u32],
     positions: &[Vec3],
     indices: &[[u32; 3]],
