@@ -11,7 +11,9 @@
 //! (Embree's 16-wide packets; the BVH traces a batch ray by ray), or
 //! `build`: the BVH's build time over Embree's (medium quality), both on every core (rayon's
 //! and TBB's threads), timed in wall time, alternating, a build of each per round (the ratio is
-//! of times: lower is better; `bvh SCENE build N` builds N times, for profilers). A round
+//! of times: lower is better; `bvh SCENE build N` builds N times, for profilers). The BVH builds
+//! on rayon's global pool, so `RAYON_NUM_THREADS=1` times its one-thread build (Embree's
+//! stays on every core; the accel bench instead makes pools of its own). A round
 //! traces about 400,000 rays (`RAYS`) on the BVH, then as many on Embree, each timed in CPU
 //! time of this thread (`CLOCK_THREAD_CPUTIME_ID`), so time the thread spends preempted does
 //! not count and the machine's drift between the two halves of a round is small. (Until

@@ -20,7 +20,8 @@ pub struct SceneOptions {
     /// any number of threads.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Worker threads [default: all cores].
+    /// Worker threads, for the render and for the BVH's build (Embree builds on its own
+    /// threads, one per core) [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// Largest number of path segments from the camera to an emitter [default: the scene's

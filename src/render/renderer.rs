@@ -69,7 +69,10 @@ impl<'s> Renderer<'s> {
             .start_handler(|_| set_flush_denormals())
             .build()
             .context("cannot start the worker threads")?;
-        let accel = build_accelerator(options.backend(), scene.positions(), scene.indices())
+        // Built on the worker pool, so that `threads` bounds the BVH's build as it does the
+        // render (Embree builds on its own TBB threads, one per core).
+        let accel = pool
+            .install(|| build_accelerator(options.backend(), scene.positions(), scene.indices()))
             .map_err(anyhow::Error::msg)?;
         Ok(Renderer {
             scene,
