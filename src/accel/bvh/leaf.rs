@@ -332,4 +332,36 @@ mod tests {
         }
         assert!(hits > 100, "{hits}");
     }
+
+    /// [`write_packs`]'s batches give, byte for byte, the packs made one by one from the
+    /// triangles each range names: over several batches and a partial last one, packs of one
+    /// to four triangles, and an order unlike the mesh's.
+    #[test]
+    fn batched_packs_are_the_packs_made_one_by_one() {
+        let m = testmesh::sphere(24, 48);
+        let tris = m.indices.len() as u32;
+        // A permutation far from the identity (the leaves' order is not the mesh's): 1,031 is
+        // a prime that does not divide the count.
+        assert_ne!(tris % 1031, 0);
+        let order: Vec<u32> = (0..tris).map(|i| i * 1031 % tris).collect();
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), tris as usize, "order is a permutation");
+        let mut ranges: Vec<PackRange> = Vec::new();
+        let mut first = 0;
+        while first < tris {
+            let count = (1 + ranges.len() as u32 % 4).min(tris - first);
+            ranges.push((first, count));
+            first += count;
+        }
+        assert!(ranges.len() > 3 * BATCH && ranges.len() % BATCH != 0, "{} packs", ranges.len());
+        let mut packs = vec![Tri4::EMPTY; ranges.len()];
+        write_packs(&mut packs, &ranges, &order, &m.positions, &m.indices);
+        for (pack, &(first, count)) in packs.iter().zip(&ranges) {
+            let ids = &order[first as usize..(first + count) as usize];
+            let want = Tri4::new(ids.iter().map(|&id| (m.triangle(id as usize), id)));
+            assert_eq!(bytemuck::bytes_of(pack), bytemuck::bytes_of(&want), "pack of {ids:?}");
+        }
+    }
 }
