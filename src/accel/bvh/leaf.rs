@@ -342,7 +342,7 @@ mod tests {
         let tris = m.indices.len() as u32;
         // A permutation far from the identity (the leaves' order is not the mesh's): 1,031 is
         // a prime that does not divide the count.
-        assert_ne!(tris % 1031, 0);
+        assert!(!tris.is_multiple_of(1031));
         let order: Vec<u32> = (0..tris).map(|i| i * 1031 % tris).collect();
         let mut sorted = order.clone();
         sorted.sort_unstable();
@@ -355,7 +355,7 @@ mod tests {
             ranges.push((first, count));
             first += count;
         }
-        assert!(ranges.len() > 3 * BATCH && ranges.len() % BATCH != 0, "{} packs", ranges.len());
+        assert!(ranges.len() > 3 * BATCH && !ranges.len().is_multiple_of(BATCH), "{} packs", ranges.len());
         let mut packs = vec![Tri4::EMPTY; ranges.len()];
         write_packs(&mut packs, &ranges, &order, &m.positions, &m.indices);
         for (pack, &(first, count)) in packs.iter().zip(&ranges) {
