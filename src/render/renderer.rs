@@ -70,7 +70,8 @@ impl<'s> Renderer<'s> {
             .build()
             .context("cannot start the worker threads")?;
         // Built on the worker pool, so that `threads` bounds the BVH's build as it does the
-        // render (Embree builds on its own TBB threads, one per core).
+        // render (Embree builds on its own TBB threads, one per core). The pool's threads flush
+        // denormals to zero, which the BVH's boxes allow for (padding, `bvh/traverse.rs`).
         let accel = pool
             .install(|| build_accelerator(options.backend(), scene.positions(), scene.indices()))
             .map_err(anyhow::Error::msg)?;

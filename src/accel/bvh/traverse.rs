@@ -238,21 +238,21 @@
 //! Leaf children first, measured again on today's order (2026-12-05, not kept): any-hit's key
 //! for a leaf lane `−1 / exit` (every leaf before every interior child, leaves by exit among
 //! themselves), in the hope that the conference room's large triangles, which the SAH leaves
-//! in leaves high up, would be tried first. Gather pattern, `accel_ratio ratio SCENE gather
-//! 5` (3 M rays a round, two runs each), without → with: conference room 0.765 → 0.728, bunny
+//! in leaves high up, would be tried first. Gather pattern, `RAYS=3000000
+//! accel_ratio ratio SCENE gather 5` (3 M rays a round, two runs each), without → with: conference room 0.765 → 0.728, bunny
 //! 1.011 → 0.925, dragon 1.042 → 0.957, 1M scene 1.555 → 1.454.
 //!
 //! An occluder cache for batches was measured too (2026-12-05, not kept): `occluded_batch`
 //! testing first the leaf in which the batch's last occluded ray had found its hit (the same
 //! answers: a hit there is a hit, and otherwise the whole tree is searched), after the shadow
 //! caches of classic ray tracers, since a gather's rays leave one point. The rays of one
-//! receiver do not share occluders often enough to pay for the extra leaf test: `accel_ratio
-//! ratio SCENE gather-batch 5` (1 M rays a round, two runs each, BVH over Embree's 16-wide
+//! receiver do not share occluders often enough to pay for the extra leaf test: `RAYS=1000000
+//! accel_ratio ratio SCENE gather-batch 5` (1 M rays a round, two runs each, BVH over Embree's 16-wide
 //! packets), without → with the cache, box 0.60 → 0.51, bunny 0.79 → 0.70, dragon 0.88 →
 //! 0.79, 1M scene 1.45 → 1.35, conference room 0.59 → 0.56; in the renderer (`pir render SCENE
 //! --method pir-clamp --threads 1 --spp 2 --resolution 256 256 --accel bvh`, two runs each)
 //! the gather's shadow rays a second went 15.4 → 14.5 M (Cornell box), 4.43 → 4.23 M
-//! (conference room) and 8.1 → 7.5 M (`scenes/dense/indirect.toml`).
+//! (conference room; 4.40 against Embree's 5.72 M in the README's later runs) and 8.1 → 7.5 M (`scenes/dense/indirect.toml`).
 //!
 //! Octant-ordered lanes (Ylitie, Karras and Laine's compressed wide BVH) were measured too
 //! (2026-12-04): at collapse each child takes the lane of the direction octant for which it
