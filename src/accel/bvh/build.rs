@@ -49,6 +49,16 @@
 //! (dragon) of Embree's rate, but the gather pattern 0.97 → 0.94 (bunny), level (dragon), and
 //! the 1M scene's gather 1.43 → 1.32 and occlusion 1.03 → 0.90: not kept.
 //!
+//! The trees against Embree's (2026-12-05), in Embree's own statistics (`verbose=2`: the sum
+//! over nodes of their half area, plus over leaves of their half area times their packs, over
+//! the root's): bunny 11.55 against Embree's 10.75, dragon 15.78 against 15.09, conference
+//! room 11.57 against 11.10, the difference all in the leaves (3.36 against 2.55 on the
+//! bunny), whose boxes hold up to eight triangles where Embree's hold four. With
+//! [`MAX_LEAF`] at four the sums matched Embree's (10.76, 15.13, 11.24), but not the rates
+//! (`RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 5`, two runs each, BVH over Embree's rate,
+//! eight → four): gather pattern conference room 0.77 → 0.74, dragon 1.03 → 0.99, bunny 1.01 →
+//! 1.03; occlusion dragon 0.85–0.87 → 0.76–0.84, bunny 0.89 → 0.88. Not kept.
+//!
 //! **Splitting large triangles, measured and not kept (2026-12-05).** Before the build, each
 //! triangle whose box's half area exceeded its projected area by more than a threshold was cut
 //! along the planes of a grid over the scene (Karras and Aila 2013, §5: the coarsest plane
