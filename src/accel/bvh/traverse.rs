@@ -235,6 +235,21 @@
 //! nodes, which stay in cache, so there is little wait to fill, and each step reloads its ray's
 //! state from memory. Not kept.
 //!
+//! Lane order for three or more hit children, measured again on top of today's rules for
+//! two (2026-12-05, evening, not kept): the highest hit lane entered, the others pushed in
+//! lane order, as Embree's kernel does. `RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 5`,
+//! two runs each, exit order → lane order: it is the largest gain found for the conference
+//! room and the occlusion workloads (conference room gather 0.77 → 0.84–0.88, occlusion dragon
+//! 0.85–0.87 → 0.91–0.94, bunny 0.88 → 0.93, 1M scene 0.94–0.99 → 1.01; bunny gather 1.01–1.03
+//! → 1.03–1.05), but the dragon's gather pattern falls 1.04 → 0.95 and the 1M scene's 1.38–1.57
+//! → 0.99–1.00, two of issue 15's bars. Halfway forms lost everywhere or kept both losses
+//! (one run each; conference room gather, 1M scene and dragon gather, dragon occlusion, bunny
+//! gather): lane order for four or more hit children only 0.78, 1.08, 1.00, 0.87, 1.02, for
+//! three only 0.80, 1.37, 0.96, 0.88, 1.00; exit distances rounded to a power of two (ties in
+//! lane order) 0.73, 0.87, 0.84, 0.81, 0.89, to two mantissa bits 0.73, 1.31, 0.90, 0.74,
+//! 0.92; the boxes that hold the ray's origin (entry at `tmin`) by exit and the others in lane
+//! order, after them 0.73, 1.08, 0.84, 0.79, 0.89, before them 0.77, 0.88, 0.84, 0.79, 0.88.
+//!
 //! Leaf children first, measured again on today's order (2026-12-05, not kept): any-hit's key
 //! for a leaf lane `−1 / exit` (every leaf before every interior child, leaves by exit among
 //! themselves), in the hope that the conference room's large triangles, which the SAH leaves
