@@ -249,6 +249,17 @@
 //! lane order) 0.73, 0.87, 0.84, 0.81, 0.89, to two mantissa bits 0.73, 1.31, 0.90, 0.74,
 //! 0.92; the boxes that hold the ray's origin (entry at `tmin`) by exit and the others in lane
 //! order, after them 0.73, 1.08, 0.84, 0.79, 0.89, before them 0.77, 0.88, 0.84, 0.79, 0.88.
+//! Lane order for the batched queries only (`occluded_batch`, which the renderer's gathers
+//! call; the single-ray query kept the exit order, and with it the bars): the renderer's
+//! gather (`pir render SCENE --method pir-clamp --threads 1 --spp 2 --accel bvh`, two runs
+//! each, alternating, shadow rays a second) went 4.46 → 4.64 M in the conference room, 15.7 →
+//! 16.2 M in the Cornell box, 11.7 → 11.9 M in the bunny's Cornell box, and stayed level in
+//! `scenes/dense/indirect.toml` (8.14 → 8.06, 8.20), with the dragon in that box (9.58, 9.41
+//! → 9.88, 9.15) and with the 1M scene's bumpy sphere there (6.95, 6.96 → 7.29, 6.87); the
+//! accel bench's batched gather pattern (`gather-batch`, against Embree's packets) went 0.58
+//! → 0.64 (conference room) and 0.60 → 0.70 (box), but 0.88 → 0.81 (dragon) and 1.33 → 0.86
+//! (1M scene). 2–4 % on half the scenes measured, against a second any-hit order to keep and
+//! a third of the batched rate lost on one pattern: not kept.
 //!
 //! Leaf children first, measured again on today's order (2026-12-05, not kept): any-hit's key
 //! for a leaf lane `−1 / exit` (every leaf before every interior child, leaves by exit among
