@@ -11,10 +11,10 @@ use pir::render::{Budget, Control, Renderer, SceneOptions};
 #[test]
 fn a_render_on_one_thread_starts_no_other_pool() {
     let scene = common::closed_cube(common::diffuse(0.5, 1.0));
+    let options = SceneOptions { threads: Some(1), accel: Some(Backend::Bvh), ..Default::default() };
+    let renderer = Renderer::new(&scene, &options).expect("the closed cube renders");
+    assert_eq!(renderer.threads(), 1);
     for method in [Method::Pt, Method::PirClamp] {
-        let options = SceneOptions { threads: Some(1), accel: Some(Backend::Bvh), ..Default::default() };
-        let renderer = Renderer::new(&scene, &options).expect("the closed cube renders");
-        assert_eq!(renderer.threads(), 1);
         let budget = Budget { iterations: Some(2), time: None };
         let (_, stats) = renderer.render(&MethodConfig::new(method), budget, |_, _| Control::Continue);
         assert_eq!(stats.iterations, 2);

@@ -41,6 +41,39 @@
 //! crossing's midpoint 0.56, 0.89, 1.28; lane order for any number of hit children 0.87, 0.90,
 //! 0.93.
 //!
+//! Lane order for three or more hit children, measured again on top of today's rules for two
+//! (2026-12-05, evening, not kept): the highest hit lane entered, the others pushed in lane
+//! order, as Embree's kernel does. `RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 5`, two runs
+//! each, exit order → lane order: it is the largest gain found for the conference room and the
+//! occlusion workloads (conference room gather 0.77 → 0.84–0.88, occlusion dragon 0.85–0.87 →
+//! 0.91–0.94, bunny 0.88 → 0.93, 1M scene 0.94–0.99 → 1.01; bunny gather 1.01–1.03 →
+//! 1.03–1.05), but the dragon's gather pattern falls 1.04 → 0.95 and the 1M scene's 1.38–1.57 →
+//! 0.99–1.00, two of issue 15's bars. Halfway forms lost everywhere or kept both losses (one
+//! run each; conference room gather, 1M scene and dragon gather, dragon occlusion, bunny
+//! gather): lane order for four or more hit children only 0.78, 1.08, 1.00, 0.87, 1.02, for
+//! three only 0.80, 1.37, 0.96, 0.88, 1.00; exit distances rounded to a power of two (ties in
+//! lane order) 0.73, 0.87, 0.84, 0.81, 0.89, to two mantissa bits 0.73, 1.31, 0.90, 0.74, 0.92;
+//! the boxes that hold the ray's origin (entry at `tmin`) by exit and the others in lane order,
+//! after them 0.73, 1.08, 0.84, 0.79, 0.89, before them 0.77, 0.88, 0.84, 0.79, 0.88. Lane
+//! order for the batched queries only (`occluded_batch`, which the renderer's gathers call; the
+//! single-ray query kept the exit order, and with it the bars): the renderer's gather (`pir
+//! render SCENE --method pir-clamp --threads 1 --spp 2 --accel bvh`, two runs each,
+//! alternating, shadow rays a second) went 4.46 → 4.64 M in the conference room, 15.7 → 16.2 M
+//! in the Cornell box, 11.7 → 11.9 M in the bunny's Cornell box, and stayed level in
+//! `scenes/dense/indirect.toml` (8.14 → 8.06, 8.20), with the dragon in that box (9.58, 9.41 →
+//! 9.88, 9.15) and with the 1M scene's bumpy sphere there (6.95, 6.96 → 7.29, 6.87); the accel
+//! bench's batched gather pattern (`gather-batch`, against Embree's packets) went 0.58 → 0.64
+//! (conference room) and 0.60 → 0.70 (box), but 0.88 → 0.81 (dragon) and 1.33 → 0.86 (1M
+//! scene). 2–4 % on half the scenes measured, against a second any-hit order to keep and a
+//! third of the batched rate lost on one pattern: not kept.
+//!
+//! Leaf children first, measured again on today's order (2026-12-05, not kept): any-hit's key
+//! for a leaf lane `−1 / exit` (every leaf before every interior child, leaves by exit among
+//! themselves), in the hope that the conference room's large triangles, which the SAH leaves in
+//! leaves high up, would be tried first. Gather pattern, `RAYS=3000000 accel_ratio ratio SCENE
+//! gather 5` (two runs each), without → with: conference room 0.765 → 0.728, bunny 1.011 →
+//! 0.925, dragon 1.042 → 0.957, 1M scene 1.555 → 1.454.
+//!
 //! **Where the time goes, and two changes to the AVX versions (2026-12-05).** On the AMD EPYC
 //! (Zen 4) machine, with `accel_ratio`'s `SPLIT` and `REPEAT` (see its docs): the bunny's
 //! gather pattern is 73 % occluded rays, at 0.91 of Embree's rate, and 27 % unoccluded ones, at
@@ -235,50 +268,18 @@
 //! nodes, which stay in cache, so there is little wait to fill, and each step reloads its ray's
 //! state from memory. Not kept.
 //!
-//! Lane order for three or more hit children, measured again on top of today's rules for
-//! two (2026-12-05, evening, not kept): the highest hit lane entered, the others pushed in
-//! lane order, as Embree's kernel does. `RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 5`,
-//! two runs each, exit order → lane order: it is the largest gain found for the conference
-//! room and the occlusion workloads (conference room gather 0.77 → 0.84–0.88, occlusion dragon
-//! 0.85–0.87 → 0.91–0.94, bunny 0.88 → 0.93, 1M scene 0.94–0.99 → 1.01; bunny gather 1.01–1.03
-//! → 1.03–1.05), but the dragon's gather pattern falls 1.04 → 0.95 and the 1M scene's 1.38–1.57
-//! → 0.99–1.00, two of issue 15's bars. Halfway forms lost everywhere or kept both losses
-//! (one run each; conference room gather, 1M scene and dragon gather, dragon occlusion, bunny
-//! gather): lane order for four or more hit children only 0.78, 1.08, 1.00, 0.87, 1.02, for
-//! three only 0.80, 1.37, 0.96, 0.88, 1.00; exit distances rounded to a power of two (ties in
-//! lane order) 0.73, 0.87, 0.84, 0.81, 0.89, to two mantissa bits 0.73, 1.31, 0.90, 0.74,
-//! 0.92; the boxes that hold the ray's origin (entry at `tmin`) by exit and the others in lane
-//! order, after them 0.73, 1.08, 0.84, 0.79, 0.89, before them 0.77, 0.88, 0.84, 0.79, 0.88.
-//! Lane order for the batched queries only (`occluded_batch`, which the renderer's gathers
-//! call; the single-ray query kept the exit order, and with it the bars): the renderer's
-//! gather (`pir render SCENE --method pir-clamp --threads 1 --spp 2 --accel bvh`, two runs
-//! each, alternating, shadow rays a second) went 4.46 → 4.64 M in the conference room, 15.7 →
-//! 16.2 M in the Cornell box, 11.7 → 11.9 M in the bunny's Cornell box, and stayed level in
-//! `scenes/dense/indirect.toml` (8.14 → 8.06, 8.20), with the dragon in that box (9.58, 9.41
-//! → 9.88, 9.15) and with the 1M scene's bumpy sphere there (6.95, 6.96 → 7.29, 6.87); the
-//! accel bench's batched gather pattern (`gather-batch`, against Embree's packets) went 0.58
-//! → 0.64 (conference room) and 0.60 → 0.70 (box), but 0.88 → 0.81 (dragon) and 1.33 → 0.86
-//! (1M scene). 2–4 % on half the scenes measured, against a second any-hit order to keep and
-//! a third of the batched rate lost on one pattern: not kept.
-//!
-//! Leaf children first, measured again on today's order (2026-12-05, not kept): any-hit's key
-//! for a leaf lane `−1 / exit` (every leaf before every interior child, leaves by exit among
-//! themselves), in the hope that the conference room's large triangles, which the SAH leaves
-//! in leaves high up, would be tried first. Gather pattern, `RAYS=3000000
-//! accel_ratio ratio SCENE gather 5` (3 M rays a round, two runs each), without → with: conference room 0.765 → 0.728, bunny
-//! 1.011 → 0.925, dragon 1.042 → 0.957, 1M scene 1.555 → 1.454.
-//!
 //! An occluder cache for batches was measured too (2026-12-05, not kept): `occluded_batch`
 //! testing first the leaf in which the batch's last occluded ray had found its hit (the same
 //! answers: a hit there is a hit, and otherwise the whole tree is searched), after the shadow
 //! caches of classic ray tracers, since a gather's rays leave one point. The rays of one
 //! receiver do not share occluders often enough to pay for the extra leaf test: `RAYS=1000000
-//! accel_ratio ratio SCENE gather-batch 5` (1 M rays a round, two runs each, BVH over Embree's 16-wide
-//! packets), without → with the cache, box 0.60 → 0.51, bunny 0.79 → 0.70, dragon 0.88 →
-//! 0.79, 1M scene 1.45 → 1.35, conference room 0.59 → 0.56; in the renderer (`pir render SCENE
-//! --method pir-clamp --threads 1 --spp 2 --resolution 256 256 --accel bvh`, two runs each)
-//! the gather's shadow rays a second went 15.4 → 14.5 M (Cornell box), 4.43 → 4.23 M
-//! (conference room; 4.40 against Embree's 5.72 M in the README's later runs) and 8.1 → 7.5 M (`scenes/dense/indirect.toml`).
+//! accel_ratio ratio SCENE gather-batch 5` (two runs each, BVH over Embree's 16-wide packets),
+//! without → with the cache, box 0.60 → 0.51, bunny 0.79 → 0.70, dragon 0.88 → 0.79, 1M scene
+//! 1.45 → 1.35, conference room 0.59 → 0.56; in the renderer (`pir render SCENE --method
+//! pir-clamp --threads 1 --spp 2 --resolution 256 256 --accel bvh`, two runs each) the gather's
+//! shadow rays a second went 15.4 → 14.5 M (Cornell box), 4.43 → 4.23 M (conference room; 4.40
+//! against Embree's 5.72 M in the README's later runs) and 8.1 → 7.5 M
+//! (`scenes/dense/indirect.toml`).
 //!
 //! Octant-ordered lanes (Ylitie, Karras and Laine's compressed wide BVH) were measured too
 //! (2026-12-04): at collapse each child takes the lane of the direction octant for which it
