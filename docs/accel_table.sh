@@ -3,7 +3,7 @@
 # `cargo bench --bench accel` several times, the median of the runs for every figure, with
 # the machine (lscpu's model name, cores) and the date above the table.
 #
-#     docs/accel_table.sh [RUNS]      (default 3; about 5 minutes per run on 2 cores)
+#     docs/accel_table.sh [RUNS]      (default 5; about 3.5 minutes per run on 2 cores)
 #
 # Queries run on one thread (`RAYON_NUM_THREADS=1`, as in the README's command): rays per
 # second of each backend's single-ray calls, and of Embree's 16-wide packets, as ratios to
@@ -28,7 +28,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-runs=${RUNS:-${1:-3}}
+runs=${RUNS:-${1:-5}}
 if [[ -n ${KEEP:-} ]]; then
     out=$KEEP
     mkdir -p "$out"
