@@ -7,13 +7,14 @@
 //!
 //! Where each concept lives:
 //! - [`walker`]: the camera-path walker, the one loop every method's camera paths run
-//!   (emission, direct light with MIS, delta bounces, continuation), with a hook at the
-//!   non-delta vertices;
+//!   (intersection, depth, delta bounces, BSDF sampling, Russian roulette), and the
+//!   [`walker::Estimator`] a method plugs into it (what it adds where the path arrives and at
+//!   each non-delta vertex, and what it keeps of each scatter);
 //! - [`scatter`]: how a path continues from a vertex (BSDF sampling, Russian roulette), for
 //!   camera and light paths alike;
 //! - [`direct`]: direct light from the real emitters (light sampling, MIS weights);
-//! - `path.rs`: `pt`, the walker with no hook;
-//! - [`many_light`]: the VPL methods, the walker with the gather as its hook;
+//! - `path.rs`: `pt`, whose estimator is next-event estimation and BSDF sampling under MIS;
+//! - [`many_light`]: the VPL methods, whose estimators add the gather from the virtual lights;
 //! - `method.rs`: the methods by name and their one configuration ([`MethodConfig`]: flags,
 //!   defaults, `validate()`, serde).
 

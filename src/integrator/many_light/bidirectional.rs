@@ -89,13 +89,12 @@ use super::Gather;
 use super::light_paths::Vpl;
 use super::light_set::LightSet;
 use super::mis::{Technique, Weighing};
-use crate::geometry::{Ray, offset_origin};
+use crate::geometry::Ray;
 use crate::integrator::direct::{LightSample, sample_emitters_at};
-use crate::integrator::scatter::{scatter, survives_roulette};
-use crate::integrator::walker::{RR_DEPTH, Vertex};
+use crate::integrator::walker::{Arrival, Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
 use crate::light::emitted;
-use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
+use crate::material::{Bsdf, BsdfSample, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
 /// What a pick of the resampled gather counts, where the emitters are in view, in a
@@ -498,103 +497,119 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     weight((w_light + w_camera) / x.counts.factor(x.bsdf, bsdf_y))
 }
 
-/// Radiance arriving along the camera ray `ray` (unit direction): the full camera walk with
-/// next-event estimation, emitter hits and the gather from `set` at every non-delta vertex,
-/// all weighed bidirectionally, the weighted connections bounded by `bound`.
-#[allow(clippy::too_many_arguments)]
-pub fn walk(
-    ctx: &RenderContext,
-    mut ray: Ray,
-    set: &LightSet,
-    connect: Connect,
-    light_samples: u32,
-    counts: Counts,
-    bound: f32,
-    sampler: &mut Sampler,
-    counters: &mut Counters,
-) -> Vec3 {
-    let paths = counts.paths;
-    let mut radiance = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let mut eta_scale = 1.0f32;
-    let mut state = MisState::CAMERA;
-    let mut from = ray.origin;
-    let mut depth = 0u32;
-    // Light samples at the vertex the ray left (for the weight of an emitter it hits).
-    let mut left_samples = 1.0f32;
-    // The BSDF of the vertex the ray left (none at the camera).
-    let mut previous: Option<&Bsdf> = None;
-    loop {
-        counters.rays += 1;
-        let Some(hit) = ctx.accel.intersect(&ray) else { break };
-        depth += 1;
-        let sp = ctx.scene.surface_of_hit(&hit);
-        let wo = -ray.dir.normalize();
-        let material = ctx.scene.material(sp.material);
-        let cos_in = sp.ng.dot(wo).abs();
-        state.arrive((sp.p - from).length_squared(), cos_in);
+/// `pir-bdpt`'s camera path: a full path tracer's walk with next-event estimation, emitter
+/// hits and the gather from `set` at the non-delta vertices that `connect` names, all weighed
+/// bidirectionally, the weighted connections bounded by `bound`.
+pub struct Bidirectional<'a> {
+    pub set: &'a LightSet,
+    pub connect: Connect,
+    /// Light samples at the first non-delta vertex (one at the others).
+    pub light_samples: u32,
+    pub counts: Counts,
+    pub bound: f32,
+}
 
-        // ---- Emission found by the camera ray or a BSDF sample.
-        let le = emitted(material.emission, sp.ng, wo);
+/// The camera subpath's bookkeeping along the walk.
+pub struct CameraPath {
+    /// The running sums of its weights.
+    mis: MisState,
+    /// The vertex the current ray left (the camera's origin at first).
+    from: Vec3,
+    /// Light samples at the vertex the current ray left (for the weight of an emitter it hits).
+    left_samples: f32,
+    /// The BSDF of the vertex the current ray left (none at the camera).
+    previous: Option<Bsdf>,
+}
+
+impl Estimator for Bidirectional<'_> {
+    const COVERS_SURFACES: bool = false;
+    type State = CameraPath;
+
+    #[inline]
+    fn start(&self, ray: &Ray) -> CameraPath {
+        CameraPath { mis: MisState::CAMERA, from: ray.origin, left_samples: 1.0, previous: None }
+    }
+
+    /// The emission found by the camera ray or a BSDF sample, weighed against next-event
+    /// estimation at the vertex the ray left and every connection that makes the path.
+    #[inline]
+    fn on_hit(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        at: &Arrival,
+        beta: Vec3,
+        radiance: &mut Vec3,
+    ) {
+        let sp = at.sp;
+        let cos_in = sp.ng.dot(at.wo).abs();
+        path.mis.arrive((sp.p - path.from).length_squared(), cos_in);
+        let le = emitted(at.material.emission, sp.ng, at.wo);
         if le != Vec3::ZERO {
-            let w = hit_weight(&state, ctx.emitters.pdf_area(sp.prim), cos_in, paths, left_samples);
-            radiance += beta * le * w;
+            let pdf_area = ctx.emitters.pdf_area(sp.prim);
+            let w = hit_weight(&path.mis, pdf_area, cos_in, self.counts.paths, path.left_samples);
+            *radiance += beta * le * w;
         }
-        if depth >= ctx.max_depth {
-            break;
-        }
+    }
 
-        let bsdf = &material.bsdf;
+    /// Next-event estimation (`light_samples` samples at the first vertex) and the connections
+    /// to the VPLs.
+    fn at_vertex(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) {
+        let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
+        let (counts, connect, state) = (self.counts, self.connect, path.mis);
         let geometry = sp.geometry();
         // The count of the connection from the previous camera vertex to this one.
-        let count_in = counts.between(previous, bsdf);
-        // ---- Next-event estimation: `light_samples` samples at the first vertex.
-        let n = if depth == 1 { light_samples } else { 1 };
+        let count_in = counts.between(path.previous.as_ref(), bsdf);
+        let n = if depth == 1 { self.light_samples } else { 1 };
         let count = n as f32;
-        left_samples = count;
-        if !bsdf.is_delta() {
-            // The samples' points: one block of the sequence, stratified among themselves.
-            let u_select = sampler.next_f32();
-            let mut direct = Vec3::ZERO;
-            let count_previous = if connect.at(depth - 1) { count_in } else { 0.0 };
-            for u in sampler.next_2d_block(n) {
-                direct += sample_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters, |l| {
-                    let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
-                    light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), paths, count_previous, count)
-                });
-            }
-            radiance += beta * (direct / count);
-            // ---- The connections to the VPLs.
-            if connect.at(depth) {
-                let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
-                let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth, counts, count_in };
-                let weighing =
-                    Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound };
-                let v = Vertex { sp, wo, bsdf, depth };
-                let max_vpl_depth = ctx.max_depth - depth - 1;
-                radiance += beta * set.gather(ctx, &v, max_vpl_depth, &weighing, sampler, counters);
-            }
+        // The samples' points: one block of the sequence, stratified among themselves.
+        let u_select = sampler.next_f32();
+        let mut direct = Vec3::ZERO;
+        let count_previous = if connect.at(depth - 1) { count_in } else { 0.0 };
+        for u in sampler.next_2d_block(n) {
+            direct += sample_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters, |l| {
+                let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
+                light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
+            });
         }
+        *radiance += beta * (direct / count);
+        // ---- The connections to the VPLs.
+        if connect.at(depth) {
+            let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
+            let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth, counts, count_in };
+            let weighing =
+                Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound: self.bound };
+            let max_vpl_depth = ctx.max_depth - depth - 1;
+            *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+        }
+    }
 
-        // ---- BSDF sampling: the next vertex.
-        let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
-        eta_scale *= s.eta * s.eta;
+    /// The camera subpath's sums extended by the sampled direction.
+    #[inline]
+    fn on_scatter(&self, path: &mut CameraPath, v: &Vertex, s: &BsdfSample) {
+        let (sp, wo, bsdf) = (&v.sp, v.wo, v.bsdf);
+        let count_in = self.counts.between(path.previous.as_ref(), bsdf);
         // (Only the camera's sums that are not zero need it: none at the first vertex.)
-        let pdf_rev = match (s.delta, state.dvc > 0.0) {
+        let pdf_rev = match (s.delta, path.mis.dvc > 0.0) {
             (true, _) => s.pdf,
-            (false, true) => bsdf.pdf(&geometry, s.wi, wo),
+            (false, true) => bsdf.pdf(&sp.geometry(), s.wi, wo),
             (false, false) => 0.0,
         };
         let cos_out = sp.ng.dot(s.wi).abs();
-        state.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, connect, depth, count_in));
-        previous = Some(bsdf);
-        if depth >= RR_DEPTH && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler) {
-            break;
-        }
-        from = sp.p;
-        ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+        path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, self.connect, v.depth, count_in));
+        path.previous = Some(*bsdf);
+        path.left_samples = if v.depth == 1 { self.light_samples as f32 } else { 1.0 };
+        path.from = sp.p;
     }
-    radiance
 }
 
 #[cfg(test)]

@@ -71,8 +71,9 @@ pub use path_count::{AutoPaths, Pilot};
 use glam::Vec3;
 
 use super::direct::{Sampled, emission_weighted, sample_emitters_weighted};
+use super::path::{light_hit, light_sample};
 use super::scatter::scatter;
-use super::walker::{Vertex, VertexHook, walk};
+use super::walker::{Arrival, Estimator, Vertex, walk};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::Ray;
 use crate::geometry::offset_origin;
@@ -225,27 +226,47 @@ impl InstantRadiosity {
     }
 }
 
-/// The many-light hook of the camera walker: at a non-delta vertex of d segments, the light
-/// of every virtual light of at most max_depth − d − 1 segments.
-impl VertexHook for LightSet {
+/// The many-light methods' camera path (but `pir-bdpt`'s, [`bidirectional`]): the path
+/// tracer's techniques for direct light, and at a non-delta vertex of d segments the light of
+/// every virtual light of at most max_depth − d − 1 segments, which covers every path whose
+/// next vertex is a non-delta surface.
+impl Estimator for LightSet {
     const COVERS_SURFACES: bool = true;
+    type State = ();
+
+    #[inline]
+    fn start(&self, _ray: &Ray) {}
+
+    #[inline]
+    fn on_hit(&self, _: &mut (), ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
+        light_hit(ctx, at, beta, radiance);
+    }
 
     #[inline]
     fn at_vertex(
         &self,
+        _: &mut (),
         ctx: &RenderContext,
         v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
-    ) -> Option<Vec3> {
+    ) {
+        light_sample(ctx, v, beta, radiance, sampler, counters);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let Some(mis) = &self.mis else {
-            return Some(self.gather(ctx, v, max_vpl_depth, &Weighing::PLAIN, sampler, counters));
+        let gathered = match &self.mis {
+            None => self.gather(ctx, v, max_vpl_depth, &Weighing::PLAIN, sampler, counters),
+            Some(mis) => {
+                let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+                let weighing = Weighing {
+                    technique: Technique::Connect { fx: &fx, scene: ctx.scene },
+                    bound: mis.bound,
+                };
+                self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters)
+            }
         };
-        let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-        let weighing =
-            Weighing { technique: Technique::Connect { fx: &fx, scene: ctx.scene }, bound: mis.bound };
-        Some(self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
+        *radiance += beta * gathered;
     }
 
     #[inline]
@@ -398,8 +419,14 @@ impl Integrator for InstantRadiosity {
     ) -> Vec3 {
         match (&self.lights, &self.set.mis) {
             (&VirtualLights::Bidirectional(_, connect), Some(mis)) => {
-                let n = self.light_samples;
-                bidirectional::walk(ctx, ray, &self.set, connect, n, mis.counts, mis.bound, sampler, counters)
+                let camera_path = bidirectional::Bidirectional {
+                    set: &self.set,
+                    connect,
+                    light_samples: self.light_samples,
+                    counts: mis.counts,
+                    bound: mis.bound,
+                };
+                walk(ctx, ray, &camera_path, sampler, counters)
             }
             _ => walk(ctx, ray, &self.set, sampler, counters),
         }
