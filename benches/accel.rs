@@ -119,7 +119,7 @@ fn count_occluded_batch(acc: &dyn Accelerator, rays: &[Ray], occ: &mut [bool]) -
 }
 
 /// Build times: `build/bvh` on a rayon pool of one thread per core, as Embree's TBB builds
-/// (`build/embree`), whatever `RAYON_NUM_THREADS` says, so that the README's command (which
+/// (`build/embree`), whatever `RAYON_NUM_THREADS` says, so that the command in `docs/speed.md` (which
 /// sets it to 1 for the queries) compares the two builds on the same cores; `build/bvh-1thread`
 /// on one thread.
 fn bench_build(c: &mut Criterion) {

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# The README's backend table (section "Ray-query backends"), measured and printed by one run:
+# The backend table of docs/speed.md (section "Ray-query backends: benchmarks"), measured and printed by one run:
 # `cargo bench --bench accel` several times, the median of the runs for every figure, with
 # the machine (lscpu's model name, cores) and the date above the table.
 #
 #     docs/accel_table.sh [RUNS]      (default 5; about 3.5 minutes per run on 2 cores)
 #
-# Queries run on one thread (`RAYON_NUM_THREADS=1`, as in the README's command): rays per
+# Queries run on one thread (`RAYON_NUM_THREADS=1`, as in the command of docs/speed.md): rays per
 # second of each backend's single-ray calls, and of Embree's 16-wide packets, as ratios to
 # Embree's single-ray rate of the same run (absolute rates drift by ±15 % from run to run on a
 # shared machine; ratios taken within one run hold better). The ratio printed is the median

@@ -1,14 +1,23 @@
 #!/usr/bin/env bash
-# Regenerates docs/results/: the studies that docs/results.md shows. One command:
+# Regenerates the studies that docs/results.md shows. One command:
 #
 #     docs/results.sh            (from the checkout; about 80 minutes on 2 cores)
 #
 # Every study races the methods at equal wall-clock time, one at a time on all threads, so the
 # machine should be otherwise idle. TIME_SCALE=0.25 docs/results.sh makes every budget a
 # quarter as long (a quick look, not the published figures). ONLY=REGEX docs/results.sh runs
-# only the studies whose names match (e.g. ONLY=mis for the weighed connections' studies). The Cornell box's reference is
-# the project's shared Mitsuba 3 reference (../shared, beside the checkout); without it that
-# study is skipped with a message. The others use references committed under scenes/.
+# only the studies whose names match (e.g. ONLY=mis for the weighed connections' studies). The
+# Cornell box's reference is the project's shared Mitsuba 3 reference (../shared, beside the
+# checkout); without it that study is skipped with a message. The others use references
+# committed under scenes/.
+#
+# Where the output goes, so that a rerun adds numbers to git and not megabytes of images:
+# - out/results/NAME/ (ignored by git: /out in .gitignore) gets everything `pir study` writes:
+#   every chart as PNG and SVG, the image sheet, the final EXRs, the report;
+# - docs/results/NAME/ (in git) gets the numbers, report.md, snapshots.csv and study.json, and
+#   one chart as SVG (the relative MSE against time, the final relative MSE against the swept
+#   parameter for a sweep, or the chart docs/results.md shows; see `chart_of`). Its report.md
+#   links that chart and points the other images' links to out/results/NAME/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,12 +27,33 @@ secs() { awk -v t="$1" -v s="$scale" 'BEGIN { printf "%g", t * s }'; }
 cargo build --release --quiet
 pir=target/release/pir
 out=docs/results
-mkdir -p "$out"
+images=out/results
+mkdir -p "$out" "$images"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 # Whether the study NAME is to run (ONLY).
 wanted() { [[ $1 =~ ${ONLY:-.} ]]; }
+
+# The chart kept in git for a study whose docs/results.md section shows another one than the
+# relative MSE against time.
+declare -A chart_of=([corner-diffuse]=max_rel_se [corner-glossy]=max_rel_se [glossy]=max_rel_se)
+
+# keep NAME: copies the numbers and one chart of study NAME from $images/NAME to $out/NAME,
+# its report's image links pointing to the kept chart or to $images/NAME.
+keep() {
+    local name=$1 from=$images/$1 to=$out/$1 chart=${chart_of[$1]:-rel_mse}
+    [ -f "$from/sweep-rel_mse.svg" ] && chart=sweep-rel_mse
+    mkdir -p "$to"
+    cp "$from/report.md" "$from/snapshots.csv" "$from/study.json" "$from/$chart.svg" "$to/"
+    sed -i -e "s#](\([A-Za-z0-9_.-]*\.\(png\|svg\|exr\)\))#](../../../$from/\1)#g" \
+        -e "s#](../../../$from/$chart\.\(png\|svg\))#]($chart.svg)#g" \
+        -e "1a\\
+\\
+In git: this report, \`snapshots.csv\`, \`study.json\` and \`$chart.svg\`. The other charts, the image\\
+sheet and the final EXRs are written by \`docs/results.sh\` to \`$from/\` (not in git)." \
+        "$to/report.md"
+}
 
 # study NAME SCENE REFERENCE SECONDS [more pir study flags…]
 study() {
@@ -31,10 +61,9 @@ study() {
     shift 4
     wanted "$name" || return 0
     echo "== $name: $scene, $(secs "$time") s per line" >&2
-    rm -rf "${out:?}/$name"
-    "$pir" study "$scene" --reference "$reference" --time "$(secs "$time")" --out "$out/$name" "$@"
-    # The final images are in the sheet; the EXRs would only make the repository heavy.
-    rm -f "$out/$name"/final-*.exr
+    rm -rf "${images:?}/$name" "${out:?}/$name"
+    "$pir" study "$scene" --reference "$reference" --time "$(secs "$time")" --out "$images/$name" "$@"
+    keep "$name"
 }
 
 # pt_1024 SCENE REFERENCE NAME: the relative MSE of pt at 1,024 spp against REFERENCE, the error
@@ -143,4 +172,4 @@ if wanted cornell-bunny-mis; then
         echo "skipping the bunny's study: $bunny_scene or its reference $bunny_ref is absent" >&2
     fi
 fi
-echo "done: $out" >&2
+echo "done: numbers and one chart per study in $out, all images in $images" >&2

@@ -1,4 +1,4 @@
-//! The `pir` command line: `pir render`, `pir compare`.
+//! The `pir` command line: `pir render`, `compare`, `merge`, `study` and `reference`.
 
 #![deny(unsafe_code)]
 

@@ -8,8 +8,9 @@ use pir::image::{error_map, metrics, read_exr, write_png};
 
 /// Compare an EXR image with a reference EXR.
 ///
-/// Prints RMSE, relative MSE (mean over pixels and channels of (x − r)² / (r² + 0.01)) and the
-/// per-channel means of both images with their relative difference.
+/// Prints RMSE, relative MSE (mean over pixels and channels of (x − r)² / (r² + 0.01)), the
+/// largest per-pixel relative squared error and the per-channel means of both images with
+/// their relative difference.
 #[derive(Args, Debug)]
 pub struct CompareArgs {
     /// The image to judge (EXR).

@@ -25,8 +25,9 @@ use super::setup::{interrupt_flag, scene_stem, seconds};
 /// Ctrl-C or SIGTERM ends the running line after its iteration and writes the study of the
 /// lines raced so far.
 ///
-/// --sweep KEY=V1,V2,… runs every method that uses KEY (alpha: pir-clamp, pir-vsl; clamp:
-/// ir-clamp, pir-clamp; radius: vsl, pir-vsl) once per value; without --methods, only those.
+/// --sweep KEY=V1,V2,… runs every method that uses KEY (alpha: pir-clamp, pir-vsl, pir-mis,
+/// pir-bdpt; clamp: ir-clamp, pir-clamp, pir-mis, pir-bdpt; radius: vsl, pir-vsl) once per
+/// value; without --methods, only those.
 #[derive(Args, Debug)]
 pub struct StudyArgs {
     /// The scene file (TOML).

@@ -157,9 +157,9 @@ impl Streams {
     /// needs: each iteration's VPLs give an unbiased estimate of its own kernel, with a
     /// variance that grows like b_i, and the variance of the mean of independent iterations
     /// falls. One sequence over all the render's paths stratifies several iterations
-    /// together and measured lower error still (Cornell box 256×256, 64 iterations: `pir-mis`
-    /// relative MSE 2.50e-4 against 3.07e-4), but its iterations are dependent, and with the
-    /// unbounded 1/d² kernel in the limit we have no argument that its error vanishes.
+    /// together and measured lower error still (`docs/sampling.md`), but its iterations are
+    /// dependent, and with the unbounded 1/d² kernel in the limit we have no argument that
+    /// its error vanishes.
     pub fn light_paths(kind: SamplerKind, seed: u64, iteration: u64) -> Self {
         let streams = Streams::new(seed, iteration, Domain::LightPath);
         match kind {
@@ -249,10 +249,9 @@ impl Sampler<'_> {
     /// [`Sampler::next_2d`]'s. The points are computed as the block is read.
     ///
     /// The blocks must tile the sequence: a block of `n` points taken from an aligned block
-    /// of the next power of two (as before 2026-12-04) leaves the same points of every
-    /// block out, and under a pixel's fixed scramble those lie in the same part of the
-    /// square at every iteration, so that the pixel never converged (the slit room with 5
-    /// light samples: relative MSE at 256 iterations 6.1e-4, against 3.4e-4 with 4).
+    /// of the next power of two leaves the same points of every block out, and under a
+    /// pixel's fixed scramble those lie in the same part of the square at every iteration,
+    /// so that the pixel never converges (measured: `docs/sampling.md`).
     pub fn next_2d_block(&mut self, n: u32) -> Block {
         let (one, h) = if n == 1 { (Some(self.next_2d()), 0) } else { (None, self.next_u64()) };
         let first = self.index.reverse_bits().wrapping_mul(n);

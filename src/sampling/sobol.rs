@@ -20,13 +20,11 @@
 //! lattice, whose non-zero members move to ever higher frequencies as the net grows, so its
 //! variance goes to zero (the tail of Parseval's sum); a count that is not a power of two is a
 //! union of aligned blocks, each a net. The shift guarantees no factor over independent
-//! sampling at a given count, as Owen scrambling of the coordinates would (Owen 1997). We
-//! measured Owen-scrambled coordinates against shifted ones on the Cornell box (1.36e-4
-//! against 1.34e-4 relative MSE at 512 samples per pixel) and the mirror-and-glass box (2.08e-2
-//! against 2.09e-2 at 128): no gain, for 1.14× the time per sample (two bit reversals and two
-//! hashes more per pair); so pir shifts. A shift also lets the camera samplers share the
-//! shuffled points of their first dimensions (see `Streams::camera`) and draw each with one
-//! hash and an XOR.
+//! sampling at a given count, as Owen scrambling of the coordinates would (Owen 1997), but
+//! Owen-scrambled coordinates measured no lower error than shifted ones, for more time per
+//! sample (two bit reversals and two hashes more per pair; `docs/sampling.md`), so pir
+//! shifts. A shift also lets the camera samplers share the shuffled points of their first
+//! dimensions (see `Streams::camera`) and draw each with one hash and an XOR.
 //!
 //! The progressive many-light methods change their kernel with the iteration, and a pixel's
 //! camera samples are stratified over the iterations, so their iterations are no longer

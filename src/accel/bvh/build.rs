@@ -14,13 +14,6 @@
 //! bins a node uses. Subtrees with many primitives are built in parallel with rayon; their
 //! pairs stay in per-task segments, laid out once at the end by a parallel copy.
 //!
-//! Measured and not kept (2026-12-02, build on one thread, CPU time): binning even and odd
-//! primitives into two sets of bins, merged afterwards, to break the store-to-load chains of
-//! consecutive primitives falling into the same bin (dragon 60.1 → 61.9 ms, bunny 18.7 →
-//! 18.8, 1M scene 356 → 350); bin indices converted four lanes at once with the 2²³ trick,
-//! and the partition comparing positions without converting them (5 % fewer instructions
-//! in the whole process, dragon 59.0 → 57.3 ms, 1M scene 339 → 342).
-//!
 //! Large nodes (the top levels, where the two subtrees are not yet running on their own
 //! threads) are also binned and partitioned in parallel: their primitives are cut into chunks
 //! of [`CHUNK`] records, each chunk is binned on a rayon task (by runs of one bin: see
@@ -29,57 +22,19 @@
 //! chunks' own bin counts, into the other of two buffers allocated for the whole build. The
 //! children stay in the buffer they were written to and are partitioned from there into the
 //! first one, and so on down; a range copies its primitives back once, when it becomes too
-//! small to be partitioned in parallel (see [`subtree`]). Before that (2026-12-04),
-//! each such node took a counting pass, the scatter and a copy back; the one pass, the runs and
-//! a collapse that reserves its nodes took the 1M-triangle scene's build on 2 threads from 197
-//! and 204 ms to 172 and 167 ms (alternating binaries). Chunk size and thresholds are constants, so the tree is the same
-//! whatever the number of threads.
+//! small to be partitioned in parallel (see [`subtree`]). Chunk size and thresholds are
+//! constants, so the tree is the same whatever the number of threads.
 //!
-//! Measured and not kept (2026-12-04): the same stable scatter and ping-pong at every level,
-//! with the sequential levels binned by runs too (the mesh's order then survives all the way
-//! down): level on one thread (the subtrees' phase 300 ms either way on the 1M scene), slower
-//! on two (1M scene 173 → 198 ms, dragon 29 → 43 ms), its second buffer doubling the working
-//! set of each thread's subtrees. Bins by runs for the sequential nodes of 4,096 or 16,384
-//! primitives and more (where the in-place partition has shuffled the mesh's order least): 1M
-//! scene 186, 189 ms → 182, 188 (4,096) and 184, 184 (16,384), dragon level. The SAH's `C_TRAV`
-//! at 0.5 or 2 instead of 1: traversal rates moved both ways by up to 8 % (bunny, dragon;
-//! random rays, segments, gather pattern), no consistent change. A leaf of five to eight
-//! costed 1.3 pack tests instead of 2, since the AVX versions test both packs at once
-//! (2026-12-05, `accel_ratio`, two runs each): occlusion 0.90 → 0.93 (bunny), 0.88 → 0.90
-//! (dragon) of Embree's rate, but the gather pattern 0.97 → 0.94 (bunny), level (dragon), and
-//! the 1M scene's gather 1.43 → 1.32 and occlusion 1.03 → 0.90: not kept.
+//! Leaves hold up to [`MAX_LEAF`] = 8 triangles, twice Embree's four: the tree's surface-area
+//! sum is then a little above Embree's, all of it in the leaves, but the AVX versions of the
+//! traversal test a two-pack leaf at once, and leaves of four traced no faster. Large
+//! triangles are not split (no SBVH): on the conference room even Embree's spatial splits gain
+//! it only 2–3 %, and the room's gap to Embree lies in the traversal's order, not in the tree
+//! (see `traverse.rs`).
 //!
-//! The trees against Embree's (2026-12-05), in Embree's own statistics (`verbose=2`: the sum
-//! over nodes of their half area, plus over leaves of their half area times their packs, over
-//! the root's): bunny 11.55 against Embree's 10.75, dragon 15.78 against 15.09, conference
-//! room 11.57 against 11.10, the difference all in the leaves (3.36 against 2.55 on the
-//! bunny), whose boxes hold up to eight triangles where Embree's hold four. With
-//! [`MAX_LEAF`] at four the sums matched Embree's (10.76, 15.13, 11.24), but not the rates
-//! (`RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 5`, two runs each, BVH over Embree's rate,
-//! eight → four): gather pattern conference room 0.77 → 0.74, dragon 1.03 → 0.99, bunny 1.01 →
-//! 1.03; occlusion dragon 0.85–0.87 → 0.76–0.84, bunny 0.89 → 0.88. Not kept.
-//!
-//! **Splitting large triangles, measured and not kept (2026-12-05).** Before the build, each
-//! triangle whose box's half area exceeded its projected area by more than a threshold was cut
-//! along the planes of a grid over the scene (Karras and Aila 2013, §5: the coarsest plane
-//! crossing the piece first, its priority `(2^−level · excess)^(1/5)`, the cuts shared in
-//! proportion to it within a budget), each piece a record with the triangle's index and the
-//! box of its clipped polygon; leaves tested the whole triangle. On the conference room, whose
-//! wall-, floor- and table-sized triangles the issue singles out, `accel_ratio ratio
-//! conference WORKLOAD 7` (3 M rays a round, binaries alternating, BVH over Embree's rate)
-//! went, with a budget of 30 % more records (29,432 pieces from 12,534 triangles, at most one
-//! cut per four mean boxes' half area of excess), gather pattern 0.772 → 0.566, closest hit
-//! 1.077 → 0.842, occlusion 0.905 → 0.660; with 5 % and a threshold 64 times the mean box (145
-//! triangles, 1,279 more records) 0.767 → 0.685, 1.086 → 0.891 and 0.881 → 0.722. The
-//! wide tree's summed surface area (interior lanes, and leaf lanes times their packs) grew by
-//! 25 % and 18 % with those 145 triangles: a centroid-binned SAH scatters a wall's pieces over
-//! many subtrees, each still large against its neighbours, where the whole wall had widened
-//! one. Embree's own spatial splits say how much a split-aware build could gain here: with
-//! Embree built at high quality (spatial splits) instead of medium, the BVH's ratios moved
-//! only from 0.775 to 0.758 (gather pattern), 1.088 to 1.059 (closest hit) and, on the dragon's
-//! occlusion, 0.863 to 0.862: 2–3 % for Embree, against a build about 5 times as long. So no
-//! spatial-split build (SBVH) was written: the room's gap to Embree (0.78 on the gather
-//! pattern) lies in the traversal's order, not in the tree (see `traverse.rs`).
+//! Measurements of these choices and of the alternatives tried and not kept (two sets of bins,
+//! the 2²³ trick, ping-pong at every level, `C_TRAV`, leaf costs, leaves of four, splitting
+//! large triangles): `docs/accel/build.md`.
 
 use glam::{BVec3A, BVec4A, Vec3A, Vec4};
 use rayon::prelude::*;
@@ -726,9 +681,9 @@ fn partition_parallel(prims: &[Prim], scratch: &mut [Prim], s: &Split) -> (usize
 fn bin_index(c: Vec3A, min: Vec3A, scale: Vec3A, bins: usize) -> [usize; 3] {
     let f = ((c - min) * scale).max(Vec3A::ZERO).min(Vec3A::splat((bins - 1) as f32));
     // Four lanes converted together. LLVM does not make one `cvttps2dq` of the saturating
-    // conversions: under callgrind this line is a fifth of the build's instructions (1M scene,
-    // 2026-12-04), but the intrinsic needs `unsafe` outside a `#[target_feature]` function, and
-    // the 2²³ trick, which avoids the conversion, did not make the build faster (module docs).
+    // conversions: under callgrind this line is a fifth of the build's instructions (1M scene),
+    // but the intrinsic needs `unsafe` outside a `#[target_feature]` function, and the 2²³
+    // trick, which avoids the conversion, did not make the build faster (`docs/accel/build.md`).
     let i = f.extend(0.0).to_array().map(|x| x as i32);
     [i[0] as usize, i[1] as usize, i[2] as usize]
 }

@@ -15,17 +15,9 @@
 //! traversal ([`hit_pair_avx`], AVX intrinsics: each vector is a pack's four lanes and the
 //! other's, joined as they are loaded), with the same operations as [`Tri4::hit`], so the
 //! lanes agree bit for bit; the SSE2 version tests the two packs one after the other
-//! ([`Hits8::from_halves`]). A first try wrote the eight lanes as plain loops (for one AVX
-//! operation per step, like the box test), which did not pay: LLVM kept those loops 4-wide,
-//! and the instructions per ray in traversal rose by 4–12 % on the bunny (occlusion 840 → 918,
-//! gather 1,085 → 1,219, closest hit 696 → 721).
-//!
-//! Nor did Embree's division-free form (2026-12-04): the tests on `U`, `V` and `T` against
-//! the determinant (`U` between 0 and `det` in either order, and so on), with the oracle
-//! changed alike and the division left to the hit lanes, took the division off the path of
-//! every pack but not an instruction (bunny occlusion 55.0 → 55.7 M, closest hit 45.6 →
-//! 46.0 M), and interleaved `accel_ratio` runs showed no change (bunny occlusion 0.70, 0.70
-//! → 0.62, 0.70; dragon 0.667, 0.656 → 0.677, 0.687).
+//! ([`Hits8::from_halves`]). The eight lanes are written with intrinsics, not as plain loops:
+//! LLVM kept such loops 4-wide. The test divides by the determinant, as the oracle does;
+//! Embree's division-free form traced no faster. Measurements: `docs/accel/traversal.md`.
 
 use glam::{BVec4A, Vec3, Vec4};
 use rayon::prelude::*;
@@ -255,11 +247,8 @@ const BATCH: usize = 64;
 /// a pack's few hundred instructions stood between one triangle's loads and the next's, and
 /// the core waited on one miss after another (three quarters of the samples of `Tri4::new` on
 /// the two loads); the gathering loops are a handful of instructions per load, so the core
-/// issues the next dozens of loads while the first are on their way. Builds on both cores,
-/// BVH over Embree's time (`accel_ratio ratio SCENE build 15`, binaries alternating, medians
-/// of four and two runs, 2026-12-05): dragon 0.851 → 0.814, conference room 0.977 → 0.899; on
-/// one thread the dragon's build took 1–4 % less time and the 1M scene's 1.5–2 % less (two
-/// runs each).
+/// issues the next dozens of loads while the first are on their way (measurements:
+/// `docs/accel/build.md`).
 pub(super) fn write_packs(
     packs: &mut [Tri4],
     ranges: &[PackRange],

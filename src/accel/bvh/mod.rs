@@ -37,7 +37,8 @@
 //! packs, so leaves hold up to four triangles) another 1.15–1.7× (bunny, dragon, 1M scene).
 //! Going from 4 to 8 wide with AVX2 gave 1.1–1.25× more, and prefetching deferred children
 //! another 1.05–1.2× on the larger scenes (interleaved runs against Embree on a busy 2-core
-//! AVX2 machine).
+//! AVX2 machine). Measurements: `docs/accel/` (build, traversal, huge pages) and, for the
+//! backend table's runs, `docs/accel_runs.md`.
 
 mod build;
 mod leaf;
@@ -236,7 +237,7 @@ impl Accelerator for Bvh {
         }
     }
 
-    /// Ray by ray (see `traverse.rs` for the batched traversals measured), with the tree's
+    /// Ray by ray (the batched traversals measured: `docs/accel/traversal.md`), with the tree's
     /// arrays borrowed once.
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len());

@@ -15,20 +15,11 @@
 //! its partition's second buffer are such arrays too: their first touch takes 16 huge-page
 //! faults instead of 8,000 small ones (1M scene).
 //!
-//! Why 8 MiB (2026-12-04, `accel_ratio`, alternating binaries, one thread for queries, builds on
-//! two): from 2 MiB, the bunny's build took 1.03× Embree's time against 0.93× from 8 MiB (its
-//! arrays, 2–5 MB, each cost a fresh mapping and whole huge pages to clear, where a `Vec`
-//! reuses memory the allocator kept from the previous build), and its traversal gained
-//! nothing (its tree is within the TLB's reach). From 16 MiB, the dragon's packs (9.5 MB) stay
-//! on small pages: its build ran at 0.97–0.98× Embree's time against 1.03–1.04× from 8 MiB, but
-//! its closest hits at 0.78–0.79× Embree's rate against 0.82×, and the 1M scene's occlusion
-//! (whose nodes, 10 MB, then stay on small pages too) at 0.70–0.71× against 0.74×. A render
-//! builds once, from fresh memory, where huge pages fault faster than small ones (48 MB: 6 ms
-//! against 16 ms once the machine has backed the memory). Measured again for the bunny's
-//! queries (2026-12-05, `RAYS=3000000 accel_ratio ratio bunny WORKLOAD 7`, two or three runs,
-//! medians): from 2 MiB, its packs (4 MB) on huge pages, the gather pattern 0.939 → 0.949 of
-//! Embree's rate, occlusion 0.866 → 0.887, closest hit 1.028 → 1.038, within the runs'
-//! scatter; Embree's process had no huge pages for the bunny either (`AnonHugePages` 0).
+//! Why 8 MiB ([`MAP_MIN`]): smaller arrays gain nothing in traversal (a tree that small is
+//! within the TLB's reach) and build slower on mappings of their own (each a fresh mapping
+//! with whole huge pages to clear, where a `Vec` reuses memory the allocator kept), while
+//! larger thresholds leave the dragon's packs and the 1M scene's nodes on small pages, whose
+//! queries then ran slower. Measurements: `docs/accel/huge-pages.md`.
 //!
 //! No `unsafe`: `memmap2` maps and advises, `bytemuck` views the bytes as `T` (the element
 //! types are plain old data, and a mapping is page-aligned, which satisfies their alignment).

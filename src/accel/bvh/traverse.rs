@@ -8,374 +8,64 @@
 //! where their entries are equal) but three or more by exit distance: the box the ray leaves
 //! first is entered first (below).
 //!
-//! **Any-hit's order for three or more hit children (2026-12-05).** The conference room
-//! (`scenes/conference-room`, 331k triangles, added to `accel_ratio` for this) showed the
-//! nearest-first order at its worst: the BVH ran its gather pattern at 0.60 of Embree's rate,
-//! and Embree's own order (lane order: the last hit lane entered, the others pushed, no
-//! distances) at 0.87. Lane order lost elsewhere, though (the 1M scene's gather 1.43 → 0.93).
-//! The room's wall-, floor- and table-sized triangles make large, overlapping boxes, many of
-//! which a ray crosses from near its start to far along it; entered first by nearest entry,
-//! they cost much and rarely hold the occluder. Ranking three or more hit children by exit
-//! distance instead puts the boxes the ray leaves soonest first, and the long crossings last.
-//! Two children keep the entry order (by exit, the bunny's gather fell 0.958 → 0.920). Binaries
-//! alternating, `RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 7`, two runs each, medians, BVH
-//! over Embree's rate, entry → exit order for three or more:
-//! - gather pattern: conference room 0.604 → 0.752 (0.770 in a third run), 1M scene 1.426 →
-//!   1.486, bunny 0.948 → 0.938 (0.933 → 0.938 in a third pair), dragon 0.984 → 0.984, box
-//!   1.000 → 0.974 (its runs scatter by ±3 %);
-//! - occlusion: conference room 0.908 → 0.906, 1M scene 0.893 → 0.971, bunny 0.867 → 0.887,
-//!   dragon 0.833 → 0.841, box 0.891 → 0.891.
+//! **Any-hit's order.** Large, overlapping boxes (those of wall-, floor- and table-sized
+//! triangles, as in the conference room) are crossed by many rays from near their start to far
+//! along them; entered first by nearest entry, they cost much and rarely hold the occluder.
+//! Ranking three or more hit children by exit distance puts the boxes the ray leaves soonest
+//! first and the long crossings last. Two hit children keep the nearest-entry order, and at
+//! equal entries (both boxes hold the ray's origin, so both entries are `tmin`: a gather point
+//! in open space lies inside many of the upper levels' boxes) go by exit distance.
 //!
-//! Two hit children at the same entry distance (typically both boxes hold the ray's origin,
-//! which makes their entries `tmin`) were entered in lane order, the higher lane first. By exit
-//! distance instead, on top of the above (same command, two runs for the gather pattern, one
-//! for occlusion): gather pattern bunny 0.929 → 1.022, dragon 0.984 → 1.050, 1M scene 1.374 →
-//! 1.574, conference room 0.746 → 0.766, box 1.026 → 1.028; occlusion bunny 0.898 → 0.885,
-//! dragon 0.861 → 0.851, 1M scene 0.975 → 0.970, conference room 0.917 → 0.897, box 0.891 →
-//! 0.877 (single runs, within their scatter). A gather point in open space lies inside many
-//! of the upper levels' boxes, whose entries are then all `tmin`.
+//! **Ranks, not a sort.** Each of three or more hit children goes straight to its slot: its
+//! rank is the number of hit children farther than it, or as far and in an earlier lane (its
+//! distance compared with all lanes both ways by the box test's 8-wide mask, and a popcount),
+//! which gives a sort's order without a branch per comparison ([`push_sorted`]). Two hit
+//! children take one comparison.
 //!
-//! Measured the same day for three or more, one run each (conference room, bunny, 1M scene
-//! gather): lane order 0.85, 0.98, 1.01; the farthest entry first 0.65, 0.51, 0.71; the longest
-//! crossing (exit − entry) first 0.57, 0.77, 1.20, the shortest first 0.70, 0.72, 0.87; the
-//! crossing's midpoint 0.56, 0.89, 1.28; lane order for any number of hit children 0.87, 0.90,
-//! 0.93.
-//!
-//! Lane order for three or more hit children, measured again on top of today's rules for two
-//! (2026-12-05, evening, not kept): the highest hit lane entered, the others pushed in lane
-//! order, as Embree's kernel does. `RAYS=3000000 accel_ratio ratio SCENE WORKLOAD 5`, two runs
-//! each, exit order → lane order: it is the largest gain found for the conference room and the
-//! occlusion workloads (conference room gather 0.77 → 0.84–0.88, occlusion dragon 0.85–0.87 →
-//! 0.91–0.94, bunny 0.88 → 0.93, 1M scene 0.94–0.99 → 1.01; bunny gather 1.01–1.03 →
-//! 1.03–1.05), but the dragon's gather pattern falls 1.04 → 0.95 and the 1M scene's 1.38–1.57 →
-//! 0.99–1.00, two of issue 15's bars. Halfway forms lost everywhere or kept both losses (one
-//! run each; conference room gather, 1M scene and dragon gather, dragon occlusion, bunny
-//! gather): lane order for four or more hit children only 0.78, 1.08, 1.00, 0.87, 1.02, for
-//! three only 0.80, 1.37, 0.96, 0.88, 1.00; exit distances rounded to a power of two (ties in
-//! lane order) 0.73, 0.87, 0.84, 0.81, 0.89, to two mantissa bits 0.73, 1.31, 0.90, 0.74, 0.92;
-//! the boxes that hold the ray's origin (entry at `tmin`) by exit and the others in lane order,
-//! after them 0.73, 1.08, 0.84, 0.79, 0.89, before them 0.77, 0.88, 0.84, 0.79, 0.88. Lane
-//! order for the batched queries only (`occluded_batch`, which the renderer's gathers call; the
-//! single-ray query kept the exit order, and with it the bars): the renderer's gather (`pir
-//! render SCENE --method pir-clamp --threads 1 --spp 2 --accel bvh`, two runs each,
-//! alternating, shadow rays a second) went 4.46 → 4.64 M in the conference room, 15.7 → 16.2 M
-//! in the Cornell box, 11.7 → 11.9 M in the bunny's Cornell box, and stayed level in
-//! `scenes/dense/indirect.toml` (8.14 → 8.06, 8.20), with the dragon in that box (9.58, 9.41 →
-//! 9.88, 9.15) and with the 1M scene's bumpy sphere there (6.95, 6.96 → 7.29, 6.87); the accel
-//! bench's batched gather pattern (`gather-batch`, against Embree's packets) went 0.58 → 0.64
-//! (conference room) and 0.60 → 0.70 (box), but 0.88 → 0.81 (dragon) and 1.33 → 0.86 (1M
-//! scene). 2–4 % on half the scenes measured, against a second any-hit order to keep and a
-//! third of the batched rate lost on one pattern: not kept.
-//!
-//! Leaf children first, measured again on today's order (2026-12-05, not kept): any-hit's key
-//! for a leaf lane `−1 / exit` (every leaf before every interior child, leaves by exit among
-//! themselves), in the hope that the conference room's large triangles, which the SAH leaves in
-//! leaves high up, would be tried first. Gather pattern, `RAYS=3000000 accel_ratio ratio SCENE
-//! gather 5` (two runs each), without → with: conference room 0.765 → 0.728, bunny 1.011 →
-//! 0.925, dragon 1.042 → 0.957, 1M scene 1.555 → 1.454.
-//!
-//! **Where the time goes, and two changes to the AVX versions (2026-12-05).** On the AMD EPYC
-//! (Zen 4) machine, with `accel_ratio`'s `SPLIT` and `REPEAT` (see its docs): the bunny's
-//! gather pattern is 73 % occluded rays, at 0.91 of Embree's rate, and 27 % unoccluded ones, at
-//! 0.83, which test 2.45 leaves (3.6 packs) each. With every ray traced eight times in a row
-//! (caches warm) the BVH fell to 0.79 of Embree's rate, so what it lacks is work per ray, not
-//! memory traffic; and with the triangle tests of the unoccluded rays skipped (a timing
-//! experiment: their answer is "no hit" either way) it ran at 1.27 of Embree's full rate, so
-//! the leaves took a third of the time. Kept:
-//! - The box test's minima and maxima of the AVX versions are taken of the distances' bits as
-//!   integers (see [`RayBoxes::enter`]), a cycle each on the node-to-node chain instead of two
-//!   or more.
-//! - A two-pack leaf is tested eight lanes at once ([`hit_pair_avx`]) instead of as two packs:
-//!   half the arithmetic, and one branch on the result instead of two.
-//!
-//! `accel_ratio ratio SCENE WORKLOAD 7` with 3 M rays a round, binaries alternating, two runs
-//! each, BVH/Embree rate before (popcnt enabled) → after: integers alone, gather pattern bunny
-//! 0.910 → 0.939, dragon 0.954 → 0.977 (the dragon's occlusion 0.850 → 0.819 and closest hit
-//! 1.074 → 1.006, within these runs' scatter: the comparison below has them higher); the
-//! two-pack test on top, gather bunny 0.920 → 0.938, dragon 0.984 → 1.000, closest hit bunny
-//! 1.00 → 1.035. All three changes of the day (with `popcnt`, below) against the traversal
-//! before them, same command: gather pattern bunny 0.884 → 0.948, dragon 0.933 → 1.008, 1M
-//! scene 1.335 → 1.426, box 0.905 → 0.975; occlusion 0.845 → 0.874, 0.826 → 0.838, 0.953 →
-//! 1.031, 0.851 → 0.905; closest hit 1.035 → 1.036, 1.000 → 1.030, 1.051 → 1.122, 1.000 →
-//! 1.097. Measured and not kept
-//! the same day: the mask, too, from an integer comparison (`vpcmpd` to a mask register; one
-//! more ray splat spilled to the stack, gather 2–3 % slower); Embree's fused form of the slab
-//! test in the AVX-512 version, with its 32 registers (unguarded, so not conservative: only to
-//! see the gain, which was none, gather 0.930 → 0.919); one 8-lane test for every leaf, a
-//! one-pack leaf's pack tested twice, to save the branch on the pack count (gather 0.958 →
-//! 0.910, bunny, and 1.000 → 0.977, dragon); lane order instead of the nearest first for two
-//! hit children (bunny gather 0.92 → 0.84, dragon 0.97 → 0.91, occlusion level).
-//!
-//! **Instructions on par with Embree's AVX-512 kernel (2026-12-05, later).** Counted with
-//! `docs/stepcount.py`, which single-steps the real code in gdb (valgrind cannot run AVX-512):
-//! the first 256 rays of the bunny's gather pattern take 819 instructions each in this
-//! traversal's AVX-512 version, from the dispatch on, and 794 in Embree's, from
-//! `rtcOccluded1` on. This traversal visits fewer nodes (6.7 a ray against 7.6) and tests more
-//! packs (2.9, a two-pack leaf counted as two, against 2.36). (After any-hit's exit order,
-//! above: 849 against 794, and 658 against 577 for random segments, though the gather pattern
-//! runs faster than it did with 819. The dragon's random segments: 763 against 639, with 6.66
-//! node visits a segment against Embree's 6.84, the node test 34 instructions against 24.)
-//! Embree's kernel, read from the same trace:
-//! - the slab test in the FMA form, and the entry-exit comparison on the integer bits into a
-//!   mask register (`vpcmpled`);
-//! - any-hit in lane order: the last hit lane entered, the others pushed unsorted, every child
-//!   prefetched;
-//! - a four-wide leaf test that checks `U`, `V` and the determinant first and leaves before
-//!   computing `T` when no lane passes.
-//!
-//! With each ray traced eight times in a row (caches warm, `REPEAT=8`) the BVH now runs at 0.89
-//! and 0.90 of Embree's rate (0.79 before the changes above), 0.94–0.95 cold. So what is left
-//! lies in how fast the same number of instructions runs (mispredicted branches, the
-//! node-to-node chain), which this VM cannot measure: it has no performance counters.
-//!
-//! Measured the same day, not kept (binaries alternating, `RAYS=3000000 accel_ratio ratio
-//! SCENE WORKLOAD 7`, two or three runs, medians, before → after):
-//! - Embree's leaf exit before `T` (the same hits: a lane that fails `u`, `v` or the
-//!   determinant fails either way). Bunny gather 0.939 → 0.939, occlusion 0.874 → 0.889, but
-//!   the box's gather 1.027 → 0.863 and 0.950: its large triangles pass `u` and `v` often, and
-//!   the exit branch then mispredicts.
-//! - Any-hit as a loop down the nodes with the leaf test after it, as Embree's kernel has it,
-//!   so that reaching a child by descent and by a pop are separate branches: bunny gather
-//!   0.948 → 0.952, the box's 1.027 → 0.974.
-//! - Both: bunny gather 0.939 → 0.949, dragon 0.976 → 0.992, the box's gather 1.027 → 0.905
-//!   and occlusion 0.879 → 0.826.
-//! - The FMA slab test in the AVX versions on top of both, without the guards that make it
-//!   conservative (only to see the gain), compiled to six `vfmadd` per node: bunny gather
-//!   0.949 → 0.948. Two cycles fewer on the node-to-node chain bought nothing measurable.
-//! - Two prefetched lines instead of four: bunny gather 0.937 → 0.951, dragon occlusion
-//!   0.829 → 0.799.
-//!
-//! **The dragon's random segments (2026-12-05, afternoon),** the workload whose ratio to
-//! Embree varies most between runs. Split by brute force (`SPLIT`), the 69 % of segments that
-//! are occluded run at 0.85 of Embree's rate and the others at 0.97; with caches warm
-//! (`REPEAT=8`) the whole workload runs at 0.88 and its occluded segments at 0.85, so the gap
-//! is work per segment, not memory: 763 instructions against Embree's 639 (`stepcount.py`,
-//! the first 256 segments), of which the node tests take 226 against 164 (34 instructions a
-//! node against 24, as many nodes) plus some 50 of dispatch and loads of the next child, the
-//! ranks and pushes of three or more hit children about 130 (once a segment, 3.4 children),
-//! the setup 114 against Embree's 127 (its API checks included), the leaves 97 against 105.
-//! The work per segment also decides how the ratio moves when the machine is busy: with a
-//! loop of fused multiply-adds running on the VM's other core (`taskset`, so not on the same
-//! virtual core) the BVH's rate fell by 14 % (4.0 → 3.45 M segments a second) and Embree's by
-//! 7 % (4.4 → 4.1), ratio 0.90 → 0.87 (two runs each way). A memory-bound loop there (random
-//! reads over 512 MB) slowed both by 13 %, ratio 0.905 → 0.877; one over 16 MB, 0.915.
-//! Measured the same day, not kept (binaries alternating, `RAYS=3000000 accel_ratio ratio
-//! dragon occluded 7`, three runs, medians):
-//! - The fused slab test with the same inverse direction for both planes and one product of
-//!   origin and inverse per axis (nine broadcast values, as many as the unfused test holds, so
-//!   nothing spills; not conservative without guards, only to bound the gain): 0.857 → 0.873,
-//!   warm 0.889 → 0.915. Guards that make it conservative (the product moved outwards by the
-//!   rounding of the largest distance that matters, a per-ray fallback to the unfused form for
-//!   rays whose product overflows) would take part of that 2–3 % back. The first try, with
-//!   twelve broadcast values (a widened inverse for the far planes), spilled six of them to the
-//!   stack and ran at 0.815 against 0.901.
-//! - For three or more hit children, only the one the ray leaves first found (a horizontal
-//!   minimum) and the others pushed in lane order: dragon occlusion 0.864 → 0.801, bunny
-//!   gather 1.009 → 1.024. The order of the deferred children matters on these segments.
-//! - Ranks from unique keys (a distance's bits with its lane in the lowest three, so one
-//!   comparison a lane instead of two both ways: 16 instructions a hit child instead of 21):
-//!   dragon occlusion 0.855 → 0.809, bunny gather 1.017 → 0.951, conference room gather 0.764
-//!   → 0.735, 1M scene gather 1.534 → 1.514 (one run each for the last two). The keys are made
-//!   before the first rank, and the ranks are on the chain from the node test to the next node
-//!   (the child to visit is read back from the top of the stack they write).
-//! - That child taken from the ranks instead (a conditional move on `rank == k − 1`), off the
-//!   stack's store and reload: dragon occlusion 0.813 → 0.823 and 0.909 → 0.825 (two series of
-//!   three pairs, medians), bunny gather 1.031 → 1.038, conference room gather 0.777 → 0.799
-//!   (one run): no gain on the workload it was for.
-//! - The plane distances as `(o − plane) · (−inv)` instead of `(plane − o) · inv`: the same
-//!   distances bit for bit but for the sign of a zero (rounding is symmetric), and the node's
-//!   plane is then the subtraction's second operand, so its load folds into it: six
-//!   instructions fewer per node (the AVX-512 any-hit compiled to `vsubps (mem)`). Dragon
-//!   occlusion 0.884 → 0.871 (six alternating pairs, medians), bunny gather 1.003 → 1.013,
-//!   1M scene occlusion 0.969 → 0.979, dragon closest hit 1.016 → 0.992 (three and two pairs):
-//!   nothing beyond the runs' scatter, like every other cut in the node test's instructions.
-//!
-//! **Sorting without a branch per comparison (2026-12-04).** Two hit children take one
-//! comparison. Three or more were sorted by insertion, whose inner loop ends after a number of
-//! steps that depends on the distances; valgrind's branch simulation counted 9.4 mispredicted
-//! branches per occlusion ray on the bunny against Embree's 7.3, 1.3 of them in that loop. Each
-//! hit child now goes straight to its slot: its rank is the number of hit children farther than
-//! it, or as far and in an earlier lane (its distance compared with all lanes both ways by the
-//! box test's 8-wide mask, and a popcount), which gives the same order. Same trees, same hits; 3.6 % fewer
-//! instructions (bunny occlusion 55.7 → 53.8 M under callgrind), and on the AMD EPYC (Zen 4)
-//! machine, `RAYS=1000000 accel_ratio ratio SCENE WORKLOAD 5`, two pairs of runs, old → new
-//! BVH/Embree rate: occlusion bunny 0.71, 0.74 → 0.80, 0.82, dragon 0.74, 0.71 → 0.81, 0.80;
-//! closest hit bunny 0.93, 0.93 → 0.97, 0.98, dragon 0.93, 0.93 → 1.02, 0.97; the gather pattern
-//! bunny 0.84, 0.84 → 0.72, 0.81 (0.84 in two later runs), dragon 0.86, 0.88 → 0.89, 0.88.
-//! Ranking two hit children as well (no branch on the count) was worse everywhere: occlusion
-//! 0.81 → 0.71–0.77 (bunny), 0.82–0.85 → 0.67–0.70 (dragon), gather 0.84 → 0.72–0.74 and 0.88
-//! → 0.79. So was one branch-free path for one and two hit children (the second lane the
-//! mask's highest bit, the farther child always written and the stack pointer advanced by 0 or
-//! 1), with the AVX-512 version below: valgrind's simulation counted 40 % fewer mispredicted
-//! branches, but the machine ran the gather pattern at 0.86, 0.88 → 0.80, 0.80 (bunny) and
-//! 0.91, 0.89 → 0.85, 0.80 (dragon) of Embree's rate and the rest level to 7 % slower: the hardware
-//! predicts that branch far better than the simulation does.
-//!
-//! Measured the same day, before the ranks, and not kept: a tree whose leaves are split further
-//! while the wide node they land in has free lanes (Embree's builder does this: a node, once split,
-//! splits its largest children until it has eight, whatever the SAH says of a child; pir's binary
-//! SAH made a leaf of up to eight triangles whenever it was cheaper than a split, and the collapse
-//! never opens a leaf). With such "soft" splits, undone into one leaf where the wide node is full,
-//! the trees' statistics matched Embree's own (`verbose=2`: bunny 17,698 leaves against 17,779, SAH
-//! of the leaves 2.54 against 2.55 instead of 3.36; dragon 4.19 against 4.10 instead of 4.91),
-//! instructions fell 2–3 %, and the rates did not move (occlusion bunny 0.72, 0.71 → 0.73, 0.73;
-//! dragon 0.74, 0.72 → 0.72, 0.69; closest hit 1–8 % lower). The slab test's minimum-and-maximum
-//! form (see below) was measured again on this machine: 10 % fewer instructions, occlusion bunny
-//! 0.74, 0.73 → 0.72, 0.72, dragon 0.75, 0.73 → 0.67, 0.70.
-//!
-//! **AVX-512 at run time (2026-12-04).** A third version of the two entry points is compiled
-//! for AVX-512, which `multiversion` picks only on CPUs with Ice Lake's set of AVX-512
-//! extensions or more (it leaves out the older server CPUs that slow down under AVX-512). The
-//! code is the same; the version has 32 vector registers, so the ray's splatted origin and
-//! inverse direction stay in registers instead of being reloaded from the stack at every node.
-//! On the AMD EPYC (Zen 4) machine, after the ranks above, two pairs of runs, AVX2 → AVX-512
-//! version: occlusion bunny 0.81, 0.81 → 0.86, 0.84, dragon 0.79, 0.80 → 0.83, 0.82; gather
-//! pattern bunny 0.84, 0.85 → 0.86, 0.86, dragon 0.86, 0.89 → 0.93, 0.93; closest hit bunny
-//! 0.95, 0.95 → 0.97, 1.00, dragon 1.00, 0.97 → 0.98, 1.00. On the Intel machine kind an
-//! earlier measurement (before the ranks) was level on average (below); not measured there
-//! since. Any-hit used
-//! the same nearest-first order then (see above for three or more hit children) and stops at
-//! the first hit: visiting children unordered was
-//! about 1.3× faster for random segments but 2.3× slower for the gather pattern (one point to
-//! many surface points), which is the renderer's hot loop; testing a node's leaf children
-//! before its interior ones did not pay either, nor did pushing the children other than the
-//! nearest unsorted. Embree's any-hit order was measured too (2026-12-02): lanes sorted at
-//! collapse time by subtree size, largest first, and the last hit lane entered with the others
-//! pushed unsorted, so that the smallest subtree is tried first. On random segments it cut the
-//! instructions per ray by 6–10 % and the (simulated) branch mispredictions by a fifth on the
-//! bunny and dragon and ran 1.1–1.25× as fast there, but on the 1M scene it visited 8 % more
-//! nodes for random segments and 30 % more (with 1.6× the leaf packs) for the gather pattern,
-//! which ran at 0.65–0.75× the nearest-first rate; nearest-first for two hit children and lane
-//! order for more lost about as much on the gather. Batches are traced ray by ray (the BVH's
-//! `occluded_batch` borrows the tree's arrays once and calls the single-ray query): a packet traversal of up to 64 rays sharing node visits (a ray
-//! mask per stack entry, each ray tested with this box test; 1.36× the instructions per ray)
-//! ran the gather pattern at 0.66–0.76× the single-ray rate on the bunny, dragon and 1M scene
-//! (1.4× on the 296-triangle box), 0.4–0.6× with the rays sorted by direction octant first;
-//! tracing each batch of 64 one by one in direction order was slower than in the given order
-//! too.
-//!
-//! Interleaved rays were measured too (2026-12-04): `occluded_batch` tracing eight rays of a
-//! batch at once, each a traversal paused between node visits and taking a step in turn, so
-//! that one ray's wait for its next node is filled by the others' work (batches of fewer than
-//! 16 ray by ray). On the benchmark's incoherent rays it paid: BVH rates, one thread, median of
-//! five rounds of 2 M rays (`RAYS=2000000 accel_ratio ratio SCENE WORKLOAD 5`), ray by ray →
-//! interleaved: random segments, bunny 4.92 → 6.07, dragon 3.07 → 4.51 M rays/s (0.79, 0.98
-//! and, on the 1M scene, 0.88 of Embree's 16-wide packets); gather pattern, bunny 5.55 → 6.17,
-//! dragon 3.99 → 4.76. In the renderer it did not: `pir-clamp --accel bvh`, whose gather queues
-//! every VPL of the iteration from one point in batches of 64, gathered at 0.93–0.96× the rate
-//! on the bunny's Cornell box and `scenes/dense/indirect.toml` with two threads (1.04× and
-//! 0.93× with one; four and two rays at a time: 0.94–1.0×). Rays from one point share their
-//! nodes, which stay in cache, so there is little wait to fill, and each step reloads its ray's
-//! state from memory. Not kept.
-//!
-//! An occluder cache for batches was measured too (2026-12-05, not kept): `occluded_batch`
-//! testing first the leaf in which the batch's last occluded ray had found its hit (the same
-//! answers: a hit there is a hit, and otherwise the whole tree is searched), after the shadow
-//! caches of classic ray tracers, since a gather's rays leave one point. The rays of one
-//! receiver do not share occluders often enough to pay for the extra leaf test: `RAYS=1000000
-//! accel_ratio ratio SCENE gather-batch 5` (two runs each, BVH over Embree's 16-wide packets),
-//! without → with the cache, box 0.60 → 0.51, bunny 0.79 → 0.70, dragon 0.88 → 0.79, 1M scene
-//! 1.45 → 1.35, conference room 0.59 → 0.56; in the renderer (`pir render SCENE --method
-//! pir-clamp --threads 1 --spp 2 --resolution 256 256 --accel bvh`, two runs each) the gather's
-//! shadow rays a second went 15.4 → 14.5 M (Cornell box), 4.43 → 4.23 M (conference room; 4.40
-//! against Embree's 5.72 M in the README's later runs) and 8.1 → 7.5 M
-//! (`scenes/dense/indirect.toml`).
-//!
-//! Octant-ordered lanes (Ylitie, Karras and Laine's compressed wide BVH) were measured too
-//! (2026-12-04): at collapse each child takes the lane of the direction octant for which it
-//! comes earliest (greedy on its centre's offset along the octant's diagonal), and any-hit
-//! visits its hit lanes in the order `position ^ octant` with no distances: 1.2× the
-//! instructions of nearest-first on the bunny's random segments and 1.37× on its gather
-//! pattern. With nearest-first kept for two hit children and the octant order for three or
-//! more, occlusion took 4–6 % fewer instructions on the bunny and dragon and ran 1.0–1.07×
-//! as fast (interleaved `accel_ratio`, three runs of 15 rounds), but the 1M scene's gather
-//! pattern fell from 1.48 to 0.97× Embree's rate in the same runs: not kept.
-//!
-//! **AVX2 at run time.** The default build targets plain x86-64 (SSE2), where eight lanes take two
-//! 4-wide operations. The two entry points are therefore compiled more than once with the
-//! `multiversion` crate, once more for AVX2 + FMA (and for AVX-512: see above), and the version the
-//! CPU supports is picked at run time (safe code; the choice is cached). The box test is written as
-//! plain loops over `[f32; 8]` lanes, which LLVM turns into one `ymm` operation per plane in the
-//! AVX2 version, except the lanes' mask, which that version takes from one 8-wide comparison
-//! ([`mask_avx`], an intrinsic called where AVX is enabled): with the mask made from two 4-lane
-//! halves, as the SSE2 version does, LLVM also computed the exit distances in halves, and a node's
-//! test took about 60 instructions instead of 38. Under callgrind the bunny's occlusion went from
-//! 61.5 to 55.7 M instructions; interleaved `accel_ratio` rounds (2026-12-04, one thread, 1 M rays,
-//! median of five) gave closest hit 0.80 → 0.83 (bunny), 0.76 → 0.80 (dragon), 0.78 → 0.83 (1M
-//! scene) of Embree's rate, the bunny's occlusion 0.73 → 0.77 and its gather pattern 0.83 → 0.89;
-//! the dragon's and the 1M scene's occlusion and gather, which wait on memory, level. A third
-//! version for AVX-512 (F, BW, VL, DQ), which this machine kind's Intel CPUs have, was measured
-//! there the same day and not kept then: bunny occlusion 0.74 → 0.71 and closest hit 0.77 → 0.73,
-//! dragon 0.70 → 0.72 and 0.74 → 0.77 (it is now, see above). Nor was a traversal specialised for
-//! each of the eight direction octants (the near and far planes' offsets constants, a match on the
-//! octant per ray, eight copies of the loop): interleaved `accel_ratio` rounds, current →
-//! specialised, closest hit 0.83 → 0.74 (bunny), 0.84 → 0.76 (dragon), 0.84 → 0.80 (1M scene),
-//! occlusion 1–4 % lower, the gather pattern 0.91 → 0.93, 0.94 → 1.05, 1.66 → 1.71. All versions
-//! give identical hits: their arithmetic is the same IEEE operations (Rust never fuses a
-//! multiply and an add on its own), their integer minima and maxima give the same entries and
-//! masks but for boxes behind the ray ([`RayBoxes::enter`]), and [`hit_pair_avx`] the lanes of
-//! two [`Tri4::hit`]s. The AVX2 and AVX-512 versions also prefetch the children they push, on
+//! **Versions picked at run time.** The default build targets plain x86-64 (SSE2), where eight
+//! lanes take two 4-wide operations. The two entry points are therefore compiled more than
+//! once with the `multiversion` crate: for AVX2 + FMA, and for AVX-512 (only on CPUs with Ice
+//! Lake's set of AVX-512 extensions or more, leaving out the older server CPUs that slow down
+//! under it; its 32 vector registers keep the ray's splatted origin and inverse direction out of
+//! the stack); the version the CPU supports is picked at run time (safe code; the choice is
+//! cached). The box test is written as plain loops over `[f32; 8]` lanes, which LLVM turns
+//! into one `ymm` operation per plane in the AVX versions, except the lanes' mask, which they
+//! take from one 8-wide comparison ([`mask_avx`], an intrinsic called where AVX is enabled):
+//! with the mask made from two 4-lane halves, as the SSE2 version does, LLVM also computed the
+//! exit distances in halves. What the versions do differently is listed at [`Isa`]. All
+//! versions give identical hits: their arithmetic is the same IEEE operations (Rust never fuses
+//! a multiply and an add on its own), their integer minima and maxima give the same entries
+//! and masks but for boxes behind the ray ([`RayBoxes::enter`]), and [`hit_pair_avx`] the
+//! lanes of two [`Tri4::hit`]s. The AVX versions also prefetch the children they push, on
 //! trees larger than a core's L2 cache: traversal mostly waits on node and leaf loads, and a
-//! deferred child is usually visited later (always by any-hit). That gave 1.05–1.2× on the bunny,
-//! dragon and 1M scene and cost a few percent on a tiny scene, hence the size threshold.
+//! deferred child is usually visited later (always by any-hit); on a tiny scene prefetching
+//! costs more than it saves, hence the size threshold.
 //!
-//! The slab test picks each axis' near and far planes from the direction's sign, as an index
-//! (`bounds[axis][negative]`, the minima and maxima of an axis being adjacent arrays) rather
-//! than a select of two addresses per axis and node: 3 % fewer instructions for the bunny's
-//! random segments under callgrind (63.3 → 61.5 M), interleaved `accel_ratio` rounds level to
-//! +4 % (2026-12-04). The inverse direction is kept finite (±`f32::MAX` for a zero component,
-//! whose `1 / ±0` is ±∞), so no plane distance is the NaN of `0 · ∞`: a ray parallel to a slab
-//! gets the distances (plane − origin) · `f32::MAX` from its planes, 0 for a plane it lies in
-//! and of the order of `f32::MAX` times its gap to the others, which leave its interval alone
-//! when it lies within the slab and empty it when it lies outside; in a face plane it counts as
-//! inside when its zero's sign points into the box. What makes this safe is the boxes' padding
-//! (at least `f32::MIN_POSITIVE` plus 1e-5 of the coordinate): no triangle reaches its box's
-//! faces, and a parallel ray just inside a face gets an exit distance far beyond any scene.
-//! With no NaN, each lane's entry and exit are a tree of maxima and minima over the three axes,
-//! two operations deep, and the mask a comparison of the two: the chain of dependent operations
-//! from a node's load to its child's is shorter than when the distances were folded in one by
-//! one, the NaN ignored by each select's operand order (three maxima deep), and the mask read
-//! from lanes set to NaN (a select and a comparison more). Interleaved `accel_ratio` rounds
-//! (2026-12-04, idle machine, one thread, 1 M rays per round, median of five): closest hit 0.71
-//! → 0.75 (bunny), 0.72 → 0.78 (dragon), 0.74 → 0.78 (1M scene), 0.74 → 0.77 (box) of Embree's
-//! rate; occlusion 0.69 → 0.69, 0.68 → 0.69, 0.69 → 0.72, 0.67 → 0.59; the gather pattern 0.77
-//! → 0.73, 0.85 → 0.89, 1.49 → 1.54, 0.80 → 0.86 (two pairs of runs on the bunny and dragon);
-//! `pt --accel bvh` on the bunny's Cornell box 1.01–1.05× as fast. The far planes' distances
-//! are widened by a few ulps (Ize 2013, their inverse multiplied by [`EXIT_SCALE`] once per
-//! ray) so rounding cannot cull a box the exact ray touches. Embree's form `lower · inv −
-//! origin · inv`, one FMA per plane, was measured with that bound kept: the fused product is
-//! exact, so moving `origin · inv` outwards by 4 ulps (one copy for the near planes, one for
-//! the far) covers the only error it adds, and rays with an infinite `inv` or `origin · inv`
-//! kept this form. The node test went from 45 to 37 instructions, but the per-ray setup grew by
-//! more than that saved (bunny, instructions per ray in traversal: occlusion 884 → 912, closest
-//! hit 707 → 755, gather 1,143 → 1,162) and interleaved timings showed no gain (bunny occlusion
-//! 0.72–0.79 → 0.69–0.70 of Embree's rate), so it is not used. Measured again after the shorter
-//! chain above (2026-12-04), in the AVX2 version only (the SSE2 one has no FMA), with rays
-//! whose direction has a component below 10⁻⁸ of the largest left to the unfused form (their `o
-//! · inv` could overflow): one loop per form, chosen per ray, against the unfused test,
-//! `RAYS=1000000 accel_ratio ratio SCENE WORKLOAD 5`: bunny closest hit 0.78 → 0.72, dragon
-//! 0.73 → 0.76, occlusion level (0.72 → 0.70, 0.73 → 0.71); with the form chosen per node
-//! instead, 0.67–0.78× the unfused rates. A first version without the overflow guard or the
-//! widening (not conservative, so not usable) had run 1.0–1.17× as fast, which puts the cost in
-//! the per-ray choice and setup: not kept.
+//! **The slab test** picks each axis' near and far planes from the direction's sign, as an
+//! index (`bounds[axis][negative]`, the minima and maxima of an axis being adjacent arrays)
+//! rather than a select of two addresses per axis and node. The inverse direction is kept
+//! finite (±`f32::MAX` for a zero component, whose `1 / ±0` is ±∞), so no plane distance is
+//! the NaN of `0 · ∞`: a ray parallel to a slab gets the distances (plane − origin) ·
+//! `f32::MAX` from its planes, 0 for a plane it lies in and of the order of `f32::MAX` times
+//! its gap to the others, which leave its interval alone when it lies within the slab and
+//! empty it when it lies outside; in a face plane it counts as inside when its zero's sign
+//! points into the box. What makes this safe is the boxes' padding (at least
+//! `f32::MIN_POSITIVE` plus 1e-5 of the coordinate): no triangle reaches its box's faces, and a
+//! parallel ray just inside a face gets an exit distance far beyond any scene. With no NaN,
+//! each lane's entry and exit are a tree of maxima and minima over the three axes, two
+//! operations deep, and the mask a comparison of the two, which keeps the chain of dependent
+//! operations from a node's load to its child's short. The far planes' distances are widened
+//! by a few ulps (Ize 2013, their inverse multiplied by [`EXIT_SCALE`] once per ray) so
+//! rounding cannot cull a box the exact ray touches.
 //!
-//! **Fewer instructions did not buy time (2026-12-03).** Two changes cut the traversal's
-//! instructions under callgrind by 10 % for occlusion and 5 % for closest hit (bunny: 55.0 →
-//! 49.9 M and 45.6 → 43.1 M; dragon 70.0 → 63.0 M and 52.2 → 49.5 M), and were not kept:
-//! the slab test ordering each axis' two plane distances with a min and a max instead of
-//! picking the near and far plane by the direction's sign (no per-axis select; empty lanes
-//! must then be the point at `+∞` with a finite cap on the exit distance, since an inverted
-//! box counts as a full one once ordered), and any-hit's stack holding child references only,
-//! its three or more hit children sorted as `u32` keys (the entry distance's bits with the
-//! lane in the lowest three). Interleaved `accel_ratio` rounds on the idle machine (one
-//! thread), old → new BVH/Embree rate, two runs of 7 rounds each: bunny occlusion 0.715,
-//! 0.759 → 0.676, 0.727; dragon occlusion 0.683, 0.750 → 0.750, 0.735; bunny closest hit
-//! 0.750, 0.770 → 0.773, 0.792; dragon closest hit 0.838, 0.815 → 0.837, 0.833 (a first
-//! pair of runs, with the other core busy, had closest hit 3–6 % slower and occlusion level):
-//! no change beyond the rounds' scatter. Traversal here waits on loads and on the
-//! node-to-node dependency chain more than on instruction throughput, so Embree's 614
-//! instructions per occlusion ray on the bunny against these 840 (with the same simulated
-//! D1 misses per ray, 15) are not where its lead comes from.
+//! Batches (`occluded_batch`, which the renderer's gathers call) are traced ray by ray, with
+//! the tree's arrays borrowed once per batch. The traversal waits on loads and on the
+//! node-to-node chain more than on instruction throughput: changes that only cut instructions
+//! have rarely bought time here.
+//!
+//! Measurements of these choices, and of the alternatives tried and not kept (Embree's lane
+//! order, leaf children first, packets, interleaved rays, an occluder cache, octant-ordered
+//! lanes, fused slab tests, quantised nodes and others): `docs/accel/traversal.md`.
 
 use glam::Vec4;
 use multiversion::multiversion;
@@ -395,8 +85,7 @@ const EXIT_SCALE: f32 = 1.0 + 1e-6;
 /// Stack entries of the fast path. Each wide level pushes at most `WIDTH − 1` children, but a
 /// ray rarely enters more than two or three boxes of a node, so a tree over millions of
 /// triangles needs far fewer than the worst case; the stack is kept small because it is
-/// initialised for every ray. Sixteen entries instead (2026-12-04, interleaved `accel_ratio`
-/// rounds on the bunny and the 1M scene) made no difference beyond the rounds' scatter.
+/// initialised for every ray (a larger one was no faster: `docs/accel/traversal.md`).
 const STACK: usize = 32;
 /// Stack entries that no tree can exceed: the binary depth bounds the wide depth. A ray that
 /// would overflow the fast path's stack is traced again with this one.
@@ -655,8 +344,7 @@ fn prefetch_child(v: View, c: ChildRef) {
     };
     // Four lines either way: a fixed count unrolls into four instructions without a loop
     // branch, and a leaf's second pack starts at byte 160, in its third line. (Two lines more
-    // for a two-pack leaf, all of its 320 bytes: dragon occlusion 0.848 → 0.849 of Embree's
-    // rate, `accel_ratio`, three alternating pairs, 2026-12-05; not kept.)
+    // for a two-pack leaf, all of its 320 bytes, were no faster: `docs/accel/traversal.md`.)
     _mm_prefetch::<_MM_HINT_T0>(p);
     _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
     _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));

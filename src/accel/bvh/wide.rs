@@ -10,25 +10,10 @@
 //! tree's depth, and the number of nodes a ray visits, by about three. Unused lanes hold the
 //! empty box (`+∞` min, `−∞` max), which no ray enters.
 //!
-//! **Quantised boxes, measured and not kept (2026-12-05).** A 128-byte node (two cache
-//! lines): per axis an origin (the children's least minimum) and a power-of-two scale (an
-//! exponent byte) covering the node's extent in 255 steps, each child bound a byte `q`,
-//! decoded as `origin + q · scale` (no fused multiply-add, so the builder could check every
-//! decoded bound and step its byte outwards until the decoded box contained the child's:
-//! conservative by construction), an occupancy byte for the unused lanes, the child references
-//! unchanged. The decoded boxes were on average 1.8 % (conference room) to 2.4 % (bunny,
-//! dragon) larger in half area. Binaries alternating, `RAYS=3000000 accel_ratio ratio SCENE
-//! WORKLOAD 7`, two runs each (medians; BVH over Embree's rate), current against quantised:
-//! dragon occlusion 0.888 against 0.759, 1M scene occlusion 0.959 against 0.894, bunny gather
-//! 1.011 against 0.795, conference room gather 0.783 against 0.562. Ylitie, Karras and Laine's
-//! cheaper decode, `(origin − o) · inv + q · (scale · inv)` with the two products per node and
-//! axis (not conservative as written, timed only), one run: dragon occlusion 0.800 against
-//! 0.781, bunny gather 1.003 against 0.812, conference room 0.769 against 0.558. The decode
-//! adds a byte-to-float conversion, a product and a sum to every plane of the node-to-node
-//! chain, and this traversal waits on that chain more than on memory: the same nodes padded to
-//! 512 bytes (twice the footprint, the same lines read) cost less (dragon occlusion 0.828
-//! against 0.738, 1M scene 0.975 against 0.925, bunny gather 1.013 against 0.983, conference
-//! room 0.765 against 0.756) than the quantised nodes lost.
+//! Boxes are stored as plain `f32`, not quantised: decoding quantised bounds adds a
+//! conversion, a product and a sum to every plane on the node-to-node chain, which this
+//! traversal waits on more than on memory, and quantised nodes traced slower
+//! (`docs/accel/traversal.md`, "Quantised boxes").
 
 use super::pages::Pages;
 use super::{Node, NodePair};
