@@ -8,8 +8,9 @@ mod common;
 
 use common::{Job, Rendered, closed_cube, closed_cube_of, diffuse};
 use glam::Vec3;
+use pir::integrator::many_light::Connect;
 use pir::integrator::many_light::Pilot;
-use pir::integrator::many_light::bidirectional::{Connect, light_samples_for};
+use pir::integrator::many_light::bidirectional::light_samples_for;
 use pir::integrator::many_light::path_count::PILOT_PATHS;
 use pir::integrator::{
     BDPT_AUTO_PATHS, BDPT_PATHS, BDPT_VPLS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather,
@@ -198,7 +199,7 @@ fn pilot_job(sampler: SamplerKind) -> Job {
 /// the target, more than the fewest; the same count in pools of one and two threads, with
 /// either sampler.
 /// And the pilot's visibility of the emitters from the points they light, which weighs the
-/// connections ([`Counts`](pir::integrator::many_light::bidirectional::Counts)): all of
+/// connections ([`Counts`](pir::integrator::many_light::subpath::Counts)): all of
 /// them inside the cube, a sliver through the slit.
 #[test]
 fn light_paths_follow_the_scenes_yield_of_vpls() {

@@ -15,7 +15,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use super::many_light::AutoPaths;
-use super::many_light::bidirectional::Connect;
+use super::many_light::Connect;
 use super::many_light::resample::MAX_CANDIDATES;
 use super::schedule::DEFAULT_ALPHA;
 use super::{

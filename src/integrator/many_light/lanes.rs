@@ -25,8 +25,7 @@ use crate::geometry::OffsetPoint;
 use crate::material::{PreparedBsdf, PreparedDiffuse, TransportMode, shading_correction};
 use crate::scene::SurfacePoint;
 
-/// Lights per chunk: the width of `Vec4`.
-pub const LANES: usize = 4;
+pub use super::resample::LANES;
 
 /// How a lane's light is evaluated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

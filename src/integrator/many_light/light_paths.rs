@@ -26,7 +26,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::bidirectional::{Counts, MisState, Scatter};
+use super::subpath::{Counts, MisState, Scatter};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};

@@ -5,12 +5,12 @@
 
 use glam::Vec3;
 
-use super::bidirectional::Counts;
+use super::config::{Clamping, Gather, VirtualLights};
 use super::lanes::VplLanes;
 use super::light_paths::Vpl;
 use super::light_tree::{LightTree, TreeLight};
 use super::spheres::SphereLights;
-use super::{Clamping, Gather, VirtualLights};
+use super::subpath::Counts;
 use crate::integrator::RenderContext;
 use crate::material::{Bsdf, PreparedBsdf, TransportMode};
 

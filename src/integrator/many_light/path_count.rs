@@ -31,8 +31,8 @@
 //! fixed for the whole render: every iteration is an unbiased estimate of the same image,
 //! as with a count given by `--vpls`.
 
-use super::bidirectional::Counts;
 use super::light_paths::trace_vpls;
+use super::subpath::Counts;
 use crate::integrator::direct::occluded;
 use crate::integrator::{Counters, RenderContext};
 use crate::sampling::Streams;

@@ -44,8 +44,6 @@
 
 use glam::Vec4;
 
-use super::lanes::LANES;
-
 use crate::sampling::Sampler;
 
 /// Most candidates per receiver (`--gather-candidates`).
@@ -56,6 +54,10 @@ pub const MAX_CANDIDATES: usize = 1024;
 fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
     ((sampler.next_u64() as u128 * n as u128) >> 64) as usize
 }
+
+/// Lights per chunk (a block of candidates, a chunk of the lanes of [`super::lanes`]): the
+/// width of `Vec4`.
+pub const LANES: usize = 4;
 
 /// The resampled gather over `blocks` blocks of [`LANES`] lights with `m` candidates and `k`
 /// picks: draws the window's start and the picks' number (two numbers of `sampler`, always,

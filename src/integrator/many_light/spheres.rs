@@ -68,7 +68,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-use super::Radius;
+use super::config::Radius;
 use super::knn::KdTree;
 use super::light_paths::Vpl;
 use super::schedule::radius;

@@ -1,0 +1,132 @@
+//! `pir-bdpt`'s camera path: the walker's [`Estimator`] whose every technique is weighed by
+//! the bidirectional weights of [`super::bidirectional`], its [`MisState`] the per-path state.
+
+use glam::Vec3;
+
+use super::bidirectional::{CameraEnd, hit_weight, light_weight};
+use super::config::Connect;
+use super::light_set::LightSet;
+use super::mis::{Technique, Weighing};
+use super::subpath::{Counts, MisState, Scatter};
+use crate::geometry::Ray;
+use crate::integrator::direct::sample_emitters_at;
+use crate::integrator::walker::{Arrival, Estimator, Vertex};
+use crate::integrator::{Counters, RenderContext};
+use crate::light::emitted;
+use crate::material::{Bsdf, BsdfSample, PreparedBsdf, TransportMode};
+use crate::sampling::Sampler;
+
+/// `pir-bdpt`'s camera path: a full path tracer's walk with next-event estimation, emitter
+/// hits and the gather from `set` at the non-delta vertices that `connect` names, all weighed
+/// bidirectionally, the weighted connections bounded by `bound`.
+pub struct Bidirectional<'a> {
+    pub set: &'a LightSet,
+    pub connect: Connect,
+    /// Light samples at the first non-delta vertex (one at the others).
+    pub light_samples: u32,
+    pub counts: Counts,
+    pub bound: f32,
+}
+
+/// The camera subpath's bookkeeping along the walk.
+pub struct CameraPath {
+    /// The running sums of its weights.
+    mis: MisState,
+    /// The vertex the current ray left (the camera's origin at first).
+    from: Vec3,
+    /// Light samples at the vertex the current ray left (for the weight of an emitter it hits).
+    left_samples: f32,
+    /// The BSDF of the vertex the current ray left (none at the camera).
+    previous: Option<Bsdf>,
+}
+
+impl Estimator for Bidirectional<'_> {
+    const COVERS_SURFACES: bool = false;
+    type State = CameraPath;
+
+    #[inline]
+    fn start(&self, ray: &Ray) -> CameraPath {
+        CameraPath { mis: MisState::CAMERA, from: ray.origin, left_samples: 1.0, previous: None }
+    }
+
+    /// The emission found by the camera ray or a BSDF sample, weighed against next-event
+    /// estimation at the vertex the ray left and every connection that makes the path.
+    #[inline]
+    fn on_hit(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        at: &Arrival,
+        beta: Vec3,
+        radiance: &mut Vec3,
+    ) {
+        let sp = at.sp;
+        let cos_in = sp.ng.dot(at.wo).abs();
+        path.mis.arrive((sp.p - path.from).length_squared(), cos_in);
+        let le = emitted(at.material.emission, sp.ng, at.wo);
+        if le != Vec3::ZERO {
+            let pdf_area = ctx.emitters.pdf_area(sp.prim);
+            let w = hit_weight(&path.mis, pdf_area, cos_in, self.counts.paths, path.left_samples);
+            *radiance += beta * le * w;
+        }
+    }
+
+    /// Next-event estimation (`light_samples` samples at the first vertex) and the connections
+    /// to the VPLs.
+    fn at_vertex(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) {
+        let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
+        let (counts, connect, state) = (self.counts, self.connect, path.mis);
+        let geometry = sp.geometry();
+        // The count of the connection from the previous camera vertex to this one.
+        let count_in = counts.between(path.previous.as_ref(), bsdf);
+        let n = if depth == 1 { self.light_samples } else { 1 };
+        let count = n as f32;
+        // The samples' points: one block of the sequence, stratified among themselves.
+        let u_select = sampler.next_f32();
+        let mut direct = Vec3::ZERO;
+        let count_previous = if connect.at(depth - 1) { count_in } else { 0.0 };
+        for u in sampler.next_2d_block(n) {
+            direct += sample_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters, |l| {
+                let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
+                light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
+            });
+        }
+        *radiance += beta * (direct / count);
+        // ---- The connections to the VPLs.
+        if connect.at(depth) {
+            let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
+            let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth, counts, count_in };
+            let weighing =
+                Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound: self.bound };
+            let max_vpl_depth = ctx.max_depth - depth - 1;
+            *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+        }
+    }
+
+    /// The camera subpath's sums extended by the sampled direction.
+    #[inline]
+    fn on_scatter(&self, path: &mut CameraPath, v: &Vertex, s: &BsdfSample) {
+        let (sp, wo, bsdf) = (&v.sp, v.wo, v.bsdf);
+        let count_in = self.counts.between(path.previous.as_ref(), bsdf);
+        // (Only the camera's sums that are not zero need it: none at the first vertex.)
+        let pdf_rev = match (s.delta, path.mis.dvc > 0.0) {
+            (true, _) => s.pdf,
+            (false, true) => bsdf.pdf(&sp.geometry(), s.wi, wo),
+            (false, false) => 0.0,
+        };
+        let cos_out = sp.ng.dot(s.wi).abs();
+        path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, self.connect, v.depth, count_in));
+        path.previous = Some(*bsdf);
+        path.left_samples = if v.depth == 1 { self.light_samples as f32 } else { 1.0 };
+        path.from = sp.p;
+    }
+}

@@ -1,0 +1,103 @@
+//! The camera path of the forward many-light methods (`ir`, `ir-clamp`, `pir-clamp`, `vsl`,
+//! `pir-vsl`, `pir-mis`): the walker's [`Estimator`] that adds the gather from the
+//! iteration's virtual lights at each non-delta vertex, and for `pir-mis` the bounce that its
+//! connections are weighed against ([`super::mis`]).
+
+use glam::Vec3;
+
+use super::light_set::LightSet;
+use super::mis::{EmitterPath, Technique, Weighing};
+use crate::geometry::{Ray, offset_origin};
+use crate::integrator::direct::{Sampled, emission_weighted, sample_emitters_weighted};
+use crate::integrator::path::{light_hit, light_sample};
+use crate::integrator::scatter::scatter;
+use crate::integrator::walker::{Arrival, Estimator, Vertex};
+use crate::integrator::{Counters, RenderContext};
+use crate::material::{PreparedBsdf, TransportMode};
+use crate::sampling::Sampler;
+
+/// The many-light methods' camera path (but `pir-bdpt`'s, [`bidirectional`]): the path
+/// tracer's techniques for direct light, and at a non-delta vertex of d segments the light of
+/// every virtual light of at most max_depth − d − 1 segments, which covers every path whose
+/// next vertex is a non-delta surface.
+impl Estimator for LightSet {
+    const COVERS_SURFACES: bool = true;
+    type State = ();
+
+    #[inline]
+    fn start(&self, _ray: &Ray) {}
+
+    #[inline]
+    fn on_hit(&self, _: &mut (), ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
+        light_hit(ctx, at, beta, radiance);
+    }
+
+    #[inline]
+    fn at_vertex(
+        &self,
+        _: &mut (),
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) {
+        light_sample(ctx, v, beta, radiance, sampler, counters);
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        let gathered = match &self.mis {
+            None => self.gather(ctx, v, max_vpl_depth, &Weighing::PLAIN, sampler, counters),
+            Some(mis) => {
+                let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+                let weighing = Weighing {
+                    technique: Technique::Connect { fx: &fx, scene: ctx.scene },
+                    bound: mis.bound,
+                };
+                self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters)
+            }
+        };
+        *radiance += beta * gathered;
+    }
+
+    #[inline]
+    fn uses_bounces(&self) -> bool {
+        self.mis.is_some()
+    }
+
+    /// The bounce's share ([`mis`]): the emitters sampled from y and the gather at y, each
+    /// weighed against the connection of the gathering vertex to the VPLs at y.
+    fn at_bounce(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        how: &Sampled,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Option<Vec3> {
+        let mis = self.mis.as_ref()?;
+        let bounce = how.pdf / (v.sp.p - how.from).length_squared();
+        let path = |light| EmitterPath { bounce, paths: mis.counts.paths, light };
+        let direct =
+            sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| path(s).light_weight());
+        let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: mis.bound };
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        let gathered = self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+        // C: y's BSDF sample, where it hits an emitter.
+        let mut beta = Vec3::ONE;
+        let Some(s) = scatter(v.bsdf, &v.sp, v.wo, TransportMode::Radiance, sampler, &mut beta) else {
+            return Some(direct + gathered);
+        };
+        counters.rays += 1;
+        let ray = Ray::new(offset_origin(v.sp.p, v.sp.ng, s.wi), s.wi);
+        let mut found = Vec3::ZERO;
+        if let Some(hit) = ctx.accel.intersect(&ray)
+            && let material = ctx.scene.material_of(hit.prim)
+            && material.is_emitter()
+        {
+            let e = ctx.scene.surface_of_hit(&hit);
+            let how = Sampled { from: v.sp.p, pdf: s.pdf, delta: s.delta };
+            found = beta * emission_weighted(ctx, material, &e, -s.wi, &how, |l| path(l).bsdf_weight());
+        }
+        Some(direct + gathered + found)
+    }
+}

@@ -1,0 +1,203 @@
+//! The many-light integrator: each iteration traces the light paths, makes the iteration's
+//! light set from their VPLs, and walks every camera path with the method's estimator
+//! ([`super::gathering`] or [`super::bdpt_path`]).
+
+use glam::Vec3;
+
+use super::bdpt_path::Bidirectional;
+use super::bidirectional;
+use super::config::{Clamping, Gather, Radius, VirtualLights};
+use super::light_paths::trace_vpls;
+use super::light_set::LightSet;
+use super::path_count::{AutoPaths, Pilot};
+use super::spheres;
+use super::subpath::Counts;
+use crate::geometry::Ray;
+use crate::integrator::walker::walk;
+use crate::integrator::{Counters, Integrator, RenderContext};
+use crate::sampling::Sampler;
+
+/// A many-light method: its parameters, and the light set of the current iteration.
+pub struct InstantRadiosity {
+    lights: VirtualLights,
+    paths: usize,
+    /// Light paths chosen by the scene's yield of VPLs ([`path_count`]) when
+    /// [`Integrator::prepare`] runs, instead of `paths`.
+    auto: Option<AutoPaths>,
+    /// What the pilot measured ([`Integrator::prepare`]), for methods that need it.
+    pilot: Option<Pilot>,
+    gather: Gather,
+    /// [`VirtualLights::Bidirectional`]: light samples at the camera path's first vertex.
+    light_samples: u32,
+    /// Whether [`Integrator::prepare`] chooses `light_samples` by the pilot's visibility of
+    /// the emitters ([`bidirectional::light_samples_for`], with `light_samples` the base).
+    auto_light_samples: bool,
+    set: LightSet,
+}
+
+impl InstantRadiosity {
+    pub fn new(lights: VirtualLights, paths: usize) -> Self {
+        InstantRadiosity {
+            lights,
+            paths,
+            auto: None,
+            pilot: None,
+            gather: Gather::All,
+            light_samples: 1,
+            auto_light_samples: false,
+            set: LightSet::default(),
+        }
+    }
+
+    /// The same method with its light paths chosen by the scene's yield of VPLs; `paths`
+    /// until [`Integrator::prepare`] chooses them.
+    pub fn with_auto_paths(self, auto: AutoPaths) -> Self {
+        InstantRadiosity { auto: Some(auto), ..self }
+    }
+
+    /// The same method gathering as `gather` says.
+    pub fn with_gather(self, gather: Gather) -> Self {
+        InstantRadiosity { gather, ..self }
+    }
+
+    /// The same method taking `n` light samples at the camera path's first vertex (for
+    /// [`VirtualLights::Bidirectional`]; the others take one), 1 to
+    /// [`MAX_LIGHT_SAMPLES`](crate::integrator::MAX_LIGHT_SAMPLES).
+    pub fn with_light_samples(self, n: u32) -> Self {
+        let n = n.clamp(1, crate::integrator::MAX_LIGHT_SAMPLES);
+        InstantRadiosity { light_samples: n, auto_light_samples: false, ..self }
+    }
+
+    /// The same method with its light samples chosen by the scene when [`Integrator::prepare`]
+    /// runs: `base` where the emitters are in view, more where they are hidden
+    /// ([`bidirectional::light_samples_for`]).
+    pub fn with_auto_light_samples(self, base: u32) -> Self {
+        InstantRadiosity { auto_light_samples: true, ..self.with_light_samples(base) }
+    }
+
+    /// Point lights with the given clamping.
+    pub fn points(clamping: Clamping, paths: usize) -> Self {
+        Self::new(VirtualLights::Points(clamping), paths)
+    }
+}
+
+impl Integrator for InstantRadiosity {
+    fn name(&self) -> &'static str {
+        match self.lights {
+            VirtualLights::Points(Clamping::None) => "ir",
+            VirtualLights::Points(Clamping::Constant { .. }) => "ir-clamp",
+            VirtualLights::Points(Clamping::Progressive { .. }) => "pir-clamp",
+            VirtualLights::WeighedPoints(Clamping::None) => "ir-mis",
+            VirtualLights::WeighedPoints(Clamping::Constant { .. }) => "ir-mis-clamp",
+            VirtualLights::WeighedPoints(Clamping::Progressive { .. }) => "pir-mis",
+            VirtualLights::Bidirectional(Clamping::None, _) => "ir-bdpt",
+            VirtualLights::Bidirectional(Clamping::Constant { .. }, _) => "ir-bdpt-clamp",
+            VirtualLights::Bidirectional(Clamping::Progressive { .. }, _) => "pir-bdpt",
+            VirtualLights::Spheres { alpha: None, .. } => "vsl",
+            VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
+        }
+    }
+
+    fn parameters(&self) -> Vec<(String, String)> {
+        let mut p = vec![("vpls".to_string(), self.paths.to_string())];
+        match self.gather {
+            Gather::All => {}
+            Gather::Tree { samples } => {
+                p.push(("gather".into(), "tree".into()));
+                p.push(("gather-samples".into(), samples.to_string()));
+            }
+            Gather::Resampled { candidates, samples } => {
+                p.push(("gather".into(), "resample".into()));
+                p.push(("gather-candidates".into(), candidates.to_string()));
+                p.push(("gather-samples".into(), samples.to_string()));
+            }
+        }
+        if let VirtualLights::Bidirectional(_, connect) = self.lights {
+            // The name `--connect` takes (clap's, from the enum).
+            let name = clap::ValueEnum::to_possible_value(&connect).map(|v| v.get_name().to_string());
+            p.push(("connect".into(), name.unwrap_or_default()));
+            p.push(("light-samples".into(), self.light_samples.to_string()));
+            if let Some(pilot) = self.pilot {
+                // Measured, not given: what the weights' counts used ([`Pilot`]).
+                p.push(("emitter-visibility".into(), format!("{:.3}", pilot.visibility)));
+            }
+        }
+        match self.lights {
+            VirtualLights::Points(Clamping::None)
+            | VirtualLights::WeighedPoints(Clamping::None)
+            | VirtualLights::Bidirectional(Clamping::None, _) => {}
+            VirtualLights::Points(Clamping::Constant { b })
+            | VirtualLights::WeighedPoints(Clamping::Constant { b })
+            | VirtualLights::Bidirectional(Clamping::Constant { b }, _) => {
+                p.push(("clamp".into(), b.to_string()))
+            }
+            VirtualLights::Points(Clamping::Progressive { b1, alpha })
+            | VirtualLights::WeighedPoints(Clamping::Progressive { b1, alpha })
+            | VirtualLights::Bidirectional(Clamping::Progressive { b1, alpha }, _) => {
+                p.push(("clamp".into(), b1.to_string()));
+                p.push(("alpha".into(), alpha.to_string()));
+            }
+            VirtualLights::Spheres { radius, alpha } => {
+                let r = match radius {
+                    Radius::Global(r) => r.to_string(),
+                    Radius::Density => spheres::density_radius_name(),
+                };
+                p.push(("radius".into(), r));
+                if let Some(a) = alpha {
+                    p.push(("alpha".into(), a.to_string()));
+                }
+            }
+        }
+        p
+    }
+
+    /// The pilot, once, for counts chosen by the scene or the bidirectional weights.
+    fn prepare(&mut self, ctx: &RenderContext, counters: &mut Counters) {
+        let bidirectional = matches!(self.lights, VirtualLights::Bidirectional(..));
+        if self.pilot.is_some() || !(bidirectional || self.auto.is_some()) {
+            return;
+        }
+        let pilot = Pilot::run(ctx, counters);
+        if let Some(auto) = self.auto.take() {
+            self.paths = auto.for_yield(pilot.per_path);
+        }
+        if std::mem::take(&mut self.auto_light_samples) {
+            self.light_samples = bidirectional::light_samples_for(self.light_samples, pilot.visibility);
+        }
+        self.pilot = Some(pilot);
+    }
+
+    fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
+        // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
+        let max_vpl_depth = ctx.max_depth.saturating_sub(2);
+        let visibility = self.pilot.map_or(1.0, |p| p.visibility);
+        let counts = Counts::new(self.paths, self.gather, visibility);
+        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counts, max_vpl_depth);
+        counters.light_rays += rays;
+        counters.light_paths += self.paths as u64;
+        counters.vpls += vpls.len() as u64;
+        self.set = LightSet::new(ctx, &self.lights, vpls, counts, iteration, self.gather);
+    }
+
+    fn radiance(
+        &self,
+        ctx: &RenderContext,
+        ray: Ray,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Vec3 {
+        match (&self.lights, &self.set.mis) {
+            (&VirtualLights::Bidirectional(_, connect), Some(mis)) => {
+                let camera_path = Bidirectional {
+                    set: &self.set,
+                    connect,
+                    light_samples: self.light_samples,
+                    counts: mis.counts,
+                    bound: mis.bound,
+                };
+                walk(ctx, ray, &camera_path, sampler, counters)
+            }
+            _ => walk(ctx, ray, &self.set, sampler, counters),
+        }
+    }
+}

@@ -1,0 +1,235 @@
+//! The bookkeeping of bidirectional weights that both subpaths carry (`pir-bdpt`, after
+//! Georgiev's vertex connection and merging): the running sums [`MisState`] that each BSDF
+//! sample ([`Scatter`]) extends, and how many samples each connection technique counts
+//! ([`Counts`]). Light tracing fills them in at every VPL and the camera path along its walk;
+//! [`super::bidirectional`] finishes the weights from them.
+
+use std::f32::consts::PI;
+
+use super::config::{Connect, Gather};
+use crate::material::Bsdf;
+
+/// What a pick of the resampled gather counts, where the emitters are in view, in a
+/// connection between two Lambertian ends ([`Counts`]): 4, so that its k picks count 4k.
+///
+/// Why 4 rather than the 2 of a glossy end: the picks' VPLs are shared by the pixels whose
+/// windows hold them, and a larger count makes their shared error (blotches) a larger part
+/// of the image's; since an iteration traces at least 256 light paths and a window holds
+/// 128 of its 600-odd VPLs (the Cornell box), neighbouring pixels share far fewer of them
+/// than with 64 paths, where the window was every VPL. Measured (2026-12-04, `pir render
+/// … --method pir-bdpt --seed s`, seeds 1–2, 1–3 on the Cornell box, relative MSE against
+/// the references at fixed iterations, the same time; `docs/measurements.md`, "Lambertian
+/// connections count 4k"): 2 → 4 took 5.5 % off the Cornell box, 15 % off the slit room,
+/// 4 % off the bunny's box, 3 % off the Mori knob and 0–1 % off the glossy Cornell box, the
+/// near-mirror floor, the glossy corner and the dense scene lit indirectly; HDR-FLIP at 20 s
+/// on the Cornell box was level (0.0251 either way, the mean of six seeds). 8 took a little
+/// more off the slit room (9 %) and nothing more elsewhere, but raised the Cornell box's
+/// HDR-FLIP by 3 %.
+pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
+
+/// How many samples the weights count for a connection technique: a function of the
+/// iteration's light paths, the gather, the connection's two ends and how often next-event
+/// estimation finds the emitters unoccluded.
+///
+/// Any positive counts keep the weights of every path summing to one, as long as both
+/// subpaths use the same count for the same connection (the running sums carry each
+/// connection's factor from where it is folded in). The counts only balance the techniques:
+/// - **The exhaustive gather** makes N connections per vertex, N samples of the technique:
+///   every connection counts N.
+/// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
+///   contribution) counts at most 2k (the resampled gather between Lambertian ends 4k / v,
+///   next item): its picks are k samples, and the VPLs they pick are shared by every pixel,
+///   so that a larger count trades per-pixel noise for blotches.
+///   Measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional weights"): 8
+///   rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its worst pixel
+///   by 20 %, the near-mirror floor's by 8 % and 54 %; with 64 paths, 64 rather than 8
+///   raised the glossy corner's by 72 % and the near-mirror floor's by 17 %; counting N only
+///   between Lambertian ends lowered the Cornell box's relative MSE at 20 s by 10 % but
+///   raised its HDR-FLIP by 15 % (`docs/measurements.md`,
+///   "Connections counted by their ends").
+/// - **Between two Lambertian ends, the resampled gather** counts
+///   [`LAMBERTIAN_PICK_COUNT`] · k / v (4k / v), at most N, with v
+///   the probability that next-event estimation from a point that light reaches directly
+///   finds its emitter point unoccluded (measured by the pilot of
+///   [`super::path_count::Pilot`]). The competitor of such a connection z_1 → z_2 is
+///   next-event estimation at z_2, whose samples are mostly wasted where the emitters are
+///   hidden behind an opening (the slit room: v = 0.15–0.18), and whose effective count is then v
+///   samples, not one; the connection's estimate is the unoccluded contribution itself but
+///   for the albedos' colours (power × the geometry term, [`super::resample`]), so its picks
+///   are well placed. Where the emitters are in view (v ≈ 1) this is 4k. A glossy
+///   end keeps 2k: the estimate leaves the lobe out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Counts {
+    /// N, the light paths of the iteration: the emitter techniques count once against it,
+    /// and the connections' counts are relative to it.
+    pub paths: f32,
+    /// The count of a connection between two Lambertian ends, relative to `paths` (in (0, 1]).
+    pub lambertian: f32,
+    /// The count of a connection with a glossy end, relative to `paths` (in (0, 1]).
+    pub glossy: f32,
+}
+
+impl Counts {
+    /// The counts of an iteration of `paths` light paths gathered as `gather` says, in a
+    /// scene where next-event estimation from the points that light reaches directly finds
+    /// its emitter point unoccluded with probability `visibility` (the pilot's,
+    /// [`super::path_count::Pilot`]; 1 when not measured).
+    pub fn new(paths: usize, gather: Gather, visibility: f32) -> Counts {
+        let n = (paths as f32).max(1.0);
+        let (glossy, lambertian) = match gather {
+            Gather::All => (n, n),
+            Gather::Tree { samples } => (n.min(2.0 * samples as f32), n.min(2.0 * samples as f32)),
+            Gather::Resampled { samples, .. } => {
+                let k2 = 2.0 * samples as f32;
+                let in_view = LAMBERTIAN_PICK_COUNT * samples as f32;
+                // Not measured: as if in view; measured and nothing in view: N.
+                let lambertian = match visibility {
+                    v if v.is_nan() => in_view,
+                    v if v <= 0.0 => n,
+                    v => in_view / v.min(1.0),
+                };
+                (n.min(k2), n.min(lambertian))
+            }
+        };
+        Counts {
+            paths: n,
+            lambertian: (lambertian / n).clamp(f32::MIN_POSITIVE, 1.0),
+            glossy: (glossy / n).clamp(f32::MIN_POSITIVE, 1.0),
+        }
+    }
+
+    /// Every connection counted as `paths` (the tests' weights, and [`Gather::All`]).
+    pub fn uniform(paths: f32) -> Counts {
+        Counts { paths, lambertian: 1.0, glossy: 1.0 }
+    }
+
+    /// The count of the connection between a vertex of BSDF `b` and the vertex before it
+    /// on the same subpath, of BSDF `a` (none at the camera or the emitter: 1, the term it
+    /// would multiply being zero or next-event estimation's), relative to [`Counts::paths`].
+    /// What both subpaths fold into their sums, in [`walk`] and in light tracing.
+    #[inline]
+    pub fn between(&self, a: Option<&Bsdf>, b: &Bsdf) -> f32 {
+        a.map_or(1.0, |a| self.factor(a, b))
+    }
+
+    /// The count of the connection between a vertex of BSDF `a` and one of BSDF `b`,
+    /// relative to [`Counts::paths`].
+    #[inline]
+    pub fn factor(&self, a: &Bsdf, b: &Bsdf) -> f32 {
+        if lambertian(a) && lambertian(b) { self.lambertian } else { self.glossy }
+    }
+}
+
+/// Whether a connection at a vertex of this BSDF is picked as well as a Lambertian one
+/// ([`Counts`]): a diffuse material.
+#[inline]
+fn lambertian(b: &Bsdf) -> bool {
+    matches!(b, Bsdf::Diffuse { .. })
+}
+
+/// The running sums of one subpath's MIS weights (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MisState {
+    /// The density ratio of the technique that ends the other subpath at the previous vertex.
+    pub dvcm: f32,
+    /// The sum over the techniques that end it earlier still.
+    pub dvc: f32,
+    /// The part of `dvc` that the two emitter techniques contribute (light subpaths only):
+    /// what is left of `dvc` when the camera may not connect further along the path
+    /// ([`Connect`]).
+    pub dvc_emitter: f32,
+}
+
+impl MisState {
+    /// A camera subpath: no technique reaches the camera from the light side.
+    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0 };
+
+    /// A light subpath of `paths` per iteration, started at an emitter point of area density
+    /// `pdf_area` (as next-event estimation picks it too) in a cosine-distributed direction of
+    /// cosine `cos_e`: the emitter techniques (next-event estimation, `dvcm`, and an
+    /// emitter hit, `dvc`) count once against the connections' N.
+    pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
+        let dvc = PI / (pdf_area * paths);
+        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc }
+    }
+
+    /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
+    /// where it came from is `cos`.
+    #[inline]
+    pub fn arrive(&mut self, dist2: f32, cos: f32) {
+        self.dvcm = finite(self.dvcm * dist2 / cos);
+        self.dvc = finite(self.dvc / cos);
+        self.dvc_emitter = finite(self.dvc_emitter / cos);
+    }
+
+    /// The subpath continues from a vertex by BSDF sampling: density `pdf` (per solid angle;
+    /// a delta lobe's probability), `pdf_rev` the density of sampling the way back from the
+    /// new direction, `cos_out` the cosine of the new direction at the vertex. `fold` says
+    /// whether the technique `dvcm` stands for can make the path (a camera subpath: whether
+    /// the previous vertex may connect); `emitter` whether it is next-event estimation (a
+    /// light subpath's first vertex after the emitter).
+    #[inline]
+    pub fn scatter(&mut self, s: Scatter) {
+        if s.delta {
+            self.dvcm = 0.0;
+            self.dvc = finite(self.dvc * s.cos_out);
+            self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
+        } else {
+            let k = s.cos_out / s.pdf;
+            let dvcm = if s.fold { self.dvcm * s.count } else { 0.0 };
+            let emitter = if s.emitter { self.dvcm } else { 0.0 };
+            self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
+            self.dvc_emitter = finite(k * (self.dvc_emitter * s.pdf_rev + emitter));
+            self.dvcm = finite(1.0 / s.pdf);
+        }
+    }
+}
+
+/// One BSDF sample as [`MisState::scatter`] needs it.
+#[derive(Clone, Copy, Debug)]
+pub struct Scatter {
+    pub pdf: f32,
+    pub pdf_rev: f32,
+    pub cos_out: f32,
+    pub delta: bool,
+    pub fold: bool,
+    pub emitter: bool,
+    /// The count of the technique `dvcm` stands for, relative to [`Counts::paths`] (1 for
+    /// next-event estimation): what it is weighed with once folded into `dvc`.
+    pub count: f32,
+}
+
+impl Scatter {
+    /// A camera subpath's sample at its vertex of `depth` segments, `connect` saying which
+    /// vertices connect: the previous vertex's connection counts if that vertex connects,
+    /// `count` times ([`Counts::factor`] of the previous vertex and this one).
+    #[inline]
+    pub fn camera(
+        pdf: f32,
+        pdf_rev: f32,
+        cos_out: f32,
+        delta: bool,
+        connect: Connect,
+        depth: u32,
+        count: f32,
+    ) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: connect.at(depth - 1), emitter: false, count }
+    }
+
+    /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
+    /// first, the technique `dvcm` stands for is next-event estimation; further on, the
+    /// connection of this vertex (as a camera vertex) to the previous one's VPL, which counts
+    /// `count` times ([`Counts::between`] this vertex and the previous one, which is 1 at
+    /// the first vertex, whose previous one is the emitter).
+    #[inline]
+    pub fn light(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, depth: u32, count: f32) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count }
+    }
+}
+
+/// A ratio that overflowed counts as zero: the technique it stands for is negligible (or
+/// cannot make the path), and the weights stay finite.
+#[inline]
+fn finite(x: f32) -> f32 {
+    if x.is_finite() { x } else { 0.0 }
+}
