@@ -22,12 +22,13 @@ use glam::Vec2;
 use pir::accel::{Backend, build_accelerator};
 use pir::integrator::many_light::light_set::LightSet;
 use pir::integrator::many_light::light_tree::LightTree;
-use pir::integrator::many_light::mis::Weighing;
+use pir::integrator::many_light::points::PointLights;
 use pir::integrator::many_light::subpath::Counts;
 use pir::integrator::many_light::tree_gather::{Kernel, Lobe, Pick, Receiver, stratified};
+use pir::integrator::many_light::virtual_light::{Lights, Plain};
 use pir::integrator::many_light::{Vpl, trace_vpls};
 use pir::integrator::walker::Vertex;
-use pir::integrator::{Clamping, Counters, Gather, RenderContext, VirtualLights};
+use pir::integrator::{Clamping, Counters, Gather, RenderContext};
 use pir::light::Emitters;
 use pir::sampling::{Domain, Sampler, SamplerKind};
 use pir::scene::{SurfacePoint, load};
@@ -70,14 +71,13 @@ fn bench(c: &mut Criterion) {
             (!scene.material(sp.material).bsdf.is_delta()).then_some((sp, -ray.dir))
         })
         .collect();
-    let lights =
-        VirtualLights::Points(Clamping::Constant { b: Clamping::default_bound(scene.bounds().diagonal()) });
+    let clamping = Clamping::Constant { b: Clamping::default_bound(scene.bounds().diagonal()) };
+    let points = |vpls| PointLights::new(vpls, clamping, 1, &ctx);
 
     let mut build = c.benchmark_group("tree-build");
     build.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));
     for n in COUNTS.into_iter().chain([1_000_000]) {
-        let set = LightSet::new(&ctx, &lights, vpls_of(n), Counts::uniform(n as f32), 1, Gather::All);
-        let tree_lights = set.lights.tree_lights(&ctx);
+        let tree_lights = points(vpls_of(n)).tree_lights(&ctx);
         build.throughput(Throughput::Elements(n as u64));
         build.bench_with_input(BenchmarkId::from_parameter(n), &tree_lights, |b, l| {
             b.iter(|| black_box(LightTree::new(l)))
@@ -98,7 +98,7 @@ fn bench(c: &mut Criterion) {
             cases.push(("all", Gather::All));
         }
         for (name, gather) in cases {
-            let set = LightSet::new(&ctx, &lights, vpls.clone(), Counts::uniform(n as f32), 1, gather);
+            let set = LightSet::new(&ctx, points(vpls.clone()), gather);
             group.bench_with_input(BenchmarkId::new(name, n), &set, |b, set| {
                 b.iter(|| {
                     let mut counters = Counters::default();
@@ -107,14 +107,7 @@ fn bench(c: &mut Criterion) {
                         let bsdf = &scene.material(sp.material).bsdf;
                         let v = Vertex { sp: *sp, wo: *wo, bsdf, depth: 1 };
                         let mut sampler = Sampler::new(1, 1, Domain::Camera, i as u64);
-                        sum += set.gather(
-                            &ctx,
-                            &v,
-                            max_vpl_depth,
-                            &Weighing::PLAIN,
-                            &mut sampler,
-                            &mut counters,
-                        );
+                        sum += set.gather(&ctx, &v, max_vpl_depth, &Plain, &mut sampler, &mut counters);
                     }
                     black_box((sum, counters))
                 })
@@ -124,12 +117,7 @@ fn bench(c: &mut Criterion) {
     group.finish();
 
     // The descent alone, receivers as the gather builds them.
-    let bound = match lights {
-        VirtualLights::Points(c) | VirtualLights::WeighedPoints(c) | VirtualLights::Bidirectional(c, _) => {
-            c.bound(1)
-        }
-        VirtualLights::Spheres { .. } => unreachable!(),
-    };
+    let bound = clamping.bound(1);
     let rxs: Vec<Receiver> = receivers
         .iter()
         .map(|(sp, wo)| Receiver {
@@ -141,13 +129,8 @@ fn bench(c: &mut Criterion) {
             lobe: Lobe::of(&scene.material(sp.material).bsdf, sp.frame.n, *wo),
         })
         .collect();
-    let trees: Vec<(usize, LightTree)> = COUNTS
-        .iter()
-        .map(|&n| {
-            let set = LightSet::new(&ctx, &lights, vpls_of(n), Counts::uniform(n as f32), 1, Gather::All);
-            (n, LightTree::new(&set.lights.tree_lights(&ctx)))
-        })
-        .collect();
+    let trees: Vec<(usize, LightTree)> =
+        COUNTS.iter().map(|&n| (n, LightTree::new(&points(vpls_of(n)).tree_lights(&ctx)))).collect();
     for (n, tree) in &trees {
         let dead: f64 = rxs.iter().map(|rx| tree.leaf_probabilities(rx).1).sum::<f64>() / rxs.len() as f64;
         eprintln!("{n} VPLs: mean probability of a dead end {dead:.4}");

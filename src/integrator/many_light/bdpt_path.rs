@@ -7,6 +7,7 @@ use super::bidirectional::{CameraEnd, hit_weight, light_weight};
 use super::config::Connect;
 use super::light_set::LightSet;
 use super::mis::{Technique, Weighing};
+use super::points::PointLights;
 use super::subpath::{Counts, MisState, Scatter};
 use crate::geometry::Ray;
 use crate::integrator::direct::sample_emitters_at;
@@ -20,7 +21,7 @@ use crate::sampling::Sampler;
 /// hits and the gather from `set` at the non-delta vertices that `connect` names, all weighed
 /// bidirectionally, the weighted connections bounded by `bound`.
 pub struct Bidirectional<'a> {
-    pub set: &'a LightSet,
+    pub set: &'a LightSet<PointLights>,
     pub connect: Connect,
     /// Light samples at the first non-delta vertex (one at the others).
     pub light_samples: u32,

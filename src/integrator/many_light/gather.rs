@@ -13,60 +13,42 @@
 //! resampled gather ([`super::Gather::Resampled`]) it is estimated from k lights picked among a
 //! window of m candidates by a cheap estimate of their unoccluded light ([`super::resample`]).
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
-use super::lanes::{DiffuseReceiver, EstimateReceiver, LANES, LaneKind};
-use super::light_paths::Vpl;
-use super::light_set::{LightSet, Lights, PointLights, Selection};
+use super::light_set::{LightSet, Selection};
 use super::light_tree::LightTree;
 use super::lobe::Lobe;
-use super::mis::{Technique, Weighing};
-use super::resample::resample;
+use super::resample::{LANES, resample};
 use super::shadow_batch::{ShadowBatch, with_shadow_batch};
-use super::spheres::{SphereLights, SphereReceiver};
 use super::tree_gather::{Kernel, Pick, Receiver};
+use super::virtual_light::{Lights, Weigh};
 use crate::geometry::OffsetPoint;
 use crate::integrator::direct::shadow_segment;
 use crate::integrator::walker::Vertex;
 use crate::integrator::{Counters, RenderContext};
-use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
-impl LightSet {
+impl<L: Lights> LightSet<L> {
     /// Indirect light at the camera vertex `v` from every virtual light of at most
-    /// `max_vpl_depth` segments, visibility included, each connection as `weighing` weighs it
-    /// ([`super::mis`]; point lights only, spheres ignore it).
-    pub fn gather(
+    /// `max_vpl_depth` segments, visibility included, each connection as `weighing` weighs it.
+    pub fn gather<W: Weigh<L>>(
         &self,
         ctx: &RenderContext,
         v: &Vertex,
         max_vpl_depth: u32,
-        weighing: &Weighing,
+        weighing: &W,
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
+        let lights = &self.lights;
         with_shadow_batch(ctx.accel, |batch| {
-            let queued = match (&self.lights, &self.selection) {
-                (Lights::Points(p), Selection::All) => p.queue(v, max_vpl_depth, weighing, batch),
-                (Lights::Spheres(s), Selection::All) => s.queue(v, max_vpl_depth, sampler, batch),
-                (lights, &Selection::Resampled { candidates, samples }) => {
-                    let (m, k) = (candidates, samples);
-                    match lights {
-                        Lights::Points(p) => {
-                            p.queue_resampled(v, max_vpl_depth, m, k, weighing, sampler, batch)
-                        }
-                        Lights::Spheres(s) => s.queue_resampled(v, max_vpl_depth, m, k, sampler, batch),
-                    }
+            let queued = match self.selection {
+                Selection::All => all(lights, v, max_vpl_depth, weighing, sampler, batch),
+                Selection::Tree { ref tree, samples } => {
+                    drawn(lights, tree, samples, v, max_vpl_depth, weighing, sampler, batch)
                 }
-                (lights, Selection::Tree { tree, samples: k }) => {
-                    let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-                    let lobe = receiver_lobe(v, weighing);
-                    let picks =
-                        sample_lights(tree, *k, lights, v, lobe, fx.is_active(), max_vpl_depth, sampler);
-                    match lights {
-                        Lights::Points(p) => p.queue_sampled(v, &fx, &picks, *k, weighing, batch),
-                        Lights::Spheres(s) => s.queue_sampled(v, &picks, *k, sampler, batch),
-                    }
+                Selection::Resampled { candidates, samples } => {
+                    resampled(lights, candidates, samples, v, max_vpl_depth, weighing, sampler, batch)
                 }
             };
             if !queued {
@@ -79,14 +61,94 @@ impl LightSet {
     }
 }
 
-/// The receiver's lobe at `v` for the sampled gathers' draws ([`Lobe`]), for the thesis' plain
-/// sum only: a weighed connection in a glossy lobe is mostly left to BSDF sampling, so its
-/// weighted value does not follow the lobe, and `pir-mis` and `pir-bdpt` draw as before.
-fn receiver_lobe(v: &Vertex, weighing: &Weighing) -> Option<Lobe> {
-    match weighing.technique {
-        Technique::Plain => Lobe::of(v.bsdf, v.sp.frame.n, v.wo),
-        _ => None,
+/// Queues every light's weighted contribution with its shadow ray, in light order; `false`
+/// when the receiver reflects nothing towards `v.wo`.
+fn all<L: Lights, W: Weigh<L>>(
+    lights: &L,
+    v: &Vertex,
+    max_vpl_depth: u32,
+    weighing: &W,
+    sampler: &mut Sampler,
+    batch: &mut ShadowBatch,
+) -> bool {
+    let rx = lights.receiver(v, max_vpl_depth, None);
+    if !L::is_active(&rx) {
+        return false;
     }
+    let x = OffsetPoint::new(v.sp.p, v.sp.ng);
+    for chunk in 0..lights.chunks() {
+        let cs = lights.chunk_contributions(chunk, &rx, sampler);
+        for (i, c) in cs.into_iter().enumerate() {
+            if c != Vec3::ZERO {
+                let j = chunk * LANES + i;
+                batch.push(shadow_segment(&x, lights.end(j)), weighing.weigh(lights, j, v.sp.p, c));
+            }
+        }
+    }
+    true
+}
+
+/// Queues the weighted contributions of k lights drawn from the light tree, each divided by k
+/// and its probability ([`super::tree_gather`]). Draws k numbers, always.
+#[allow(clippy::too_many_arguments)]
+fn drawn<L: Lights, W: Weigh<L>>(
+    lights: &L,
+    tree: &LightTree,
+    k: usize,
+    v: &Vertex,
+    max_vpl_depth: u32,
+    weighing: &W,
+    sampler: &mut Sampler,
+    batch: &mut ShadowBatch,
+) -> bool {
+    let lobe = weighing.lobe(v);
+    let rx = lights.receiver(v, max_vpl_depth, lobe);
+    let picks = sample_lights(tree, k, lights.kernel(), v, lobe, L::is_active(&rx), max_vpl_depth, sampler);
+    let x = OffsetPoint::new(v.sp.p, v.sp.ng);
+    for pick in &picks {
+        let j = pick.light;
+        let c = lights.contribution(j, &rx, sampler);
+        if c != Vec3::ZERO {
+            let c = weighing.weigh(lights, j, v.sp.p, c);
+            batch.push(shadow_segment(&x, lights.end(j)), weighted(c, pick, k));
+        }
+    }
+    true
+}
+
+/// Queues the weighted contributions of k lights picked from a window of about m candidates
+/// by their estimated unoccluded light ([`super::resample`]); `false` when the receiver
+/// reflects nothing towards `v.wo`. Draws two numbers before the candidates' own, always.
+#[allow(clippy::too_many_arguments)]
+fn resampled<L: Lights, W: Weigh<L>>(
+    lights: &L,
+    m: usize,
+    k: usize,
+    v: &Vertex,
+    max_vpl_depth: u32,
+    weighing: &W,
+    sampler: &mut Sampler,
+    batch: &mut ShadowBatch,
+) -> bool {
+    let rx = lights.receiver(v, max_vpl_depth, weighing.lobe(v));
+    let active = L::is_active(&rx);
+    let x = OffsetPoint::new(v.sp.p, v.sp.ng);
+    resample(
+        lights.chunks(),
+        m,
+        k,
+        active,
+        sampler,
+        |cands, window, sampler| lights.push_estimates(cands, window, &rx, sampler),
+        |j, factor, sampler| {
+            let c = lights.picked(j, &rx, sampler);
+            if c != Vec3::ZERO {
+                let c = weighing.weigh(lights, j, v.sp.p, c);
+                batch.push(shadow_segment(&x, lights.end(j)), c * factor);
+            }
+        },
+    );
+    active
 }
 
 /// Draws the k lights of the sampled gather at `v` (k numbers from `sampler`, always); none
@@ -95,7 +157,7 @@ fn receiver_lobe(v: &Vertex, weighing: &Weighing) -> Option<Lobe> {
 fn sample_lights(
     tree: &LightTree,
     k: usize,
-    lights: &Lights,
+    kernel: Kernel,
     v: &Vertex,
     lobe: Option<Lobe>,
     active: bool,
@@ -111,10 +173,6 @@ fn sample_lights(
         }
         return picks;
     }
-    let kernel = match lights {
-        Lights::Points(p) => Kernel::Point { bound: p.bound },
-        Lights::Spheres(_) => Kernel::Sphere,
-    };
     let rx = Receiver { p: sp.p, ng: sp.ng, ns: sp.frame.n, max_depth: max_vpl_depth, kernel, lobe };
     tree.sample_stratified(&rx, k, sampler, |p| picks.push(p));
     picks
@@ -124,283 +182,4 @@ fn sample_lights(
 #[inline]
 fn weighted(c: Vec3, pick: &Pick, k: usize) -> Vec3 {
     (c.as_dvec3() / (k as f64 * pick.prob)).as_vec3()
-}
-
-impl PointLights {
-    /// Queues the sampled lights' weighted contributions with their shadow rays.
-    fn queue_sampled(
-        &self,
-        v: &Vertex,
-        fx: &PreparedBsdf,
-        picks: &[Pick],
-        k: usize,
-        weighing: &Weighing,
-        batch: &mut ShadowBatch,
-    ) -> bool {
-        let sp = &v.sp;
-        let x = OffsetPoint::new(sp.p, sp.ng);
-        for pick in picks {
-            let j = pick.light;
-            let (vpl, emitting) = (&self.vpls[j], &self.emitting[j]);
-            let c = point_contribution(sp.p, sp.frame.n, fx, vpl, emitting, self.bound);
-            if c != Vec3::ZERO {
-                let c = weighing.apply(sp.p, vpl, emitting, c);
-                batch.push(shadow_segment(&x, self.lanes.end(j)), weighted(c, pick, k));
-            }
-        }
-        true
-    }
-
-    /// Queues the k lights picked from a window of about m candidates ([`super::resample`]);
-    /// `false` when the receiver reflects nothing towards `v.wo`. Draws two numbers, always.
-    #[allow(clippy::too_many_arguments)]
-    fn queue_resampled(
-        &self,
-        v: &Vertex,
-        max_vpl_depth: u32,
-        m: usize,
-        k: usize,
-        weighing: &Weighing,
-        sampler: &mut Sampler,
-        batch: &mut ShadowBatch,
-    ) -> bool {
-        let sp = &v.sp;
-        let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
-        let x = OffsetPoint::new(sp.p, sp.ng);
-        // The picked lights' contributions one by one: a pick is rarely in the chunk of the
-        // one before, and one light's scalar evaluation costs less than the four-wide kernel's
-        // of its chunk (the same numbers bit for bit: `lanes.rs`'s tests).
-        let lobe = receiver_lobe(v, weighing);
-        resample(
-            self.lanes.chunks(),
-            m,
-            k,
-            fx.is_active(),
-            sampler,
-            |cands, window, _| {
-                let r = EstimateReceiver {
-                    x: sp.p,
-                    ng: sp.ng,
-                    ns: sp.frame.n,
-                    bound: self.bound,
-                    max_depth: max_vpl_depth,
-                    lobe: lobe.as_ref(),
-                };
-                self.lanes.push_estimates(cands, window, &r);
-            },
-            |j, factor, _| {
-                let c =
-                    point_contribution(sp.p, sp.frame.n, &fx, &self.vpls[j], &self.emitting[j], self.bound);
-                if c != Vec3::ZERO {
-                    let c = weighing.apply(sp.p, &self.vpls[j], &self.emitting[j], c);
-                    batch.push(shadow_segment(&x, self.lanes.end(j)), c * factor);
-                }
-            },
-        );
-        fx.is_active()
-    }
-
-    /// Queues every light's contribution with its shadow ray; `false` when the receiver
-    /// reflects nothing towards `v.wo`.
-    fn queue(&self, v: &Vertex, max_vpl_depth: u32, weighing: &Weighing, batch: &mut ShadowBatch) -> bool {
-        let sp = &v.sp;
-        let fx = PreparedBsdf::new(*v.bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
-        if !fx.is_active() {
-            return false;
-        }
-        let x = OffsetPoint::new(sp.p, sp.ng);
-        // Lambertian pairs lane by lane, the others one by one, queued in VPL order.
-        let receiver = DiffuseReceiver::new(sp, &fx);
-        for chunk in 0..self.lanes.chunks() {
-            let lanes =
-                receiver.map(|r| self.lanes.diffuse_contributions(chunk, &r, self.bound, max_vpl_depth));
-            for i in 0..LANES {
-                let j = chunk * LANES + i;
-                let Some(vpl) = self.vpls.get(j) else { break };
-                let c = match (lanes, self.lanes.kind(j)) {
-                    (Some(c), LaneKind::Diffuse | LaneKind::Empty) => c[i],
-                    _ if vpl.depth > max_vpl_depth => continue,
-                    _ => point_contribution(sp.p, sp.frame.n, &fx, vpl, &self.emitting[j], self.bound),
-                };
-                if c != Vec3::ZERO {
-                    let c = weighing.apply(sp.p, vpl, &self.emitting[j], c);
-                    batch.push(shadow_segment(&x, self.lanes.end(j)), c);
-                }
-            }
-        }
-        true
-    }
-}
-
-thread_local! {
-    /// The contributions a resampled gather of spheres evaluated as candidates: (sphere,
-    /// contribution), reused from receiver to receiver so that a gather allocates nothing.
-    static EXACT: std::cell::RefCell<Vec<(usize, Vec3)>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
-impl SphereLights {
-    /// Queues the sampled spheres' weighted contributions with their shadow rays.
-    fn queue_sampled(
-        &self,
-        v: &Vertex,
-        picks: &[Pick],
-        k: usize,
-        sampler: &mut Sampler,
-        batch: &mut ShadowBatch,
-    ) -> bool {
-        let rx = SphereReceiver::at(v);
-        let x = OffsetPoint::new(v.sp.p, v.sp.ng);
-        for pick in picks {
-            let c = self.contribution(pick.light, &rx, sampler);
-            if c != Vec3::ZERO {
-                batch.push(shadow_segment(&x, &self.ends[pick.light]), weighted(c, pick, k));
-            }
-        }
-        true
-    }
-
-    /// Queues the k spheres picked from a window of m candidates ([`super::resample`]); `false`
-    /// when the receiver reflects nothing towards `v.wo`. Draws two numbers before the
-    /// candidates' own, always.
-    fn queue_resampled(
-        &self,
-        v: &Vertex,
-        max_vpl_depth: u32,
-        m: usize,
-        k: usize,
-        sampler: &mut Sampler,
-        batch: &mut ShadowBatch,
-    ) -> bool {
-        let rx = SphereReceiver::at(v);
-        let x = OffsetPoint::new(v.sp.p, v.sp.ng);
-        EXACT.with(|exact| {
-            exact.borrow_mut().clear();
-            // The picked spheres' contributions: those evaluated as candidates (a narrow lobe
-            // at either end), the chunk's closed forms and zeros four at a time (picks come in
-            // sphere order), the other spheres' cone integrals one by one.
-            let mut chunk_done: Option<(usize, [Vec4; 3], u32)> = None;
-            resample(
-                self.lanes.chunks(),
-                m,
-                k,
-                rx.is_active(),
-                sampler,
-                |cands, window, sampler| {
-                    for block in window.blocks() {
-                        let (mut p, narrow) = self.lanes.estimates(block, &rx.end, max_vpl_depth);
-                        for i in (0..LANES).filter(|i| narrow >> i & 1 == 1) {
-                            let j = block * LANES + i;
-                            let c = self.contribution(j, &rx, sampler);
-                            p[i] = c.element_sum();
-                            exact.borrow_mut().push((j, c));
-                        }
-                        cands.push(block * LANES, p)
-                    }
-                },
-                |j, factor, sampler| {
-                    let evaluated = exact.borrow().iter().find(|e| e.0 == j).map(|e| e.1);
-                    let c = match evaluated {
-                        Some(c) => c,
-                        None => {
-                            let (chunk, lane) = (j / LANES, j % LANES);
-                            if chunk_done.is_none_or(|(c, ..)| c != chunk) {
-                                let (rgb, done) = self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
-                                chunk_done = Some((chunk, rgb, done));
-                            }
-                            let (_, rgb, done) = chunk_done.expect("filled just above");
-                            // A lane that is not done has an estimate only if the sphere is
-                            // within the depth and active, so it is sampled as a whole gather
-                            // would sample it.
-                            if done >> lane & 1 == 1 {
-                                Vec3::new(rgb[0][lane], rgb[1][lane], rgb[2][lane])
-                            } else {
-                                self.contribution(j, &rx, sampler)
-                            }
-                        }
-                    };
-                    if c != Vec3::ZERO {
-                        batch.push(shadow_segment(&x, &self.ends[j]), c * factor);
-                    }
-                },
-            );
-        });
-        rx.is_active()
-    }
-
-    /// Queues every sphere's contribution with its shadow ray to the centre; `false` when the
-    /// receiver reflects nothing towards `v.wo`.
-    fn queue(&self, v: &Vertex, max_vpl_depth: u32, sampler: &mut Sampler, batch: &mut ShadowBatch) -> bool {
-        let rx = SphereReceiver::at(v);
-        if !rx.is_active() {
-            return false;
-        }
-        let x = OffsetPoint::new(v.sp.p, v.sp.ng);
-        for chunk in 0..self.lanes.chunks() {
-            let cs = self.chunk_contributions(chunk, &rx, max_vpl_depth, sampler);
-            for (i, c) in cs.into_iter().enumerate() {
-                if c != Vec3::ZERO {
-                    batch.push(shadow_segment(&x, &self.ends[chunk * LANES + i]), c);
-                }
-            }
-        }
-        true
-    }
-
-    /// The contributions at `rx` of the spheres of chunk `chunk` with at most `max_vpl_depth`
-    /// segments (zero for the others and past the last sphere): the diffuse pairs in closed
-    /// form and the cones without light four at a time ([`super::sphere_lanes`]), the others
-    /// one by one in sphere order, so that they draw their numbers as they would alone.
-    #[inline]
-    fn chunk_contributions(
-        &self,
-        chunk: usize,
-        rx: &SphereReceiver,
-        max_vpl_depth: u32,
-        sampler: &mut Sampler,
-    ) -> [Vec3; LANES] {
-        let (rgb, done) = self.lanes.without_sampling(chunk, &rx.end, max_vpl_depth);
-        std::array::from_fn(|i| {
-            let j = chunk * LANES + i;
-            match self.vpls.get(j) {
-                _ if done >> i & 1 == 1 => Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]),
-                Some(vpl) if vpl.depth <= max_vpl_depth => self.contribution(j, rx, sampler),
-                _ => Vec3::ZERO,
-            }
-        })
-    }
-}
-
-/// Φ f_p cos_p f_x cos_x / d² of one VPL at the receiver x (shading normal `n`), with G
-/// clamped at `bound`; zero when either BSDF is. The scalar form of the gather; the four-wide
-/// kernel of [`super::lanes`] computes exactly this, bit for bit.
-pub(super) fn point_contribution(
-    x: Vec3,
-    n: Vec3,
-    fx: &PreparedBsdf,
-    vpl: &Vpl,
-    fp: &PreparedBsdf,
-    bound: f32,
-) -> Vec3 {
-    let d = vpl.p - x;
-    let dist2 = d.length_squared();
-    if dist2 <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let w = d / dist2.sqrt();
-    let fx = fx.eval(w);
-    if fx == Vec3::ZERO {
-        return Vec3::ZERO;
-    }
-    let fp = fp.eval(-w);
-    if fp == Vec3::ZERO {
-        return Vec3::ZERO;
-    }
-    let c = vpl.flux * fx * fp / dist2;
-    if bound.is_finite() {
-        let g = n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;
-        if g > bound {
-            return c * (bound / g);
-        }
-    }
-    c
 }

@@ -7,6 +7,8 @@ use glam::Vec3;
 
 use super::light_set::LightSet;
 use super::mis::{EmitterPath, Technique, Weighing};
+use super::points::PointLights;
+use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
 use crate::integrator::direct::{Sampled, emission_weighted, sample_emitters_weighted};
 use crate::integrator::path::{light_hit, light_sample};
@@ -16,11 +18,15 @@ use crate::integrator::{Counters, RenderContext};
 use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
-/// The many-light methods' camera path (but `pir-bdpt`'s, [`bidirectional`]): the path
-/// tracer's techniques for direct light, and at a non-delta vertex of d segments the light of
-/// every virtual light of at most max_depth − d − 1 segments, which covers every path whose
-/// next vertex is a non-delta surface.
-impl Estimator for LightSet {
+/// The thesis' methods (`ir`, `ir-clamp`, `pir-clamp`, `vsl`, `pir-vsl`) on lights of any
+/// kind: the path tracer's techniques for direct light, and at a non-delta vertex of d
+/// segments the light of every virtual light of at most max_depth − d − 1 segments, which
+/// covers every path whose next vertex is a non-delta surface.
+pub struct Gathering<'a, L> {
+    pub set: &'a LightSet<L>,
+}
+
+impl<L: Lights> Estimator for Gathering<'_, L> {
     const COVERS_SURFACES: bool = true;
     type State = ();
 
@@ -45,23 +51,54 @@ impl Estimator for LightSet {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let gathered = match &self.mis {
-            None => self.gather(ctx, v, max_vpl_depth, &Weighing::PLAIN, sampler, counters),
-            Some(mis) => {
-                let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-                let weighing = Weighing {
-                    technique: Technique::Connect { fx: &fx, scene: ctx.scene },
-                    bound: mis.bound,
-                };
-                self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters)
-            }
-        };
-        *radiance += beta * gathered;
+        *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
+    }
+}
+
+/// `pir-mis` on point lights: [`Gathering`] whose connections are weighed against a
+/// BSDF-sampled bounce ([`super::mis`]), the weighted connection bounded by `bound`; the
+/// bounce's share is added where the covered walk ends.
+pub struct WeighedGathering<'a> {
+    pub set: &'a LightSet<PointLights>,
+    /// The iteration's light paths: every connection counts them all.
+    pub paths: f32,
+    pub bound: f32,
+}
+
+impl Estimator for WeighedGathering<'_> {
+    const COVERS_SURFACES: bool = true;
+    type State = ();
+
+    #[inline]
+    fn start(&self, _ray: &Ray) {}
+
+    #[inline]
+    fn on_hit(&self, _: &mut (), ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
+        light_hit(ctx, at, beta, radiance);
+    }
+
+    #[inline]
+    fn at_vertex(
+        &self,
+        _: &mut (),
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) {
+        light_sample(ctx, v, beta, radiance, sampler, counters);
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+        let weighing =
+            Weighing { technique: Technique::Connect { fx: &fx, scene: ctx.scene }, bound: self.bound };
+        *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
     }
 
     #[inline]
     fn uses_bounces(&self) -> bool {
-        self.mis.is_some()
+        true
     }
 
     /// The bounce's share ([`mis`]): the emitters sampled from y and the gather at y, each
@@ -74,14 +111,13 @@ impl Estimator for LightSet {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Option<Vec3> {
-        let mis = self.mis.as_ref()?;
         let bounce = how.pdf / (v.sp.p - how.from).length_squared();
-        let path = |light| EmitterPath { bounce, paths: mis.counts.paths, light };
+        let path = |light| EmitterPath { bounce, paths: self.paths, light };
         let direct =
             sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| path(s).light_weight());
-        let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: mis.bound };
+        let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let gathered = self.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+        let gathered = self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
         // C: y's BSDF sample, where it hits an emitter.
         let mut beta = Vec3::ONE;
         let Some(s) = scatter(v.bsdf, &v.sp, v.wo, TransportMode::Radiance, sampler, &mut beta) else {

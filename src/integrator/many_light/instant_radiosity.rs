@@ -7,10 +7,12 @@ use glam::Vec3;
 use super::bdpt_path::Bidirectional;
 use super::bidirectional;
 use super::config::{Clamping, Gather, Radius, VirtualLights};
-use super::light_paths::trace_vpls;
+use super::gathering::{Gathering, WeighedGathering};
+use super::light_paths::{Vpl, trace_vpls};
 use super::light_set::LightSet;
 use super::path_count::{AutoPaths, Pilot};
-use super::spheres;
+use super::points::PointLights;
+use super::spheres::{self, SphereLights};
 use super::subpath::Counts;
 use crate::geometry::Ray;
 use crate::integrator::walker::walk;
@@ -32,7 +34,20 @@ pub struct InstantRadiosity {
     /// Whether [`Integrator::prepare`] chooses `light_samples` by the pilot's visibility of
     /// the emitters ([`bidirectional::light_samples_for`], with `light_samples` the base).
     auto_light_samples: bool,
-    set: LightSet,
+    set: IterationLights,
+}
+
+/// The current iteration's lights (none before the first iteration).
+enum IterationLights {
+    None,
+    /// Points, and the weights' counts and bound on the weighted connection of the weighed
+    /// methods (their bound is not on G).
+    Points {
+        set: LightSet<PointLights>,
+        counts: Counts,
+        bound: f32,
+    },
+    Spheres(LightSet<SphereLights>),
 }
 
 impl InstantRadiosity {
@@ -45,7 +60,7 @@ impl InstantRadiosity {
             gather: Gather::All,
             light_samples: 1,
             auto_light_samples: false,
-            set: LightSet::default(),
+            set: IterationLights::None,
         }
     }
 
@@ -176,7 +191,34 @@ impl Integrator for InstantRadiosity {
         counters.light_rays += rays;
         counters.light_paths += self.paths as u64;
         counters.vpls += vpls.len() as u64;
-        self.set = LightSet::new(ctx, &self.lights, vpls, counts, iteration, self.gather);
+        let gather = self.gather;
+        self.set = match self.lights {
+            VirtualLights::Points(clamping) => {
+                let points = PointLights::new(vpls, clamping, iteration, ctx);
+                IterationLights::Points {
+                    set: LightSet::new(ctx, points, gather),
+                    counts,
+                    bound: f32::INFINITY,
+                }
+            }
+            // The bound applies to the weighted connection ([`super::mis`]), not to G;
+            // `pir-mis` counts every light path for every connection.
+            VirtualLights::WeighedPoints(clamping) | VirtualLights::Bidirectional(clamping, _) => {
+                let points = PointLights::new(vpls, Clamping::None, iteration, ctx);
+                let counts = match self.lights {
+                    VirtualLights::WeighedPoints(_) => Counts::uniform(counts.paths),
+                    _ => counts,
+                };
+                let bound = clamping.bound(iteration);
+                IterationLights::Points { set: LightSet::new(ctx, points, gather), counts, bound }
+            }
+            VirtualLights::Spheres { radius, alpha } => {
+                let diagonal = ctx.scene.bounds().diagonal();
+                let bsdf = |v: &Vpl| ctx.scene.material(v.material).bsdf;
+                let spheres = SphereLights::new(vpls, bsdf, radius, alpha, iteration, diagonal);
+                IterationLights::Spheres(LightSet::new(ctx, spheres, gather))
+            }
+        };
     }
 
     fn radiance(
@@ -186,18 +228,26 @@ impl Integrator for InstantRadiosity {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
-        match (&self.lights, &self.set.mis) {
-            (&VirtualLights::Bidirectional(_, connect), Some(mis)) => {
-                let camera_path = Bidirectional {
-                    set: &self.set,
-                    connect,
-                    light_samples: self.light_samples,
-                    counts: mis.counts,
-                    bound: mis.bound,
-                };
-                walk(ctx, ray, &camera_path, sampler, counters)
-            }
-            _ => walk(ctx, ray, &self.set, sampler, counters),
+        // The estimator of the method on the iteration's lights: weighed connections
+        // exist for points only, so a weighed gather of spheres does not type-check.
+        match (&self.set, self.lights) {
+            (IterationLights::None, _) => Vec3::ZERO,
+            (IterationLights::Spheres(set), _) => walk(ctx, ray, &Gathering { set }, sampler, counters),
+            (IterationLights::Points { set, counts, bound }, lights) => match lights {
+                VirtualLights::Bidirectional(_, connect) => {
+                    let light_samples = self.light_samples;
+                    let camera_path =
+                        Bidirectional { set, connect, light_samples, counts: *counts, bound: *bound };
+                    walk(ctx, ray, &camera_path, sampler, counters)
+                }
+                VirtualLights::WeighedPoints(_) => {
+                    let weighed = WeighedGathering { set, paths: counts.paths, bound: *bound };
+                    walk(ctx, ray, &weighed, sampler, counters)
+                }
+                VirtualLights::Points(_) | VirtualLights::Spheres { .. } => {
+                    walk(ctx, ray, &Gathering { set }, sampler, counters)
+                }
+            },
         }
     }
 }

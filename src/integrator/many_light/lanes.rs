@@ -6,7 +6,7 @@
 //! [`PreparedBsdf::eval`] it is a chain of calls, early returns and `Vec3`s passed through
 //! memory that cost more than the shadow rays themselves, and written as plain per-lane code
 //! the compiler does not vectorise it (profile in `docs/measurements.md`). Every lane
-//! performs exactly the floating-point operations of `gather::point_contribution` in the
+//! performs exactly the floating-point operations of `points::point_contribution` in the
 //! same order (SSE
 //! arithmetic is IEEE per lane, and Rust never fuses or reorders), and a failed check
 //! anywhere masks the lane to zero where the scalar code returns zero early, so the result is
@@ -365,7 +365,7 @@ impl VplLanes {
 
     /// Φ f_p cos_p f_x cos_x / d², G clamped at `bound`, of every [`LaneKind::Diffuse`] light
     /// of chunk `chunk` of at most `max_depth` segments at receiver `x`, lane by
-    /// lane; zero in the other lanes. Bit-identical to `gather::point_contribution`.
+    /// lane; zero in the other lanes. Bit-identical to `points::point_contribution`.
     #[inline]
     pub fn diffuse_contributions(
         &self,
@@ -444,7 +444,7 @@ impl VplLanes {
 mod tests {
     use super::*;
     use crate::geometry::Frame;
-    use crate::integrator::many_light::gather::point_contribution;
+    use crate::integrator::many_light::points::point_contribution;
     use crate::material::{Bsdf, LocalGeometry};
     use crate::sampling::{Domain, Sampler};
     use std::f32::consts::PI;

@@ -1,36 +1,23 @@
-//! The light set of one iteration: the VPLs of its light paths as point lights (with this
-//! iteration's bound on G) or as spheres (with their radii), prepared once for all the
-//! receivers that gather from them, and, for the sampled gather ([`Gather::Tree`]), the light
-//! tree over them.
+//! The light set of one iteration: its virtual lights of one kind ([`Lights`]: points with
+//! this iteration's bound on G, or spheres with their radii), prepared once for all the
+//! receivers that gather from them, and which of them a receiver gathers from
+//! ([`Selection`]: all, or k sampled from the light tree, or k resampled from a window of
+//! candidates).
 
 use glam::Vec3;
 
-use super::config::{Clamping, Gather, VirtualLights};
-use super::lanes::VplLanes;
+use super::config::Gather;
 use super::light_paths::Vpl;
 use super::light_tree::{LightTree, TreeLight};
-use super::spheres::SphereLights;
-use super::subpath::Counts;
+use super::virtual_light::Lights;
 use crate::integrator::RenderContext;
-use crate::material::{Bsdf, PreparedBsdf, TransportMode};
+use crate::material::Bsdf;
 
 /// This iteration's virtual lights, and how receivers gather from them.
-pub struct LightSet {
-    pub lights: Lights,
+pub struct LightSet<L> {
+    pub lights: L,
     /// Which lights a receiver gathers from.
     pub selection: Selection,
-    /// Connections weighed against a BSDF-sampled bounce (`pir-mis`), or plain.
-    pub mis: Option<Mis>,
-}
-
-/// What the weighed connections of [`super::mis`] need from the iteration.
-#[derive(Clone, Copy, Debug)]
-pub struct Mis {
-    /// Light paths traced this iteration (`pir-mis`: every connection counts them all), or
-    /// the bidirectional weights' counts ([`Counts`]).
-    pub counts: Counts,
-    /// The bound on the weighted connection ([`super::mis::Weighing::apply`]).
-    pub bound: f32,
 }
 
 /// Which of the iteration's lights a receiver gathers from ([`Gather`]).
@@ -43,98 +30,9 @@ pub enum Selection {
     Resampled { candidates: usize, samples: usize },
 }
 
-/// This iteration's virtual lights.
-pub enum Lights {
-    Points(PointLights),
-    Spheres(SphereLights),
-}
-
-/// Virtual point lights, each with its BSDF prepared for its incoming direction, also laid out
-/// in lanes for the four-wide kernel, and the geometry term's bound of the iteration.
-pub struct PointLights {
-    pub vpls: Vec<Vpl>,
-    /// VPL j's BSDF for its incoming direction (importance mode).
-    pub emitting: Vec<PreparedBsdf>,
-    /// The same lights in lanes, with their shadow-ray ends.
-    pub lanes: VplLanes,
-    /// The bound on G (infinite for `ir`).
-    pub bound: f32,
-}
-
-impl PointLights {
-    pub fn new(vpls: Vec<Vpl>, clamping: Clamping, iteration: u64, ctx: &RenderContext) -> Self {
-        let emitting: Vec<PreparedBsdf> = vpls
-            .iter()
-            .map(|v| {
-                let bsdf = ctx.scene.material(v.material).bsdf;
-                PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance)
-            })
-            .collect();
-        let power: Vec<f32> = vpls
-            .iter()
-            .zip(&emitting)
-            .map(|(v, e)| tree_light(v, &ctx.scene.material(v.material).bsdf, e.is_active(), 0.0).intensity)
-            .collect();
-        let lanes = VplLanes::new(&vpls, &emitting, &power);
-        PointLights { vpls, emitting, lanes, bound: clamping.bound(iteration) }
-    }
-}
-
-impl Default for LightSet {
-    /// No lights (before the first iteration).
-    fn default() -> Self {
-        LightSet {
-            lights: Lights::Points(PointLights {
-                vpls: Vec::new(),
-                emitting: Vec::new(),
-                lanes: VplLanes::default(),
-                bound: f32::INFINITY,
-            }),
-            selection: Selection::All,
-            mis: None,
-        }
-    }
-}
-
-impl LightSet {
-    /// The set of `lights` made from iteration `iteration`'s VPLs, with the light tree when
-    /// `gather` samples from one; `counts` are the weights' counts of its light paths (the
-    /// ones the VPLs' sums were traced with, for `pir-bdpt`; `pir-mis` counts every path,
-    /// [`Counts::paths`]).
-    pub fn new(
-        ctx: &RenderContext,
-        lights: &VirtualLights,
-        vpls: Vec<Vpl>,
-        counts: Counts,
-        iteration: u64,
-        gather: Gather,
-    ) -> Self {
-        let mis = match *lights {
-            VirtualLights::WeighedPoints(clamping) => {
-                Some(Mis { counts: Counts::uniform(counts.paths), bound: clamping.bound(iteration) })
-            }
-            VirtualLights::Bidirectional(clamping, _) => {
-                Some(Mis { counts, bound: clamping.bound(iteration) })
-            }
-            _ => None,
-        };
-        let lights = match *lights {
-            VirtualLights::Points(clamping) => {
-                Lights::Points(PointLights::new(vpls, clamping, iteration, ctx))
-            }
-            // The bound applies to the weighted connection ([`super::mis`]), not to G.
-            VirtualLights::WeighedPoints(_) | VirtualLights::Bidirectional(..) => {
-                Lights::Points(PointLights::new(vpls, Clamping::None, iteration, ctx))
-            }
-            VirtualLights::Spheres { radius, alpha } => Lights::Spheres(SphereLights::new(
-                vpls,
-                |v| ctx.scene.material(v.material).bsdf,
-                radius,
-                alpha,
-                iteration,
-                ctx.scene.bounds().diagonal(),
-            )),
-        };
+impl<L: Lights> LightSet<L> {
+    /// The set of `lights`, with the light tree when `gather` samples from one.
+    pub fn new(ctx: &RenderContext, lights: L, gather: Gather) -> Self {
         let selection = match gather {
             Gather::All => Selection::All,
             Gather::Tree { samples } => {
@@ -144,29 +42,7 @@ impl LightSet {
                 Selection::Resampled { candidates: candidates.max(1), samples: samples.max(1) }
             }
         };
-        LightSet { lights, selection, mis }
-    }
-}
-
-impl Lights {
-    /// The lights as the tree sees them ([`tree_light`]).
-    pub fn tree_lights(&self, ctx: &RenderContext) -> Vec<TreeLight> {
-        use rayon::prelude::*;
-        let (vpls, radii) = match self {
-            Lights::Points(p) => (&p.vpls, None),
-            Lights::Spheres(s) => (&s.vpls, Some(&s.radii)),
-        };
-        vpls.par_iter()
-            .enumerate()
-            .map(|(j, v)| {
-                let bsdf = ctx.scene.material(v.material).bsdf;
-                let active = match self {
-                    Lights::Points(p) => p.emitting[j].is_active(),
-                    Lights::Spheres(s) => s.emitting[j].is_active(),
-                };
-                tree_light(v, &bsdf, active, radii.map_or(0.0, |r| r[j]))
-            })
-            .collect()
+        LightSet { lights, selection }
     }
 }
 

@@ -50,15 +50,18 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use super::bidirectional::{CameraEnd, connection_weight};
 use super::light_paths::Vpl;
+use super::lobe::Lobe;
+use super::points::PointLights;
+use super::virtual_light::Weigh;
 use crate::integrator::direct::LightSample;
+use crate::integrator::walker::Vertex;
 use crate::material::PreparedBsdf;
 use crate::scene::Scene;
 
-/// Which technique a gather is, with what its weights need.
+/// Which technique a weighed gather of point lights is, with what its weights need (the
+/// thesis' methods take every connection in full: [`super::virtual_light::Plain`]).
 #[derive(Clone, Copy)]
 pub enum Technique<'a> {
-    /// The thesis' methods: every connection counts in full.
-    Plain,
     /// A at the gathering vertex x, whose BSDF for its `wo` is `fx`, in `scene` (the VPLs'
     /// materials).
     Connect { fx: &'a PreparedBsdf, scene: &'a Scene },
@@ -69,8 +72,8 @@ pub enum Technique<'a> {
     Bidirectional { end: CameraEnd<'a>, scene: &'a Scene },
 }
 
-/// How a gather weighs its connections: the technique's MIS weight, and the bound on the
-/// weighted connection (infinite for the plain technique).
+/// How a gather of point lights weighs its connections: the technique's MIS weight, and the
+/// bound on the weighted connection.
 #[derive(Clone, Copy)]
 pub struct Weighing<'a> {
     pub technique: Technique<'a>,
@@ -78,15 +81,11 @@ pub struct Weighing<'a> {
 }
 
 impl Weighing<'_> {
-    /// The thesis' gather: every contribution as it is.
-    pub const PLAIN: Weighing<'static> = Weighing { technique: Technique::Plain, bound: f32::INFINITY };
-
     /// VPL `vpl`'s contribution `c` at the receiver `x` (its BSDF `emitting` prepared for its
     /// incoming direction), weighted and bounded.
     #[inline]
     pub fn apply(&self, x: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, c: Vec3) -> Vec3 {
         let w = match self.technique {
-            Technique::Plain => return c,
             Technique::Connect { .. } if vpl.arrival.is_infinite() => 1.0,
             Technique::Connect { fx, scene } => {
                 let d = vpl.p - x;
@@ -181,6 +180,21 @@ fn bounded(c: Vec3, flux: Vec3, w: f32, bound: f32) -> Vec3 {
     let c = c * w;
     let size = PI * PI * c.max_element() / flux.max_element();
     if size > bound { c * (bound / size) } else { c }
+}
+
+/// Weighed connections exist for point lights only.
+impl Weigh<PointLights> for Weighing<'_> {
+    /// None: a weighed connection in a glossy lobe is mostly left to BSDF sampling, so its
+    /// weighted value does not follow the lobe.
+    #[inline]
+    fn lobe(&self, _: &Vertex) -> Option<Lobe> {
+        None
+    }
+
+    #[inline]
+    fn weigh(&self, lights: &PointLights, j: usize, x: Vec3, c: Vec3) -> Vec3 {
+        self.apply(x, &lights.vpls[j], &lights.emitting[j], c)
+    }
 }
 
 #[cfg(test)]

@@ -65,15 +65,23 @@
 //! creases darken. The measurements behind k = 4 and the 4 % cap are in
 //! `docs/measurements.md`.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
+use std::cell::Cell;
 use std::f32::consts::PI;
 
 use super::config::Radius;
 use super::knn::KdTree;
 use super::light_paths::Vpl;
+use super::light_set::tree_light;
+use super::light_tree::TreeLight;
+use super::lobe::Lobe;
+use super::resample::{Candidates, LANES, Window};
 use super::schedule::radius;
 use super::sphere_lanes::{ReceiverEnd, SphereLanes};
+use super::tree_gather::Kernel;
+use super::virtual_light::Lights;
 use crate::geometry::{Frame, OffsetPoint};
+use crate::integrator::RenderContext;
 use crate::integrator::walker::Vertex;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
@@ -448,6 +456,130 @@ fn diffuse_pair(e: &Ends, cone: &Cone) -> Option<Vec3> {
     let integral = a * (n.dot(m) - na * ma) + b * na * ma;
     let v = rho_x * rho_p * (in_ns / in_ng * integral / (PI * PI));
     (v.is_finite() && integral >= 0.0).then_some(v)
+}
+
+thread_local! {
+    /// The contributions a resampled gather of spheres evaluated as candidates: (sphere,
+    /// contribution), reused from receiver to receiver so that a gather allocates nothing.
+    static EXACT: std::cell::RefCell<Vec<(usize, Vec3)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A camera vertex as a receiver of spheres, with what a resampled gather keeps of its
+/// candidates.
+pub struct SphereGatherer<'a> {
+    rx: SphereReceiver<'a>,
+    max_depth: u32,
+    /// The chunk whose closed forms and zeros were computed last: (chunk, RGB, done lanes).
+    chunk_done: Cell<Option<(usize, [Vec4; 3], u32)>>,
+}
+
+impl Lights for SphereLights {
+    type Receiver<'a> = SphereGatherer<'a>;
+
+    #[inline]
+    fn receiver<'a>(&'a self, v: &'a Vertex<'a>, max_vpl_depth: u32, _: Option<Lobe>) -> SphereGatherer<'a> {
+        SphereGatherer { rx: SphereReceiver::at(v), max_depth: max_vpl_depth, chunk_done: Cell::new(None) }
+    }
+
+    #[inline]
+    fn is_active(g: &SphereGatherer) -> bool {
+        g.rx.is_active()
+    }
+
+    #[inline]
+    fn chunks(&self) -> usize {
+        self.lanes.chunks()
+    }
+
+    #[inline]
+    fn end(&self, j: usize) -> &OffsetPoint {
+        &self.ends[j]
+    }
+
+    /// The diffuse pairs in closed form and the cones without light four at a time
+    /// ([`super::sphere_lanes`]), the others one by one in sphere order, so that they draw
+    /// their numbers as they would alone.
+    #[inline]
+    fn chunk_contributions(&self, chunk: usize, g: &SphereGatherer, sampler: &mut Sampler) -> [Vec3; LANES] {
+        let (rgb, done) = self.lanes.without_sampling(chunk, &g.rx.end, g.max_depth);
+        std::array::from_fn(|i| {
+            let j = chunk * LANES + i;
+            match self.vpls.get(j) {
+                _ if done >> i & 1 == 1 => Vec3::new(rgb[0][i], rgb[1][i], rgb[2][i]),
+                Some(vpl) if vpl.depth <= g.max_depth => self.contribution(j, &g.rx, sampler),
+                _ => Vec3::ZERO,
+            }
+        })
+    }
+
+    #[inline]
+    fn contribution(&self, j: usize, g: &SphereGatherer, sampler: &mut Sampler) -> Vec3 {
+        SphereLights::contribution(self, j, &g.rx, sampler)
+    }
+
+    /// The four-wide estimates; the spheres with a narrow lobe at either end are evaluated
+    /// exactly as candidates and kept for [`Lights::picked`].
+    fn push_estimates(
+        &self,
+        cands: &mut Candidates,
+        window: Window,
+        g: &SphereGatherer,
+        sampler: &mut Sampler,
+    ) {
+        EXACT.with(|exact| {
+            exact.borrow_mut().clear();
+            for block in window.blocks() {
+                let (mut p, narrow) = self.lanes.estimates(block, &g.rx.end, g.max_depth);
+                for i in (0..LANES).filter(|i| narrow >> i & 1 == 1) {
+                    let j = block * LANES + i;
+                    let c = SphereLights::contribution(self, j, &g.rx, sampler);
+                    p[i] = c.element_sum();
+                    exact.borrow_mut().push((j, c));
+                }
+                cands.push(block * LANES, p)
+            }
+        });
+    }
+
+    /// Those evaluated as candidates, the chunk's closed forms and zeros four at a time (picks
+    /// come in sphere order), the other spheres' cone integrals one by one.
+    fn picked(&self, j: usize, g: &SphereGatherer, sampler: &mut Sampler) -> Vec3 {
+        if let Some(c) = EXACT.with(|exact| exact.borrow().iter().find(|e| e.0 == j).map(|e| e.1)) {
+            return c;
+        }
+        let (chunk, lane) = (j / LANES, j % LANES);
+        let (rgb, done) = match g.chunk_done.get() {
+            Some((c, rgb, done)) if c == chunk => (rgb, done),
+            _ => {
+                let (rgb, done) = self.lanes.without_sampling(chunk, &g.rx.end, g.max_depth);
+                g.chunk_done.set(Some((chunk, rgb, done)));
+                (rgb, done)
+            }
+        };
+        // A lane that is not done has an estimate only if the sphere is within the depth and
+        // active, so it is sampled as a whole gather would sample it.
+        if done >> lane & 1 == 1 {
+            Vec3::new(rgb[0][lane], rgb[1][lane], rgb[2][lane])
+        } else {
+            SphereLights::contribution(self, j, &g.rx, sampler)
+        }
+    }
+
+    fn kernel(&self) -> Kernel {
+        Kernel::Sphere
+    }
+
+    fn tree_lights(&self, ctx: &RenderContext) -> Vec<TreeLight> {
+        use rayon::prelude::*;
+        self.vpls
+            .par_iter()
+            .enumerate()
+            .map(|(j, v)| {
+                let bsdf = ctx.scene.material(v.material).bsdf;
+                tree_light(v, &bsdf, self.emitting[j].is_active(), self.radii[j])
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]

@@ -490,9 +490,9 @@ fn stratum(j: usize, k: usize, sampler: &mut Sampler) -> f64 {
 mod tests {
     use super::*;
     use crate::geometry::Frame;
-    use crate::integrator::many_light::gather::point_contribution;
     use crate::integrator::many_light::light_paths::Vpl;
     use crate::integrator::many_light::light_set::tree_light;
+    use crate::integrator::many_light::points::point_contribution;
     use crate::integrator::many_light::spheres::contribution as sphere_contribution;
     use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
     use crate::sampling::Domain;
