@@ -113,8 +113,10 @@ const OLD_FORMAT_KEY: &str = "pir.job.format";
 /// sums, and what the JSON of `pir.job.state` holds and how ([`Job`], [`Shard`], the
 /// iterations). Bump it when a file written by the new pir could not be read by the old one
 /// or the other way round: a key or channel added, renamed or reinterpreted, a field of the
-/// job added or given another meaning (e.g. a parameter whose absence meant one value and now
-/// means another). A file of another layout is refused; add a line to `CHANGELOG.md`.
+/// job or of a method's parameters renamed, removed or stored another way, or added so that an
+/// older pir would misread the file. (A default that changes what an absent parameter
+/// renders changes images: that is [`ESTIMATOR_REVISION`]'s.) A file of another layout is
+/// refused; add a line to `CHANGELOG.md`.
 pub const LAYOUT: u32 = 1;
 
 /// The revision of the estimators: bump it whenever any method's image of a given scene, job
