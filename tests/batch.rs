@@ -6,6 +6,7 @@ use std::process::{Command, Output};
 
 mod common;
 use common::binary::pir;
+use pir::render::state::read_state;
 
 fn scene() -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -50,10 +51,7 @@ fn resumed_render_equals_uninterrupted_render_bit_for_bit() {
     render(d, &["--spp", "7", "--resume", "part.exr"]);
     assert_eq!(iterations(&d.join("part.exr")), 7);
     assert_eq!(pixels(&d.join("part.exr")), pixels(&d.join("full.exr")));
-    let (a, b) = (
-        pir::render::state::read_state(&d.join("part.exr")).unwrap(),
-        pir::render::state::read_state(&d.join("full.exr")).unwrap(),
-    );
+    let (a, b) = (read_state(&d.join("part.exr")).unwrap(), read_state(&d.join("full.exr")).unwrap());
     assert_eq!(a.film.sums(), b.film.sums());
     assert_eq!(a.film.sums_of_squares(), b.film.sums_of_squares());
 }
@@ -92,6 +90,51 @@ fn light_paths_chosen_by_the_scene_resume_exactly() {
     run(&["--spp", "2", "--checkpoint", "1000", "--out", "part.exr", "-q"]);
     run(&["--spp", "5", "--resume", "part.exr", "-q"]);
     assert_eq!(pixels(&d.join("part.exr")), pixels(&d.join("full.exr")));
+}
+
+/// Every method (tests/common's list) renders with checkpoints after each iteration, resumes
+/// from one to exactly the film of an uninterrupted render, and records in the EXR its name,
+/// each of its integrator's parameters and its job.
+#[test]
+fn every_method_resumes_and_records_its_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = scene();
+    let loaded = pir::scene::load(s.as_ref()).unwrap();
+    let renderer = pir::render::Renderer::new(&loaded, &Default::default()).unwrap();
+    for m in common::methods() {
+        let run = |extra: &[&str]| {
+            let args =
+                [&["render", &s, "--method", m, "--resolution", "20", "16", "-q", "--no-preview"], extra];
+            let o = pir(&args.concat(), d);
+            assert!(o.status.success(), "{m} {extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+        };
+        let (full, part) = (format!("{m}-full.exr"), format!("{m}-part.exr"));
+        run(&["--spp", "4", "--checkpoint", "1000", "--out", &full]);
+        // A checkpoint after every iteration (the interval is a nanosecond), then a resume.
+        run(&["--spp", "2", "--checkpoint", "1e-9", "--out", &part]);
+        assert_eq!(iterations(&d.join(&part)), 2, "{m}");
+        run(&["--spp", "4", "--resume", &part]);
+        let (a, b) = (read_state(&d.join(&part)).unwrap(), read_state(&d.join(&full)).unwrap());
+        assert_eq!(a.film.iterations(), 4, "{m}");
+        assert!(
+            a.film.sums() == b.film.sums() && a.film.sums_of_squares() == b.film.sums_of_squares(),
+            "{m}"
+        );
+        assert_eq!(pixels(&d.join(&part)), pixels(&d.join(&full)), "{m}");
+        assert_eq!(a.job, b.job, "{m}");
+        assert_eq!(a.job.config.method.name(), m);
+        // The method and every parameter its integrator reports, as the same scene and seed
+        // give them in this process.
+        let (_, attrs) = pir::image::read_exr(&d.join(&part)).unwrap();
+        let get = |k: &str| attrs.iter().find(|(a, _)| a == k).map(|(_, v)| v.as_str());
+        assert_eq!(get("pir.method"), Some(m));
+        assert_eq!(get("pir.version"), Some(env!("CARGO_PKG_VERSION")));
+        let config = pir::integrator::MethodConfig::new(m.parse().unwrap());
+        for (k, v) in renderer.integrator(&config).parameters() {
+            assert_eq!(get(&format!("pir.param.{k}")), Some(v.as_str()), "{m}: pir.param.{k} in {attrs:?}");
+        }
+    }
 }
 
 #[test]
@@ -228,4 +271,29 @@ fn incompatible_renders_are_refused() {
     assert!(!d.join("m.exr").exists());
     let e = failure(&pir(&["render", &s, "--shard", "2/2"], d));
     assert!(e.contains("K/N"), "{e}");
+    // A shard of another estimator revision or another layout: neither resumed nor merged.
+    let stored = pir::image::read_exr_with_channels(&d.join("a.exr")).unwrap();
+    let rewrite = |key: &str, value: String, to: &str| {
+        let mut attrs = stored.attributes.clone();
+        attrs.iter_mut().find(|(k, _)| k == key).unwrap().1 = value;
+        pir::image::write_exr_with_channels(&d.join(to), &stored.image, &attrs, stored.channels.clone())
+            .unwrap();
+    };
+    let revision = pir::render::state::ESTIMATOR_REVISION;
+    rewrite("pir.job.estimator", (revision + 1).to_string(), "other-estimator.exr");
+    rewrite("pir.job.layout", (pir::render::state::LAYOUT + 1).to_string(), "other-layout.exr");
+    let args =
+        ["render", &s, "--method", "pir-clamp", "--vpls", "8", "--resolution", "40", "32", "--shard", "0/2"];
+    let e = failure(&pir(&[&args[..], &["--resume", "other-estimator.exr"]].concat(), d));
+    let expected = format!(
+        "estimator revision {} (by pir {}), this pir's is {revision}",
+        revision + 1,
+        env!("CARGO_PKG_VERSION")
+    );
+    assert!(e.contains("other-estimator.exr") && e.contains(&expected) && e.contains("bit for bit"), "{e}");
+    let e = failure(&pir(&["merge", "other-estimator.exr", "b.exr", "-o", "m.exr"], d));
+    assert!(e.contains("other-estimator.exr") && e.contains("mix two estimators"), "{e}");
+    let e = failure(&pir(&["merge", "b.exr", "other-layout.exr", "-o", "m.exr"], d));
+    assert!(e.contains("other-layout.exr") && e.contains("written by a newer pir"), "{e}");
+    assert!(!d.join("m.exr").exists());
 }

@@ -3,16 +3,19 @@
 //!
 //! The EXR's R, G, B channels hold the image (the running mean) as always; a resumable EXR
 //! adds the film's exact per-pixel sums and sums of squares (f64, each stored as two u32
-//! channels of its bits, so nothing is rounded) and two text attributes: `pir.job.format`
-//! (the version of this layout) and `pir.job.state`, the JSON of the job (a typed value: the
-//! scene's fingerprint, the [`MethodConfig`] as it decides the image, path length, seed,
-//! resolution), the shard and the iterations done. Format 1, written by older pirs, stored
-//! the method's parameters as formatted text; it is refused with a message that says so.
+//! channels of its bits, so nothing is rounded) and three text attributes: `pir.job.layout`
+//! ([`LAYOUT`], the version of what the file holds and how), `pir.job.estimator`
+//! ([`ESTIMATOR_REVISION`], the revision of the estimators that rendered it) and
+//! `pir.job.state`, the JSON of the job (a typed value: the scene's fingerprint, the
+//! [`MethodConfig`] as it decides the image, path length, seed, resolution), the shard and the
+//! iterations done. A file of another layout or another estimator revision is refused with a
+//! message that says which and why (`CHANGELOG.md` lists what changed at each).
+//!
 //! Iteration i's numbers are a function of the seed, the sampler and i alone (its samplers
-//! come from `Streams::camera(sampler, seed, i)` and `Streams::light_paths`), so a render can continue from any
-//! iteration with the same random numbers, and the iterations of a render can be split into shards: shard K of N
-//! renders the global iterations K+1, K+1+N, K+1+2N, … (the progressive schedules b_i, r_i
-//! use the global index). Merging adds sums and iteration counts.
+//! come from `Streams::camera(sampler, seed, i)` and `Streams::light_paths`), so a render can
+//! continue from any iteration with the same random numbers, and the iterations of a render can
+//! be split into shards: shard K of N renders the global iterations K+1, K+1+N, K+1+2N, … (the
+//! progressive schedules b_i, r_i use the global index). Merging adds sums and iteration counts.
 
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
@@ -99,24 +102,32 @@ pub struct Job {
     pub height: usize,
 }
 
-const FORMAT_KEY: &str = "pir.job.format";
+const LAYOUT_KEY: &str = "pir.job.layout";
+const ESTIMATOR_KEY: &str = "pir.job.estimator";
 const STATE_KEY: &str = "pir.job.state";
-/// The layout this pir writes and reads; format 1 stored the job as formatted text, format 2
-/// came before the gather's defaults depended on the method and before light paths decided
-/// Russian roulette from the flux arriving at a vertex (which changes the VPLs of a seed),
-/// format 3 before the sampler was chosen (its renders drew independent numbers), format 4
-/// before light samples picked the emitter's triangle from their point's own number (which
-/// changes every method's image of a seed, so a resume would no longer be exact), format 5
-/// before light paths left no VPL where they arrive behind a surface and `pir-bdpt` counted
-/// its connections by their ends and chose its light paths by the scene (which change the
-/// VPL methods' images of a seed; a stored `pir-bdpt` job without `vpls` meant 64), format 6
-/// before `pir-bdpt` chose its light samples by the scene (a stored job's 2 meant the
-/// default, which is now more where the emitters are hidden) and before light samples of a
-/// count other than a power of two tiled the Sobol sequence (which changes their images),
-/// format 7 before `pir-bdpt` traced at least 256 light paths (a stored job without `vpls`
-/// meant at least 64), format 8 before `pir-bdpt` counted a resampled connection between
-/// Lambertian ends 4k rather than 2k (which changes its images of a seed).
-const FORMAT: u32 = 9;
+/// The key under which pirs before 0.2.0 stored one number for both the layout and the
+/// estimators; read only to say that such a file must be rendered again.
+const OLD_FORMAT_KEY: &str = "pir.job.format";
+
+/// The version of a resumable EXR's layout: its attribute keys, the channels that hold the
+/// sums, and what the JSON of `pir.job.state` holds and how ([`Job`], [`Shard`], the
+/// iterations). Bump it when a file written by the new pir could not be read by the old one
+/// or the other way round: a key or channel added, renamed or reinterpreted, a field of the
+/// job or of a method's parameters renamed, removed or stored another way, or added so that an
+/// older pir would misread the file. (A default that changes what an absent parameter
+/// renders changes images: that is [`ESTIMATOR_REVISION`]'s.) A file of another layout is
+/// refused; add a line to `CHANGELOG.md`.
+pub const LAYOUT: u32 = 1;
+
+/// The revision of the estimators: bump it whenever any method's image of a given scene, job
+/// and seed changes, by a bit or more (the random numbers a sample draws, the order of a sum,
+/// a default, a weight). A checkpoint of another revision would resume, or merge, with
+/// another estimator than the one that rendered it, so the result would match neither's
+/// uninterrupted render bit for bit; such files are refused. `tests/golden.rs` keeps pixel
+/// hashes of every method made at this revision and fails until it is bumped (with a line in
+/// `CHANGELOG.md`) and the hashes regenerated (`PIR_BLESS=1 cargo test --release --test
+/// golden`).
+pub const ESTIMATOR_REVISION: u32 = 1;
 
 /// What `pir.job.state` holds.
 #[derive(Serialize, Deserialize)]
@@ -210,7 +221,8 @@ pub fn write_state(
 ) -> Result<()> {
     let state = StoredState { job: job.clone(), shard, iterations: film.iterations() };
     let mut attrs = attributes.to_vec();
-    attrs.push((FORMAT_KEY.to_string(), FORMAT.to_string()));
+    attrs.push((LAYOUT_KEY.to_string(), LAYOUT.to_string()));
+    attrs.push((ESTIMATOR_KEY.to_string(), ESTIMATOR_REVISION.to_string()));
     attrs.push((
         STATE_KEY.to_string(),
         serde_json::to_string(&state).context("cannot encode the render's state")?,
@@ -225,29 +237,15 @@ pub fn write_state(
     write_exr_with_channels(path, image, &attrs, channels)
 }
 
-/// Reads a resumable render from `path`; an error says what is missing or malformed.
+/// Reads a resumable render from `path`; an error says what is missing or malformed, or
+/// why this pir cannot continue it (another layout or estimator revision).
 pub fn read_state(path: &Path) -> Result<Saved> {
     let r = read_exr_with_channels(path)?;
+    let find = |k: &str| r.attributes.iter().find(|(a, _)| a == k).map(|(_, v)| v.as_str());
+    check_versions(path, find)?;
     let get = |k: &str| -> Result<&str> {
-        r.attributes.iter().find(|(a, _)| a == k).map(|(_, v)| v.as_str()).with_context(|| {
-            format!(
-                "{}: not a resumable pir render (no {k}); render with --checkpoint, --shard or --resume to \
-                 write one",
-                path.display()
-            )
-        })
+        find(k).with_context(|| format!("{}: not a resumable pir render (no {k})", path.display()))
     };
-    let format = get(FORMAT_KEY)?;
-    if format != FORMAT.to_string() {
-        if (1..FORMAT).any(|old| old.to_string() == format) {
-            bail!(
-                "{}: written by an older pir (resumable-state format {format}), which this pir cannot resume \
-                 or merge (it reads format {FORMAT}): render it again with this pir",
-                path.display()
-            );
-        }
-        bail!("{}: resumable-state format {format} is not the one this pir reads ({FORMAT})", path.display());
-    }
     let StoredState { job, shard, iterations } = serde_json::from_str(get(STATE_KEY)?)
         .with_context(|| format!("{}: malformed {STATE_KEY}", path.display()))?;
     job.config.validate().with_context(|| format!("{}: malformed {STATE_KEY}", path.display()))?;
@@ -275,6 +273,49 @@ pub fn read_state(path: &Path) -> Result<Saved> {
     let film = Film::from_parts(job.width, job.height, sum, sum_sq, iterations)
         .with_context(|| format!("{}: inconsistent film size", path.display()))?;
     Ok(Saved { job, shard, film })
+}
+
+/// Refuses a file this pir cannot continue: one of another [`LAYOUT`] or
+/// [`ESTIMATOR_REVISION`], or of the single format number that pirs before 0.2.0 wrote.
+/// `find` reads the file's attributes.
+fn check_versions<'a>(path: &Path, find: impl Fn(&str) -> Option<&'a str>) -> Result<()> {
+    let file = path.display();
+    let by = find("pir.version").map_or("pir".to_string(), |v| format!("pir {v}"));
+    let Some(layout) = find(LAYOUT_KEY) else {
+        if let Some(format) = find(OLD_FORMAT_KEY) {
+            bail!(
+                "{file}: written by an older {by} (format {format}), which this pir cannot resume or \
+                 merge (it reads checkpoint layout {LAYOUT} at estimator revision {ESTIMATOR_REVISION}): \
+                 render it again with this pir"
+            );
+        }
+        bail!(
+            "{file}: not a resumable pir render (no {LAYOUT_KEY}); render with --checkpoint, --shard or \
+             --resume to write one"
+        );
+    };
+    if layout != LAYOUT.to_string() {
+        let age = match layout.parse::<u32>() {
+            Ok(n) if n < LAYOUT => "an older",
+            Ok(_) => "a newer",
+            Err(_) => "another",
+        };
+        bail!(
+            "{file}: checkpoint layout {layout}, written by {age} {by}; this pir reads layout {LAYOUT} \
+             only: render it again with this pir, or continue it with the pir that wrote it"
+        );
+    }
+    let estimator = find(ESTIMATOR_KEY)
+        .with_context(|| format!("{file}: malformed checkpoint: layout {LAYOUT} without {ESTIMATOR_KEY}"))?;
+    if estimator != ESTIMATOR_REVISION.to_string() {
+        bail!(
+            "{file}: rendered at estimator revision {estimator} (by {by}), this pir's is \
+             {ESTIMATOR_REVISION}: the two render other images of the same seed, so resuming or merging \
+             it here would mix two estimators and match neither's uninterrupted render bit for bit; \
+             render it again with this pir, or continue it with the pir that wrote it"
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -348,20 +389,57 @@ mod tests {
         crate::image::write_exr(&plain, &film.image(), &[]).unwrap();
         let e = read_state(&plain).err().unwrap().to_string();
         assert!(e.contains("not a resumable pir render"), "{e}");
-        // A checkpoint of format 1 (older pirs): refused, saying so.
+        // A checkpoint of the single format number of older pirs: refused, saying so.
         let old = dir.path().join("old.exr");
-        let attrs =
-            [("pir.job.format".to_string(), "1".to_string()), ("pir.job.seed".to_string(), "3".to_string())];
+        let attrs = [
+            ("pir.version".to_string(), "0.1.0".to_string()),
+            (OLD_FORMAT_KEY.to_string(), "9".to_string()),
+            (STATE_KEY.to_string(), serde_json::to_string(&job).unwrap()),
+        ];
         write_exr_with_channels(&old, &film.image(), &attrs, Vec::new()).unwrap();
         let e = read_state(&old).err().unwrap().to_string();
-        assert!(e.contains("old.exr") && e.contains("written by an older pir"), "{e}");
+        assert!(
+            e.contains("old.exr")
+                && e.contains("written by an older pir 0.1.0 (format 9)")
+                && e.contains("render it again"),
+            "{e}"
+        );
+        // Another layout, another estimator revision: refused, naming the file and both numbers.
+        let stored = read_exr_with_channels(&path).unwrap();
+        let write_with = |key: &str, value: u32, to: &Path| {
+            let mut attrs = stored.attributes.clone();
+            attrs.iter_mut().find(|(k, _)| k == key).unwrap().1 = value.to_string();
+            write_exr_with_channels(to, &film.image(), &attrs, stored.channels.clone()).unwrap();
+        };
+        let other = dir.path().join("other.exr");
+        write_with(LAYOUT_KEY, LAYOUT + 1, &other);
+        let e = read_state(&other).err().unwrap().to_string();
+        let layouts = format!("checkpoint layout {}, written by a newer pir", LAYOUT + 1);
+        assert!(
+            e.contains("other.exr") && e.contains(&layouts) && e.contains(&format!("layout {LAYOUT} only")),
+            "{e}"
+        );
+        write_with(ESTIMATOR_KEY, ESTIMATOR_REVISION + 1, &other);
+        let e = read_state(&other).err().unwrap().to_string();
+        let revisions = format!("estimator revision {}", ESTIMATOR_REVISION + 1);
+        assert!(
+            e.contains("other.exr")
+                && e.contains(&revisions)
+                && e.contains(&format!("this pir's is {ESTIMATOR_REVISION}"))
+                && e.contains("bit for bit"),
+            "{e}"
+        );
         // A damaged state is an error, not a panic.
         let bad = dir.path().join("bad.exr");
         let text = format!(
             "{{\"job\":{},\"shard\":\"1/0\",\"iterations\":1}}",
             serde_json::to_string(&job).unwrap()
         );
-        let attrs = [(FORMAT_KEY.to_string(), FORMAT.to_string()), (STATE_KEY.to_string(), text)];
+        let attrs = [
+            (LAYOUT_KEY.to_string(), LAYOUT.to_string()),
+            (ESTIMATOR_KEY.to_string(), ESTIMATOR_REVISION.to_string()),
+            (STATE_KEY.to_string(), text),
+        ];
         write_exr_with_channels(&bad, &film.image(), &attrs, Vec::new()).unwrap();
         let e = format!("{:#}", read_state(&bad).err().unwrap());
         assert!(e.contains("malformed pir.job.state") && e.contains("K/N"), "{e}");

@@ -21,6 +21,12 @@ use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render};
 use pir::sampling::SamplerKind;
 use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
 
+/// Every rendering method, by the name `--method` takes: the one list that the tests of every
+/// method (`tests/golden.rs`, `tests/batch.rs`) take them from.
+pub fn methods() -> Vec<&'static str> {
+    pir::integrator::Method::ALL.iter().map(|m| m.name()).collect()
+}
+
 /// The inside of the cube [-1, 1]³, every face facing inwards, all of one material; the
 /// camera sits at the centre looking down −z.
 pub fn closed_cube(material: Material) -> Scene {
