@@ -29,12 +29,8 @@
 //! keeps p_c n_c / Σ_u p_u n_u. The three shares of a path still sum to one, whatever the
 //! densities. A path that no connection can make (the direct light of the first non-delta
 //! vertex: a connection needs two non-delta vertices before the emitter) is weighed exactly
-//! as `pt` weighs it. Why: with the balance heuristic there, `pir-bdpt` was noisier than
-//! `pt` wherever direct light dominates — on the Mori knob (one large light over glossy
-//! surfaces of GGX alpha 0.41 and 0.45) its relative MSE at 256 iterations was 1.25e-5
-//! against 7.1e-6 now; the other scenes gain 0–6 %, while the power heuristic for every
-//! technique (every density ratio of the running sums squared) cost 6–8 % on the glossy
-//! Cornell box and the near-mirror floor (`docs/measurements.md`, "Which heuristic").
+//! as `pt` weighs it, which keeps `pir-bdpt` as good as `pt` where direct light dominates
+//! (`docs/integrator-measurements.md`, "Which heuristic").
 //!
 //! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
 //! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
@@ -47,7 +43,7 @@
 //! start divided by N (the two emitter techniques it carries count once, not N times), and
 //! the camera subpath's sums count N when next-event estimation or a hit weighs them. A
 //! connection whose count is not N enters either subpath's sums times its count relative to
-//! N ([`Scatter::count`], [`Vpl::count_out`], [`CameraEnd::count_in`]), and a connection's
+//! N (`Scatter::count`, [`Vpl::count_out`], [`CameraEnd::count_in`]), and a connection's
 //! own weight divides the others by its count, so every technique keeps its own count.
 //! Russian roulette is left out of the densities: the weights still sum to one (every
 //! technique is weighed with the same densities), only a little less well balanced.
@@ -63,21 +59,14 @@
 //!
 //! **Light samples at the first vertex.** The direct light of the camera's first vertex is
 //! the one error the connections cannot take over (a connection needs two non-delta vertices
-//! before the emitter), and where light comes through an opening it is most of what is left:
-//! in the slit room, 96 % of `pir-bdpt`'s variance per iteration with one light sample
-//! (two seeds at 256 iterations, `--max-depth 2` against the full depth). An iteration's cost
-//! is mostly the gather and the path, so a light sample costs `pir-bdpt` a smaller share
-//! than it costs `pt`; four of them per first vertex (`--light-samples`) measured 0.95× the
-//! relative MSE × instructions of one on the Cornell box and about 0.6× in the slit room and
-//! on the Mori knob (`docs/measurements.md`, "Light samples at the first vertex"); since the
-//! samples are stratified (below), two are the default where the emitters are in view, and
-//! more where a pilot finds them mostly hidden ([`light_samples_for`]). The samples' points
-//! are one block of consecutive points of one Sobol dimension
-//! ([`Sampler::next_2d_block`]), so that they are stratified among themselves as well as
-//! over the iterations: at fixed iterations, three seeds, that took 18 % off the Mori knob's
-//! relative MSE, 12 % off the near-mirror floor's and 5 % off the glossy corner's, with the
-//! Cornell box, the glossy Cornell box and the slit room level, against a dimension per
-//! sample (`docs/measurements.md`, "Stratified light samples").
+//! before the emitter), and where light comes through an opening it is most of what is left.
+//! An iteration's cost is
+//! mostly the gather and the path, so a light sample costs `pir-bdpt` a smaller share than
+//! it costs `pt`: two are the default where the emitters are in view, more where a pilot
+//! finds them mostly hidden ([`light_samples_for`]). The samples' points are one block of
+//! consecutive points of one Sobol dimension (`Sampler::next_2d_block`), so that they are
+//! stratified among themselves as well as over the iterations (`docs/integrator-measurements.md`,
+//! "Light samples at the first vertex").
 //!
 //! Cost: a path tracer's rays plus a gather at each non-delta vertex of the camera path
 //! (the resampled gather: k shadow rays of m candidates).
@@ -105,14 +94,10 @@ pub const MAX_AUTO_LIGHT_SAMPLES: u32 = 16;
 /// probability v, so its variance grows about as 1 / v where the emitters are mostly hidden,
 /// while its cost (one shadow ray) does not; the sample count that minimises variance × cost
 /// grows as the standard deviation, 1 / √v. Powers of two, because then the samples are an
-/// aligned block of a Sobol sequence ([`Sampler::next_2d_block`]), a net of their own. In
-/// the slit room (v = 0.15–0.20), relative MSE at 256 iterations (seeds 1–3) with 2, 3, 4,
-/// 5, 6 and 8 samples was 4.53, 3.74, 3.36, 3.21, 3.10 and 2.88 × 10⁻⁴, relative MSE ×
-/// time 2.04, 1.75, 1.65, 1.64, 1.66 and 1.67 × 10⁻³: 4 is where the curve flattens; at
-/// equal time (20 s, seeds 1–3) 4 samples against 2 gave 0.88–0.97× the relative MSE
-/// (`docs/measurements.md`, "Light samples where the emitters hide"). Where the emitters
-/// are in view (v > 1/2: the Cornell boxes, the glossy scenes, the Mori knob, the dense
-/// meshes, the conference room, v = 0.78–1) this is `base`. Not measured (NaN): `base`;
+/// aligned block of a Sobol sequence (`Sampler::next_2d_block`), a net of their own. In
+/// the slit room (v = 0.15–0.20) 4 is where relative MSE × time flattens; where the emitters
+/// are in view (v > 1/2) this is `base` (`docs/integrator-measurements.md`, "Light samples
+/// where the emitters hide"). Not measured (NaN): `base`;
 /// nothing in view (v ≤ 0): the most.
 pub fn light_samples_for(base: u32, visibility: f32) -> u32 {
     let v = visibility;

@@ -48,7 +48,7 @@ impl Clamping {
 pub enum Radius {
     /// One radius for every light.
     Global(f32),
-    /// Per light, from the density of the iteration's VPLs (see [`spheres`]).
+    /// Per light, from the density of the iteration's VPLs (see [`spheres`](super::spheres)).
     Density,
 }
 
@@ -56,11 +56,11 @@ pub enum Radius {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum VirtualLights {
     Points(Clamping),
-    /// Points whose connections are weighed against a BSDF-sampled bounce ([`mis`]), the
+    /// Points whose connections are weighed against a BSDF-sampled bounce ([`mis`](super::mis)), the
     /// clamping applied to the weighted connection instead of to G.
     WeighedPoints(Clamping),
     /// Points connected from every vertex of a full camera path, every technique weighed
-    /// against the others ([`bidirectional`]), the clamping applied to the weighted connection.
+    /// against the others ([`bidirectional`](super::bidirectional)), the clamping applied to the weighted connection.
     Bidirectional(Clamping, Connect),
     /// Spheres; with `alpha` the radius shrinks as r_1 · i^((α−1)/2).
     Spheres {
@@ -72,16 +72,16 @@ pub enum VirtualLights {
 /// How a receiver gathers from the iteration's virtual lights.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Gather {
-    /// From every light, one shadow ray each ([`gather`]).
+    /// From every light, one shadow ray each ([`gather`](super::gather)).
     #[default]
     All,
     /// From `samples` lights drawn per receiver from a light tree in proportion to a bound on
     /// their contribution, each weighted by its inverse probability: unbiased for the same
-    /// sum ([`light_tree`], [`tree_gather`]).
+    /// sum ([`light_tree`](super::light_tree), [`tree_gather`](super::tree_gather)).
     Tree { samples: usize },
     /// From `samples` lights picked per receiver, in proportion to their unoccluded
     /// contributions, among a random window of `candidates` lights; unbiased for the same sum
-    /// ([`resample`]).
+    /// ([`resample`](super::resample)).
     Resampled { candidates: usize, samples: usize },
 }
 

@@ -101,7 +101,7 @@ impl Estimator for WeighedGathering<'_> {
         true
     }
 
-    /// The bounce's share ([`mis`]): the emitters sampled from y and the gather at y, each
+    /// The bounce's share ([`super::mis`]): the emitters sampled from y and the gather at y, each
     /// weighed against the connection of the gathering vertex to the VPLs at y.
     fn at_bounce(
         &self,

@@ -23,7 +23,7 @@ use crate::sampling::Sampler;
 pub struct InstantRadiosity {
     lights: VirtualLights,
     paths: usize,
-    /// Light paths chosen by the scene's yield of VPLs ([`path_count`]) when
+    /// Light paths chosen by the scene's yield of VPLs ([`path_count`](super::path_count)) when
     /// [`Integrator::prepare`] runs, instead of `paths`.
     auto: Option<AutoPaths>,
     /// What the pilot measured ([`Integrator::prepare`]), for methods that need it.

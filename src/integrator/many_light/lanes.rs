@@ -273,12 +273,8 @@ impl VplLanes {
     /// lanes that LLVM vectorises: every lane performs the operations of the four-wide
     /// kernel (glam's `Vec4`) this replaced, in its order (glam's `Vec4::min`, `max` and
     /// `clamp` are `minps` and `maxps`, [`min`] and [`max`] here), so the estimates, and the
-    /// picks and images, are the same bit for bit. On the Cornell box (`pir-bdpt`, 64×64,
-    /// 16 iterations, one thread, callgrind) the render's instructions went from 1.44 to
-    /// 1.27 G; `farm-bench -n 7` of 256×256, 48 iterations, alternating with the four-wide
-    /// binary: 0.947× its CPU time (2026-12-04). A version whose lanes' masks were chained
-    /// selects and whose pushes took the eight lanes at once made LLVM mix scalar, 4- and
-    /// 8-wide code, with no gain.
+    /// picks and images, are the same bit for bit (the gain: `docs/integrator-measurements.md`,
+    /// "Eight-wide estimates").
     #[inline(always)]
     fn estimates8(&self, chunk: usize, r: &EstimateReceiver) -> [f32; 8] {
         const W: usize = 2 * LANES;

@@ -1,8 +1,8 @@
 //! How many light paths an iteration traces when `--vpls` is not given (`pir-bdpt`): its
 //! fewest paths ([`BDPT_PATHS`](crate::integrator::BDPT_PATHS), 256), or more where they
 //! leave fewer VPLs than a target ([`BDPT_VPLS`](crate::integrator::BDPT_VPLS), 64), so that
-//! an iteration always holds at least that many VPLs. (Until 2026-12-04 the fewest paths
-//! and the target were both 64; the fewest went to 256 for HDR-FLIP's sake, `BDPT_PATHS`.)
+//! an iteration always holds at least that many VPLs (`docs/integrator-measurements.md`,
+//! "Light paths of pir-bdpt").
 //!
 //! **Why the count is the scene's.** Where light spreads freely from the emitters, every
 //! light path leaves a VPL or more (the Cornell box: 156 from 64 paths). Where it enters
@@ -15,7 +15,7 @@
 //! the window of candidates ([`super::resample`]). So the count is raised only as far as it
 //! takes to leave the VPL target, what 64 paths leave where every path leaves one: in the
 //! slit room about 520 paths against 64 (with the connections between Lambertian ends
-//! counted N, [`super::bidirectional::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 %
+//! counted N, [`super::subpath::Counts`]) lowered `pir-bdpt`'s relative MSE by 39 %
 //! and its relative MSE × time by 28 % (seeds 1–3, fixed iterations); filling the whole window of
 //! 128 candidates instead cost the Mori knob (30 VPLs from 64 paths) 19 % more time for 3 %
 //! less error (`docs/measurements.md`, "Light paths by the scene's yield").
@@ -86,7 +86,7 @@ pub struct Pilot {
     /// towards a point drawn as
     /// next-event estimation draws it, on the emitter's front side and in front of the
     /// VPL's surface), the fraction that no surface blocks; 1 when there were none.
-    /// [`super::bidirectional::Counts`] weighs the connections by it.
+    /// [`super::subpath::Counts`] weighs the connections by it.
     pub visibility: f32,
 }
 

@@ -16,15 +16,8 @@ use crate::material::Bsdf;
 /// windows hold them, and a larger count makes their shared error (blotches) a larger part
 /// of the image's; since an iteration traces at least 256 light paths and a window holds
 /// 128 of its 600-odd VPLs (the Cornell box), neighbouring pixels share far fewer of them
-/// than with 64 paths, where the window was every VPL. Measured (2026-12-04, `pir render
-/// … --method pir-bdpt --seed s`, seeds 1–2, 1–3 on the Cornell box, relative MSE against
-/// the references at fixed iterations, the same time; `docs/measurements.md`, "Lambertian
-/// connections count 4k"): 2 → 4 took 5.5 % off the Cornell box, 15 % off the slit room,
-/// 4 % off the bunny's box, 3 % off the Mori knob and 0–1 % off the glossy Cornell box, the
-/// near-mirror floor, the glossy corner and the dense scene lit indirectly; HDR-FLIP at 20 s
-/// on the Cornell box was level (0.0251 either way, the mean of six seeds). 8 took a little
-/// more off the slit room (9 %) and nothing more elsewhere, but raised the Cornell box's
-/// HDR-FLIP by 3 %.
+/// than with 64 paths, where the window was every VPL (`docs/integrator-measurements.md`,
+/// "Lambertian connections count 4k").
 pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 
 /// How many samples the weights count for a connection technique: a function of the
@@ -40,13 +33,7 @@ pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 ///   contribution) counts at most 2k (the resampled gather between Lambertian ends 4k / v,
 ///   next item): its picks are k samples, and the VPLs they pick are shared by every pixel,
 ///   so that a larger count trades per-pixel noise for blotches.
-///   Measured with k = 4 and 32 paths (`docs/measurements.md`, "Bidirectional weights"): 8
-///   rather than 32 lowered the glossy Cornell box's relative MSE by 4 % and its worst pixel
-///   by 20 %, the near-mirror floor's by 8 % and 54 %; with 64 paths, 64 rather than 8
-///   raised the glossy corner's by 72 % and the near-mirror floor's by 17 %; counting N only
-///   between Lambertian ends lowered the Cornell box's relative MSE at 20 s by 10 % but
-///   raised its HDR-FLIP by 15 % (`docs/measurements.md`,
-///   "Connections counted by their ends").
+///   Measured: `docs/integrator-measurements.md`, "Counts of the sampled gathers".
 /// - **Between two Lambertian ends, the resampled gather** counts
 ///   [`LAMBERTIAN_PICK_COUNT`] · k / v (4k / v), at most N, with v
 ///   the probability that next-event estimation from a point that light reaches directly
@@ -106,7 +93,7 @@ impl Counts {
     /// The count of the connection between a vertex of BSDF `b` and the vertex before it
     /// on the same subpath, of BSDF `a` (none at the camera or the emitter: 1, the term it
     /// would multiply being zero or next-event estimation's), relative to [`Counts::paths`].
-    /// What both subpaths fold into their sums, in [`walk`] and in light tracing.
+    /// What both subpaths fold into their sums, along the camera path ([`super::bdpt_path`]) and in light tracing.
     #[inline]
     pub fn between(&self, a: Option<&Bsdf>, b: &Bsdf) -> f32 {
         a.map_or(1.0, |a| self.factor(a, b))
