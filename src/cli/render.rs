@@ -109,6 +109,10 @@ fn check_arguments(a: &RenderArgs) -> Result<Plan> {
         bail!("--exposure must be a finite number");
     }
     a.config.validate()?;
+    // Accepted, as `pir study` passes one set of flags to several methods, but said.
+    for p in a.config.unused() {
+        eprintln!("pir: warning: {} is not used by {}", p.flag(), a.config.method);
+    }
     let checkpoint = a.checkpoint.map(|t| seconds("--checkpoint", t)).transpose()?;
     let progress_every = seconds("--progress-every", a.progress_every)?;
     let out =

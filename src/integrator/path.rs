@@ -16,10 +16,6 @@ use crate::sampling::Sampler;
 pub struct PathTracer;
 
 impl Integrator for PathTracer {
-    fn name(&self) -> &'static str {
-        "pt"
-    }
-
     fn radiance(
         &self,
         ctx: &RenderContext,
