@@ -9,7 +9,7 @@
 //!
 //! Adding a method is one file (a unit type implementing [`MethodSpec`], building its
 //! integrator with the public builders of [`crate::integrator`]) and one line in the
-//! [`methods!`] list below; a program that embeds pir adds its own with [`register`]
+//! `methods!` list below; a program that embeds pir adds its own with [`register`]
 //! (`tests/methods.rs` does, for `ir-clamp-10`).
 //!
 //! [`MethodConfig`] is a method with its parameters: a clap argument group (flattened into
