@@ -23,6 +23,7 @@ use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 /// render stops after --spp iterations or after --time seconds, whichever comes first
 /// (default: 64 spp).
 #[derive(Args, Debug)]
+#[command(after_long_help = pir::integrator::methods::parameters_help())]
 pub struct RenderArgs {
     /// The scene file (TOML, see the README's scene format).
     pub scene: PathBuf,

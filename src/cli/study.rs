@@ -28,6 +28,7 @@ use super::setup::{interrupt_flag, scene_stem, seconds};
 /// --sweep KEY=V1,V2,… runs every method that uses KEY once per value; without --methods,
 /// only those.
 #[derive(Args, Debug)]
+#[command(after_long_help = pir::integrator::methods::parameters_help())]
 pub struct StudyArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,

@@ -196,6 +196,22 @@ pub fn register(spec: &'static dyn MethodSpec) -> Result<Method> {
     Ok(Method(spec))
 }
 
+/// The parameters of every registered method, one line each, for `--help`.
+pub fn parameters_help() -> String {
+    let methods = Method::all();
+    let width = methods.iter().map(|m| m.name().len()).max().unwrap_or(0) + 1;
+    let mut text = String::from(
+        "Parameters by method (a flag that a method does not use changes nothing; `pir render` warns):",
+    );
+    for m in methods {
+        let flags: Vec<String> =
+            Parameter::ALL.into_iter().filter(|&p| m.uses(p)).map(Parameter::flag).collect();
+        let flags = if flags.is_empty() { "none".to_string() } else { flags.join(" ") };
+        text.push_str(&format!("\n  {:<width$} {flags}", format!("{}:", m.name())));
+    }
+    text
+}
+
 /// A rendering method (`--method`): a handle into the registry, read and written as the
 /// method's name.
 #[derive(Clone, Copy)]
