@@ -131,7 +131,7 @@ fn every_method_resumes_and_records_its_parameters() {
         assert_eq!(get("pir.method"), Some(m));
         assert_eq!(get("pir.version"), Some(env!("CARGO_PKG_VERSION")));
         let config = pir::integrator::MethodConfig::new(m.parse().unwrap());
-        for (k, v) in renderer.integrator(&config).parameters() {
+        for (k, v) in renderer.parameters(&config) {
             assert_eq!(get(&format!("pir.param.{k}")), Some(v.as_str()), "{m}: pir.param.{k} in {attrs:?}");
         }
     }

@@ -12,6 +12,7 @@ use pir::integrator::many_light::Connect;
 use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::light_samples_for;
 use pir::integrator::many_light::path_count::PILOT_PATHS;
+use pir::integrator::methods::{PirBdpt, Pt};
 use pir::integrator::{
     BDPT_AUTO_PATHS, BDPT_PATHS, BDPT_VPLS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather,
     InstantRadiosity, Method, MethodConfig, PathTracer, VirtualLights,
@@ -243,9 +244,9 @@ fn a_render_counts_its_pilots_queries() {
     let stats = |method| {
         job.run(&scene, MethodConfig::new(method).integrator(scene.bounds().diagonal()).as_mut()).stats
     };
-    let bdpt = stats(Method::PirBdpt);
+    let bdpt = stats(Method::new(&PirBdpt));
     assert!(bdpt.counters.pilot_rays >= PILOT_PATHS as u64, "{:?}", bdpt.counters);
-    assert_eq!(stats(Method::Pt).counters.pilot_rays, 0);
+    assert_eq!(stats(Method::new(&Pt)).counters.pilot_rays, 0);
 }
 
 /// `pir-bdpt` without `--light-samples` takes the count the pilot's visibility gives (more in
@@ -255,12 +256,12 @@ fn a_render_counts_its_pilots_queries() {
 fn light_samples_follow_the_emitters_visibility_unless_given() {
     let (slit_scene, cube_scene) = (slit_room(), closed_cube(diffuse(0.5, 1.0)));
     let chosen = |scene: &Scene, given: Option<u32>| {
-        let mut config = MethodConfig::new(Method::PirBdpt);
+        let mut config = MethodConfig::new(Method::new(&PirBdpt));
         config.params.light_samples = given;
         let mut integrator = config.integrator(scene.bounds().diagonal());
         pilot_job(SamplerKind::Sobol)
             .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
-        let p = integrator.parameters();
+        let p = config.report(scene.bounds().diagonal(), integrator.measured());
         let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
         let v: f32 = value("emitter-visibility").unwrap().parse().unwrap();
         (value("light-samples").unwrap().parse::<u32>().unwrap(), v)

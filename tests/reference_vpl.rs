@@ -58,7 +58,7 @@ struct Outcome {
     rel_mse: f64,
 }
 
-fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
+fn run(c: &Case, method: &str, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
     let job = Job {
         width: c.reference.width,
         height: c.reference.height,
@@ -81,7 +81,7 @@ fn run(c: &Case, integrator: &mut dyn Integrator, iterations: u64) -> Outcome {
     eprintln!(
         "{} {}: {} it, mean {:+.3} {:+.3} {:+.3} % (z {:+.1} {:+.1} {:+.1}), relMSE {:.3e} at {} it, {:.3e} at {} it",
         c.name,
-        integrator.name(),
+        method,
         iterations,
         100.0 * rel[0],
         100.0 * rel[1],
@@ -130,25 +130,25 @@ fn pir_vsl() -> InstantRadiosity {
 #[test]
 fn pir_clamp_converges_on_the_cornell_box() {
     let Some(c) = cornell() else { return };
-    assert_consistent(&c, &run(&c, &mut pir_clamp(&c), QUICK));
+    assert_consistent(&c, &run(&c, "pir-clamp", &mut pir_clamp(&c), QUICK));
 }
 
 #[test]
 fn pir_clamp_converges_on_the_mirror_and_glass_box() {
     let Some(c) = spheres() else { return };
-    assert_consistent(&c, &run(&c, &mut pir_clamp(&c), QUICK));
+    assert_consistent(&c, &run(&c, "pir-clamp", &mut pir_clamp(&c), QUICK));
 }
 
 #[test]
 fn pir_vsl_converges_on_the_cornell_box() {
     let Some(c) = cornell() else { return };
-    assert_consistent(&c, &run(&c, &mut pir_vsl(), QUICK));
+    assert_consistent(&c, &run(&c, "pir-vsl", &mut pir_vsl(), QUICK));
 }
 
 #[test]
 fn pir_vsl_converges_on_the_mirror_and_glass_box() {
     let Some(c) = spheres() else { return };
-    assert_consistent(&c, &run(&c, &mut pir_vsl(), QUICK));
+    assert_consistent(&c, &run(&c, "pir-vsl", &mut pir_vsl(), QUICK));
 }
 
 /// A constant clamp fifty times below the default darkens the Cornell box for ever.
@@ -156,7 +156,7 @@ fn pir_vsl_converges_on_the_mirror_and_glass_box() {
 fn constant_clamp_stays_too_dark_on_the_cornell_box() {
     let Some(c) = cornell() else { return };
     let b = 0.02 * Clamping::default_bound(c.scene.bounds().diagonal());
-    let o = run(&c, &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), QUICK);
+    let o = run(&c, "ir-clamp", &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), QUICK);
     for k in 0..3 {
         assert!(o.z[k] < -Z, "ir-clamp must stay darker than the reference: channel {k} z = {:.2}", o.z[k]);
     }
@@ -168,8 +168,8 @@ fn constant_clamp_stays_too_dark_on_the_cornell_box() {
 #[ignore = "long: about three minutes"]
 fn long_progressive_methods_within_half_a_percent() {
     for c in [cornell(), spheres()].into_iter().flatten() {
-        assert_within_half_percent(&c, &run(&c, &mut pir_clamp(&c), LONG));
-        assert_within_half_percent(&c, &run(&c, &mut pir_vsl(), LONG));
+        assert_within_half_percent(&c, &run(&c, "pir-clamp", &mut pir_clamp(&c), LONG));
+        assert_within_half_percent(&c, &run(&c, "pir-vsl", &mut pir_vsl(), LONG));
     }
 }
 
@@ -183,7 +183,7 @@ fn long_progressive_methods_within_half_a_percent() {
 fn long_default_constant_clamp_keeps_its_bias() {
     let Some(c) = cornell() else { return };
     let b = Clamping::default_bound(c.scene.bounds().diagonal());
-    let o = run(&c, &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), LONG);
+    let o = run(&c, "ir-clamp", &mut InstantRadiosity::points(Clamping::Constant { b }, PATHS), LONG);
     assert!(o.rel_mse > 0.5 * o.rel_mse_quarter, "ir-clamp's error must stop falling");
     for k in 0..3 {
         assert!(o.rel[k] < 0.0, "ir-clamp must be darker than the reference: channel {k}");

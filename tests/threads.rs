@@ -5,6 +5,7 @@
 mod common;
 
 use pir::accel::Backend;
+use pir::integrator::methods::{PirClamp, Pt};
 use pir::integrator::{Method, MethodConfig};
 use pir::render::{Budget, Control, Renderer, SceneOptions};
 
@@ -14,7 +15,7 @@ fn a_render_on_one_thread_starts_no_other_pool() {
     let options = SceneOptions { threads: Some(1), accel: Some(Backend::Bvh), ..Default::default() };
     let renderer = Renderer::new(&scene, &options).expect("the closed cube renders");
     assert_eq!(renderer.threads(), 1);
-    for method in [Method::Pt, Method::PirClamp] {
+    for method in [Method::new(&Pt), Method::new(&PirClamp)] {
         let budget = Budget { iterations: Some(2), time: None };
         let (_, stats) = renderer.render(&MethodConfig::new(method), budget, |_, _| Control::Continue);
         assert_eq!(stats.iterations, 2);

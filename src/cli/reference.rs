@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
+use pir::integrator::methods::Pt;
 use pir::integrator::{Method, MethodConfig};
 use pir::render::{Budget, Control, Renderer, SceneOptions};
 
@@ -49,7 +50,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     );
     let interrupted = interrupt_flag()?;
     let mut progress = Progress::new(&budget, true, Duration::from_secs_f64(DEFAULT_LINE_INTERVAL));
-    let config = MethodConfig::new(Method::Pt);
+    let config = MethodConfig::new(Method::new(&Pt));
     let (film, stats) = renderer.render(&config, budget, |_, stats| {
         progress.update(stats);
         if interrupted.load(Ordering::SeqCst) { Control::Stop } else { Control::Continue }

@@ -23,6 +23,7 @@ use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 /// render stops after --spp iterations or after --time seconds, whichever comes first
 /// (default: 64 spp).
 #[derive(Args, Debug)]
+#[command(after_long_help = pir::integrator::methods::parameters_help())]
 pub struct RenderArgs {
     /// The scene file (TOML, see the README's scene format).
     pub scene: PathBuf,
@@ -109,6 +110,10 @@ fn check_arguments(a: &RenderArgs) -> Result<Plan> {
         bail!("--exposure must be a finite number");
     }
     a.config.validate()?;
+    // Accepted, as `pir study` passes one set of flags to several methods, but said.
+    for p in a.config.unused() {
+        eprintln!("pir: warning: {} is not used by {}", p.flag(), a.config.method);
+    }
     let checkpoint = a.checkpoint.map(|t| seconds("--checkpoint", t)).transpose()?;
     let progress_every = seconds("--progress-every", a.progress_every)?;
     let out =

@@ -25,19 +25,17 @@ use super::setup::{interrupt_flag, scene_stem, seconds};
 /// Ctrl-C or SIGTERM ends the running line after its iteration and writes the study of the
 /// lines raced so far.
 ///
-/// --sweep KEY=V1,V2,… runs every method that uses KEY (alpha: pir-clamp, pir-vsl, pir-mis,
-/// pir-bdpt; clamp: ir-clamp, pir-clamp, pir-mis, pir-bdpt; radius: vsl, pir-vsl) once per
-/// value; without --methods, only those.
+/// --sweep KEY=V1,V2,… runs every method that uses KEY once per value; without --methods,
+/// only those.
 #[derive(Args, Debug)]
+#[command(after_long_help = pir::integrator::methods::parameters_help())]
 pub struct StudyArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
     /// The reference image (EXR), e.g. from `pir reference`; renders take its size.
     #[arg(long, value_name = "REF.exr")]
     pub reference: PathBuf,
-    /// Methods, comma-separated: pt, ir, ir-clamp, pir-clamp, vsl, pir-vsl, pir-mis, pir-bdpt
-    /// [default: all].
-    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    #[arg(long, value_delimiter = ',', value_name = "LIST", help = methods_help())]
     pub methods: Option<Vec<String>>,
     /// Wall-clock budget of each line, in seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0, allow_negative_numbers = true)]
@@ -53,8 +51,7 @@ pub struct StudyArgs {
     /// from `pir compare`).
     #[arg(long, value_name = "E")]
     pub target_rel_mse: Option<f64>,
-    /// Parameter sweep: alpha=…, clamp=… or radius=…, values comma-separated.
-    #[arg(long, value_name = "KEY=V1,V2,…")]
+    #[arg(long, value_name = "KEY=V1,V2,…", help = sweep_help())]
     pub sweep: Option<String>,
     /// The first snapshot, in seconds, or iterations with --iterations (later ones follow at
     /// factors of √2) [default: 0.25 s, 1 iteration].
@@ -66,9 +63,28 @@ pub struct StudyArgs {
     pub options: SceneOptions,
 }
 
+/// `--methods`' help: the registered methods.
+fn methods_help() -> String {
+    format!("Methods, comma-separated: {} [default: all]", Method::names())
+}
+
+/// `--sweep`'s help: the parameters a study can sweep, each with the methods that use it.
+fn sweep_help() -> String {
+    let keys: Vec<String> = Parameter::ALL
+        .into_iter()
+        .filter(|p| p.sweepable())
+        .map(|p| {
+            let users: Vec<&str> =
+                Method::all().into_iter().filter(|m| m.uses(p)).map(|m| m.name()).collect();
+            format!("{}=… ({})", p.key(), users.join(", "))
+        })
+        .collect();
+    format!("Parameter sweep, values comma-separated: {}", keys.join("; "))
+}
+
 fn parse_sweep(s: &str) -> Result<(Parameter, Vec<f32>)> {
     let (k, vs) = s.split_once('=').with_context(|| format!("--sweep {s:?}: expected KEY=V1,V2,…"))?;
-    let Some(key) = Parameter::from_key(k.trim()) else {
+    let Some(key) = Parameter::from_key(k.trim()).filter(|p| p.sweepable()) else {
         bail!("--sweep: unknown parameter {:?}: expected alpha, clamp or radius", k.trim());
     };
     let mut values = Vec::new();
@@ -97,8 +113,8 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
             v
         }
         None => match &sweep {
-            Some((key, _)) => Method::ALL.into_iter().filter(|m| m.uses(*key)).collect(),
-            None => Method::ALL.to_vec(),
+            Some((key, _)) => Method::all().into_iter().filter(|m| m.uses(*key)).collect(),
+            None => Method::all(),
         },
     };
     if methods.is_empty() {

@@ -15,23 +15,27 @@
 //! - [`direct`]: direct light from the real emitters (light sampling, MIS weights);
 //! - `path.rs`: `pt`, whose estimator is next-event estimation and BSDF sampling under MIS;
 //! - [`many_light`]: the VPL methods, whose estimators add the gather from the virtual lights;
-//! - `method.rs`: the methods by name and their one configuration ([`MethodConfig`]: flags,
-//!   defaults, `validate()`, serde).
+//! - [`methods`]: the methods by name, one type each in a registry ([`methods::MethodSpec`],
+//!   [`Method`]), the parameter table ([`methods::params`]) and a method's one configuration
+//!   ([`MethodConfig`]: flags, defaults, `validate()`, serde). It builds integrators with the
+//!   public builders of the modules above; none of them imports it.
 
 pub mod direct;
 pub mod many_light;
-mod method;
+pub mod methods;
 mod path;
 pub mod scatter;
 pub mod walker;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
-pub use method::{
-    BDPT_AUTO_PATHS, BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, BDPT_VPLS, DEFAULT_GATHER_SAMPLES,
-    DEFAULT_LIGHT_SAMPLES, GatherKind, MAX_GATHER_SAMPLES, MAX_LIGHT_SAMPLES, MAX_VPLS, MIS_GATHER, Method,
-    MethodConfig, MethodParams, Parameter,
+pub use methods::params::{
+    DEFAULT_GATHER_CANDIDATES, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES, GatherKind, MAX_GATHER_SAMPLES,
+    MAX_VPLS, MethodParams, Parameter,
 };
+pub use methods::pir_bdpt::{BDPT_AUTO_PATHS, BDPT_GATHER, BDPT_MAX_PATHS, BDPT_PATHS, BDPT_VPLS};
+pub use methods::pir_mis::MIS_GATHER;
+pub use methods::{Method, MethodConfig, MethodSpec, register};
 pub use path::PathTracer;
 
 use glam::Vec3;
@@ -41,6 +45,9 @@ use crate::geometry::Ray;
 use crate::light::Emitters;
 use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::Scene;
+
+/// Most light samples at the camera path's first vertex (`--light-samples`).
+pub const MAX_LIGHT_SAMPLES: u32 = 64;
 
 /// What every integrator reads while rendering.
 pub struct RenderContext<'a> {
@@ -89,11 +96,11 @@ impl std::ops::AddAssign for Counters {
 
 /// A rendering method.
 pub trait Integrator: Send + Sync {
-    /// The `--method` name.
-    fn name(&self) -> &'static str;
-
-    /// Parameters for the summary and the EXR metadata, as (key, value).
-    fn parameters(&self) -> Vec<(String, String)> {
+    /// What the integrator chose for itself when prepared ([`Integrator::prepare`]: a count
+    /// chosen by the scene, what a pilot measured), as (key, value) for the summary and the
+    /// EXR metadata, where a key of the method's parameters takes this value
+    /// ([`MethodConfig::report`]).
+    fn measured(&self) -> Vec<(String, String)> {
         Vec::new()
     }
 

@@ -67,10 +67,6 @@ pub fn light_sample(
 }
 
 impl Integrator for PathTracer {
-    fn name(&self) -> &'static str {
-        "pt"
-    }
-
     fn radiance(
         &self,
         ctx: &RenderContext,

@@ -14,7 +14,7 @@
 //!
 //! let scene = pir::scene::load("scenes/cornell-box/scene.toml".as_ref())?;
 //! let renderer = Renderer::new(&scene, &SceneOptions::default())?;
-//! let config = MethodConfig::new(Method::PirVsl);
+//! let config = MethodConfig::new("pir-vsl".parse::<Method>().map_err(anyhow::Error::msg)?);
 //! let budget = Budget { iterations: Some(16), time: None };
 //! let (film, stats) = renderer.render(&config, budget, |_, _| Control::Continue);
 //! let attributes = renderer.attributes(&config, &stats);
@@ -190,15 +190,20 @@ impl<'s> Renderer<'s> {
         self.pool.install(|| render_from(&ctx, integrator.as_mut(), &settings, film, shard, on_iteration))
     }
 
+    /// The parameters of `config` as a render of this scene uses them, as (key, value): the
+    /// resolved ones with what the prepared integrator chose ([`MethodConfig::report`]).
+    pub fn parameters(&self, config: &MethodConfig) -> Vec<(String, String)> {
+        config.report(self.scene.bounds().diagonal(), self.integrator(config).measured())
+    }
+
     /// The EXR metadata of a render of `config` with these statistics: pir's version, the
     /// scene, method and its parameters, path length, seed, sample count, resolution, time,
-    /// accelerator, threads and dropped samples.
+    /// accelerator, threads and dropped samples, and the method's description.
     pub fn attributes(&self, config: &MethodConfig, stats: &RenderStats) -> Vec<(String, String)> {
-        let integrator = self.integrator(config);
         let mut attrs: Vec<(String, String)> = vec![
             ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
             ("pir.scene".into(), self.scene.path().display().to_string()),
-            ("pir.method".into(), integrator.name().into()),
+            ("pir.method".into(), config.method.name().into()),
             ("pir.max_depth".into(), self.max_depth.to_string()),
             ("pir.seed".into(), self.seed.to_string()),
             ("pir.sampler".into(), self.sampler.name().into()),
@@ -210,9 +215,10 @@ impl<'s> Renderer<'s> {
             ("pir.threads".into(), self.threads().to_string()),
             ("pir.dropped_samples".into(), stats.dropped.to_string()),
         ];
-        for (k, v) in integrator.parameters() {
+        for (k, v) in self.parameters(config) {
             attrs.push((format!("pir.param.{k}"), v));
         }
+        attrs.push(("pir.method.description".into(), latin1(config.method.description())));
         attrs
     }
 
@@ -237,4 +243,20 @@ impl<'s> Renderer<'s> {
         }
         Ok(image)
     }
+}
+
+/// `text` in the characters an EXR text attribute holds (Latin-1): Greek letters by name,
+/// others by their nearest Latin-1 letter or '?'.
+fn latin1(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            c if (c as u32) < 256 => out.push(c),
+            'α' => out.push_str("alpha"),
+            '−' | '–' | '—' => out.push('-'),
+            'š' => out.push('s'),
+            _ => out.push('?'),
+        }
+    }
+    out
 }

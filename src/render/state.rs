@@ -324,6 +324,10 @@ mod tests {
 
     use crate::integrator::{Clamping, Method};
 
+    fn method(name: &str) -> Method {
+        name.parse().unwrap()
+    }
+
     #[test]
     fn shards_partition_the_iterations() {
         let total = 10;
@@ -352,7 +356,7 @@ mod tests {
             film.add(i, glam::Vec3::new(*v, v * 2.0, v / 3.0));
         }
         film.end_iteration();
-        let config = MethodConfig::new(Method::PirClamp);
+        let config = MethodConfig::new(method("pir-clamp"));
         let job = Job {
             scene_fingerprint: "abc".into(),
             config: config.identity(2.0),
@@ -374,7 +378,7 @@ mod tests {
         let mut explicit = config;
         explicit.params.clamp = Some(Clamping::default_bound(2.0));
         assert!(Job { config: explicit.identity(2.0), ..job.clone() }.differences(&job).is_empty());
-        let other = Job { seed: 4, config: MethodConfig::new(Method::Pt).identity(2.0), ..job.clone() };
+        let other = Job { seed: 4, config: MethodConfig::new(method("pt")).identity(2.0), ..job.clone() };
         let d = job.differences(&other);
         assert_eq!(d.len(), 2, "{d:?}");
         assert!(d[0].contains("method: pir-clamp here, pt in the file"));

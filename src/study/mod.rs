@@ -187,7 +187,7 @@ pub fn run_one(
     });
     // After the render, whose driver runs (and times) the pilot of the methods that have one.
     let parameters: Vec<String> =
-        renderer.integrator(&run.config).parameters().into_iter().map(|(k, v)| format!("{k}={v}")).collect();
+        renderer.parameters(&run.config).into_iter().map(|(k, v)| format!("{k}={v}")).collect();
     let parameters = parameters.join(";");
     let exposures = flip::exposures(reference);
     let measured: Vec<Result<Snapshot>> = renderer.install(|| {

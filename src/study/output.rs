@@ -350,12 +350,11 @@ fn budget_text(info: &StudyInfo) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::study::Method;
 
     fn snap(time_s: f64, rel_mse: f64) -> Snapshot {
         Snapshot {
             label: "x".into(),
-            method: Method::Pt,
+            method: "pt".parse().unwrap(),
             parameters: String::new(),
             time_s,
             iterations: (time_s * 10.0) as u64,
@@ -387,7 +386,7 @@ mod tests {
         assert_eq!(slug("a/b c"), "a_b_c");
         let s = Snapshot {
             label: "x".into(),
-            method: Method::Pt,
+            method: "pt".parse().unwrap(),
             parameters: "a=1,b=2".into(),
             time_s: 0.5,
             iterations: 3,

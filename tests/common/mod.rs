@@ -24,7 +24,7 @@ use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
 /// Every rendering method, by the name `--method` takes: the one list that the tests of every
 /// method (`tests/golden.rs`, `tests/batch.rs`) take them from.
 pub fn methods() -> Vec<&'static str> {
-    pir::integrator::Method::ALL.iter().map(|m| m.name()).collect()
+    pir::integrator::Method::all().into_iter().map(|m| m.name()).collect()
 }
 
 /// The inside of the cube [-1, 1]³, every face facing inwards, all of one material; the

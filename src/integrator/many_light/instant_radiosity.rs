@@ -6,13 +6,13 @@ use glam::Vec3;
 
 use super::bdpt_path::Bidirectional;
 use super::bidirectional;
-use super::config::{Clamping, Gather, Radius, VirtualLights};
+use super::config::{Clamping, Gather, VirtualLights};
 use super::gathering::{Gathering, WeighedGathering};
 use super::light_paths::{Vpl, trace_vpls};
 use super::light_set::LightSet;
 use super::path_count::{AutoPaths, Pilot};
 use super::points::PointLights;
-use super::spheres::{self, SphereLights};
+use super::spheres::SphereLights;
 use super::subpath::Counts;
 use crate::geometry::Ray;
 use crate::integrator::walker::walk;
@@ -97,73 +97,18 @@ impl InstantRadiosity {
 }
 
 impl Integrator for InstantRadiosity {
-    fn name(&self) -> &'static str {
-        match self.lights {
-            VirtualLights::Points(Clamping::None) => "ir",
-            VirtualLights::Points(Clamping::Constant { .. }) => "ir-clamp",
-            VirtualLights::Points(Clamping::Progressive { .. }) => "pir-clamp",
-            VirtualLights::WeighedPoints(Clamping::None) => "ir-mis",
-            VirtualLights::WeighedPoints(Clamping::Constant { .. }) => "ir-mis-clamp",
-            VirtualLights::WeighedPoints(Clamping::Progressive { .. }) => "pir-mis",
-            VirtualLights::Bidirectional(Clamping::None, _) => "ir-bdpt",
-            VirtualLights::Bidirectional(Clamping::Constant { .. }, _) => "ir-bdpt-clamp",
-            VirtualLights::Bidirectional(Clamping::Progressive { .. }, _) => "pir-bdpt",
-            VirtualLights::Spheres { alpha: None, .. } => "vsl",
-            VirtualLights::Spheres { alpha: Some(_), .. } => "pir-vsl",
-        }
-    }
-
-    fn parameters(&self) -> Vec<(String, String)> {
-        let mut p = vec![("vpls".to_string(), self.paths.to_string())];
-        match self.gather {
-            Gather::All => {}
-            Gather::Tree { samples } => {
-                p.push(("gather".into(), "tree".into()));
-                p.push(("gather-samples".into(), samples.to_string()));
-            }
-            Gather::Resampled { candidates, samples } => {
-                p.push(("gather".into(), "resample".into()));
-                p.push(("gather-candidates".into(), candidates.to_string()));
-                p.push(("gather-samples".into(), samples.to_string()));
-            }
-        }
-        if let VirtualLights::Bidirectional(_, connect) = self.lights {
-            // The name `--connect` takes (clap's, from the enum).
-            let name = clap::ValueEnum::to_possible_value(&connect).map(|v| v.get_name().to_string());
-            p.push(("connect".into(), name.unwrap_or_default()));
-            p.push(("light-samples".into(), self.light_samples.to_string()));
+    /// The light paths per iteration, and for [`VirtualLights::Bidirectional`] the light
+    /// samples at the first vertex and the pilot's visibility of the emitters (what the
+    /// weights' counts used, [`Pilot`]).
+    fn measured(&self) -> Vec<(String, String)> {
+        let mut m = vec![("vpls".to_string(), self.paths.to_string())];
+        if matches!(self.lights, VirtualLights::Bidirectional(..)) {
+            m.push(("light-samples".into(), self.light_samples.to_string()));
             if let Some(pilot) = self.pilot {
-                // Measured, not given: what the weights' counts used ([`Pilot`]).
-                p.push(("emitter-visibility".into(), format!("{:.3}", pilot.visibility)));
+                m.push(("emitter-visibility".into(), format!("{:.3}", pilot.visibility)));
             }
         }
-        match self.lights {
-            VirtualLights::Points(Clamping::None)
-            | VirtualLights::WeighedPoints(Clamping::None)
-            | VirtualLights::Bidirectional(Clamping::None, _) => {}
-            VirtualLights::Points(Clamping::Constant { b })
-            | VirtualLights::WeighedPoints(Clamping::Constant { b })
-            | VirtualLights::Bidirectional(Clamping::Constant { b }, _) => {
-                p.push(("clamp".into(), b.to_string()))
-            }
-            VirtualLights::Points(Clamping::Progressive { b1, alpha })
-            | VirtualLights::WeighedPoints(Clamping::Progressive { b1, alpha })
-            | VirtualLights::Bidirectional(Clamping::Progressive { b1, alpha }, _) => {
-                p.push(("clamp".into(), b1.to_string()));
-                p.push(("alpha".into(), alpha.to_string()));
-            }
-            VirtualLights::Spheres { radius, alpha } => {
-                let r = match radius {
-                    Radius::Global(r) => r.to_string(),
-                    Radius::Density => spheres::density_radius_name(),
-                };
-                p.push(("radius".into(), r));
-                if let Some(a) = alpha {
-                    p.push(("alpha".into(), a.to_string()));
-                }
-            }
-        }
-        p
+        m
     }
 
     /// The pilot, once, for counts chosen by the scene or the bidirectional weights.

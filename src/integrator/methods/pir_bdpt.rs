@@ -1,0 +1,58 @@
+//! `pir-bdpt`: bidirectional. A full path tracer's camera path connects to the VPLs at its
+//! first non-delta vertex (`--connect first-two`, `all`: at more of them), and every
+//! technique (the path tracer's two and each connection) is weighed against the others by
+//! the balance heuristic (the two emitter techniques among themselves by the power
+//! heuristic, as `pt`), the weighted connection bounded progressively: consistent (pir's
+//! own, [`crate::integrator::many_light::bidirectional`]). Its light paths and its light
+//! samples at the first vertex are chosen by the scene (a pilot) unless given.
+
+use super::params::GatherKind;
+use super::{Defaults, MethodSpec, Parameter, Paths, Settings};
+use crate::integrator::many_light::AutoPaths;
+use crate::integrator::{Integrator, VirtualLights};
+
+/// The gather of `pir-bdpt` when not given: resampled, k = 4 of m = 128 candidates, with at
+/// least [`BDPT_PATHS`] light paths (`docs/measurements.md`, "Light paths and candidates of
+/// `pir-bdpt`").
+pub const BDPT_GATHER: (GatherKind, usize, usize) = (GatherKind::Resample, 4, 128);
+/// The fewest light paths per iteration of `pir-bdpt` when `--vpls` is not given: more where
+/// they leave fewer than [`BDPT_VPLS`] VPLs, up to [`BDPT_MAX_PATHS`]. An iteration's cost is
+/// the pixels', so many VPLs cost little, and each receiver's window of candidates holds a
+/// random share of them, which spreads their error over more pixels (`docs/measurements.md`,
+/// "At least 256 light paths for `pir-bdpt`").
+pub const BDPT_PATHS: usize = 256;
+/// The fewest VPLs per iteration `pir-bdpt` aims at when it chooses its light paths: where
+/// [`BDPT_PATHS`] leave fewer (light that comes through an opening), it traces as many more
+/// paths as leave this many.
+pub const BDPT_VPLS: usize = 64;
+/// The most light paths per iteration `pir-bdpt` chooses by itself, for scenes where one
+/// light path in 64 or fewer reaches what the camera sees (an iteration of 4,096 paths that
+/// each leave no VPL costs 4,096 rays, a few hundredths of a 128 × 128 image's camera paths).
+pub const BDPT_MAX_PATHS: usize = 4096;
+/// `pir-bdpt`'s light paths chosen by the scene: at least [`BDPT_PATHS`], as many as leave
+/// [`BDPT_VPLS`] VPLs, at most [`BDPT_MAX_PATHS`].
+pub const BDPT_AUTO_PATHS: AutoPaths =
+    AutoPaths { vpls: BDPT_VPLS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
+
+pub struct PirBdpt;
+
+impl MethodSpec for PirBdpt {
+    fn name(&self) -> &'static str {
+        "pir-bdpt"
+    }
+    fn description(&self) -> &'static str {
+        "bidirectional: a full camera path connecting to the VPLs at its first non-delta vertex \
+         (--connect: more), every technique weighed against the others, the weighted connection \
+         bounded progressively: consistent"
+    }
+    fn parameters(&self) -> &'static [Parameter] {
+        use Parameter::*;
+        &[Vpls, Gather, GatherCandidates, GatherSamples, Connect, LightSamples, Clamp, Alpha]
+    }
+    fn defaults(&self) -> Defaults {
+        Defaults { paths: Paths::ByScene(BDPT_AUTO_PATHS), gather: BDPT_GATHER, ..Defaults::COMMON }
+    }
+    fn integrator(&self, s: &Settings) -> Box<dyn Integrator> {
+        s.instant_radiosity(VirtualLights::Bidirectional(s.progressive_clamping(), s.connect))
+    }
+}
