@@ -105,7 +105,7 @@ fn bench(c: &mut Criterion) {
                     let mut sum = glam::Vec3::ZERO;
                     for (i, (sp, wo)) in receivers.iter().enumerate() {
                         let bsdf = &scene.material(sp.material).bsdf;
-                        let v = Vertex { sp: *sp, wo: *wo, bsdf, depth: 1 };
+                        let v = Vertex { sp, wo: *wo, bsdf, depth: 1 };
                         let mut sampler = Sampler::new(1, 1, Domain::Camera, i as u64);
                         sum += set.gather(&ctx, &v, max_vpl_depth, &Plain, &mut sampler, &mut counters);
                     }

@@ -47,14 +47,14 @@ impl Estimator for PathTracer {
 
 /// The emission a camera path finds at `at`, weighed against light sampling by the power
 /// heuristic (in full from the camera or a delta lobe).
-#[inline]
+#[inline(always)]
 pub fn light_hit(ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
     *radiance += beta * emission(ctx, at.material, at.sp, at.wo, at.how);
 }
 
 /// One light sample at the non-delta vertex `v`, weighed against BSDF sampling by the power
 /// heuristic.
-#[inline]
+#[inline(always)]
 pub fn light_sample(
     ctx: &RenderContext,
     v: &Vertex,
@@ -63,7 +63,7 @@ pub fn light_sample(
     sampler: &mut Sampler,
     counters: &mut Counters,
 ) {
-    *radiance += beta * sample_emitters(ctx, &v.sp, v.bsdf, v.wo, sampler, counters);
+    *radiance += beta * sample_emitters(ctx, v.sp, v.bsdf, v.wo, sampler, counters);
 }
 
 impl Integrator for PathTracer {

@@ -51,7 +51,7 @@ pub(crate) const RR_DEPTH: u32 = 5;
 
 /// A vertex of a camera path, as an estimator sees it.
 pub struct Vertex<'a> {
-    pub sp: SurfacePoint,
+    pub sp: &'a SurfacePoint,
     /// Unit direction back along the camera path.
     pub wo: Vec3,
     pub bsdf: &'a Bsdf,
@@ -176,7 +176,7 @@ pub fn walk<E: Estimator>(
                         estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
                     }
                     if bounce {
-                        let v = Vertex { sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
+                        let v = Vertex { sp: &sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
                         if let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {
                             radiance += beta * l;
                         }
@@ -205,7 +205,7 @@ pub fn walk<E: Estimator>(
         // ---- Light sampling and the method's techniques (one more segment at least, so
         // depth + 1 ≤ max_depth).
         let bsdf = &material.bsdf;
-        let v = Vertex { sp, wo, bsdf, depth };
+        let v = Vertex { sp: &sp, wo, bsdf, depth };
         if !bsdf.is_delta() {
             estimator.at_vertex(&mut state, ctx, &v, beta, &mut radiance, sampler, counters);
         }

@@ -114,13 +114,13 @@ impl Estimator for WeighedGathering<'_> {
         let bounce = how.pdf / (v.sp.p - how.from).length_squared();
         let path = |light| EmitterPath { bounce, paths: self.paths, light };
         let direct =
-            sample_emitters_weighted(ctx, &v.sp, v.bsdf, v.wo, sampler, counters, |s| path(s).light_weight());
+            sample_emitters_weighted(ctx, v.sp, v.bsdf, v.wo, sampler, counters, |s| path(s).light_weight());
         let weighing = Weighing { technique: Technique::Bounce { bounce }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let gathered = self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
         // C: y's BSDF sample, where it hits an emitter.
         let mut beta = Vec3::ONE;
-        let Some(s) = scatter(v.bsdf, &v.sp, v.wo, TransportMode::Radiance, sampler, &mut beta) else {
+        let Some(s) = scatter(v.bsdf, v.sp, v.wo, TransportMode::Radiance, sampler, &mut beta) else {
             return Some(direct + gathered);
         };
         counters.rays += 1;

@@ -73,7 +73,7 @@ impl Lights for PointLights {
         lobe: Option<Lobe>,
     ) -> PointReceiver<'a> {
         let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-        let diffuse = DiffuseReceiver::new(&v.sp, &fx);
+        let diffuse = DiffuseReceiver::new(v.sp, &fx);
         PointReceiver { v, fx, diffuse, lobe, max_depth: max_vpl_depth }
     }
 
