@@ -106,8 +106,11 @@ const LAYOUT_KEY: &str = "pir.job.layout";
 const ESTIMATOR_KEY: &str = "pir.job.estimator";
 const STATE_KEY: &str = "pir.job.state";
 /// The key under which pirs before 0.2.0 stored one number for both the layout and the
-/// estimators; read only to say that such a file must be rendered again.
+/// estimators. Its last value, [`LAST_FORMAT`], is layout 1 at estimator revision 1; older
+/// ones are refused.
 const OLD_FORMAT_KEY: &str = "pir.job.format";
+/// The last single format number (pir 0.1.0): the file of layout 1 at estimator revision 1.
+const LAST_FORMAT: &str = "9";
 
 /// The version of a resumable EXR's layout: its attribute keys, the channels that hold the
 /// sums, and what the JSON of `pir.job.state` holds and how ([`Job`], [`Shard`], the
@@ -276,23 +279,24 @@ pub fn read_state(path: &Path) -> Result<Saved> {
 }
 
 /// Refuses a file this pir cannot continue: one of another [`LAYOUT`] or
-/// [`ESTIMATOR_REVISION`], or of the single format number that pirs before 0.2.0 wrote.
+/// [`ESTIMATOR_REVISION`], or of a single format number older than [`LAST_FORMAT`] (pirs
+/// before 0.2.0 wrote one).
 /// `find` reads the file's attributes.
 fn check_versions<'a>(path: &Path, find: impl Fn(&str) -> Option<&'a str>) -> Result<()> {
     let file = path.display();
     let by = find("pir.version").map_or("pir".to_string(), |v| format!("pir {v}"));
-    let Some(layout) = find(LAYOUT_KEY) else {
-        if let Some(format) = find(OLD_FORMAT_KEY) {
-            bail!(
-                "{file}: written by an older {by} (format {format}), which this pir cannot resume or \
-                 merge (it reads checkpoint layout {LAYOUT} at estimator revision {ESTIMATOR_REVISION}): \
-                 render it again with this pir"
-            );
-        }
-        bail!(
+    let (layout, estimator) = match (find(LAYOUT_KEY), find(OLD_FORMAT_KEY)) {
+        (Some(layout), _) => (layout, find(ESTIMATOR_KEY)),
+        (None, Some(LAST_FORMAT)) => ("1", Some("1")),
+        (None, Some(format)) => bail!(
+            "{file}: written by an older {by} (format {format}), which this pir cannot resume or \
+             merge (it reads checkpoint layout {LAYOUT} at estimator revision {ESTIMATOR_REVISION}): \
+             render it again with this pir"
+        ),
+        (None, None) => bail!(
             "{file}: not a resumable pir render (no {LAYOUT_KEY}); render with --checkpoint, --shard or \
              --resume to write one"
-        );
+        ),
     };
     if layout != LAYOUT.to_string() {
         let age = match layout.parse::<u32>() {
@@ -305,7 +309,7 @@ fn check_versions<'a>(path: &Path, find: impl Fn(&str) -> Option<&'a str>) -> Re
              only: render it again with this pir, or continue it with the pir that wrote it"
         );
     }
-    let estimator = find(ESTIMATOR_KEY)
+    let estimator = estimator
         .with_context(|| format!("{file}: malformed checkpoint: layout {LAYOUT} without {ESTIMATOR_KEY}"))?;
     if estimator != ESTIMATOR_REVISION.to_string() {
         bail!(
@@ -393,18 +397,18 @@ mod tests {
         crate::image::write_exr(&plain, &film.image(), &[]).unwrap();
         let e = read_state(&plain).err().unwrap().to_string();
         assert!(e.contains("not a resumable pir render"), "{e}");
-        // A checkpoint of the single format number of older pirs: refused, saying so.
+        // A checkpoint of a single format number before the last: refused, saying so.
         let old = dir.path().join("old.exr");
         let attrs = [
             ("pir.version".to_string(), "0.1.0".to_string()),
-            (OLD_FORMAT_KEY.to_string(), "9".to_string()),
+            (OLD_FORMAT_KEY.to_string(), "8".to_string()),
             (STATE_KEY.to_string(), serde_json::to_string(&job).unwrap()),
         ];
         write_exr_with_channels(&old, &film.image(), &attrs, Vec::new()).unwrap();
         let e = read_state(&old).err().unwrap().to_string();
         assert!(
             e.contains("old.exr")
-                && e.contains("written by an older pir 0.1.0 (format 9)")
+                && e.contains("written by an older pir 0.1.0 (format 8)")
                 && e.contains("render it again"),
             "{e}"
         );
@@ -415,6 +419,18 @@ mod tests {
             attrs.iter_mut().find(|(k, _)| k == key).unwrap().1 = value.to_string();
             write_exr_with_channels(to, &film.image(), &attrs, stored.channels.clone()).unwrap();
         };
+        // The last format number (pir 0.1.0) is layout 1 at estimator revision 1: read as such.
+        let last = dir.path().join("last.exr");
+        let mut attrs: Vec<_> = stored
+            .attributes
+            .iter()
+            .filter(|(k, _)| k != LAYOUT_KEY && k != ESTIMATOR_KEY)
+            .cloned()
+            .collect();
+        attrs.push((OLD_FORMAT_KEY.to_string(), LAST_FORMAT.to_string()));
+        write_exr_with_channels(&last, &film.image(), &attrs, stored.channels.clone()).unwrap();
+        let read = read_state(&last);
+        assert_eq!(read.is_ok(), LAYOUT == 1 && ESTIMATOR_REVISION == 1, "{:?}", read.err());
         let other = dir.path().join("other.exr");
         write_with(LAYOUT_KEY, LAYOUT + 1, &other);
         let e = read_state(&other).err().unwrap().to_string();
