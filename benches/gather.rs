@@ -67,7 +67,7 @@ fn bench(c: &mut Criterion) {
         .filter_map(|i| {
             let ray = camera.generate_ray(Vec2::new((i % 32) as f32 + 0.5, (i / 32) as f32 + 0.5));
             let hit = ctx.accel.intersect(&ray)?;
-            let sp = scene.surface_of_hit(&hit);
+            let sp = scene.surface_of_hit(&hit, ray.dir);
             (!scene.material(sp.material).bsdf.is_delta()).then_some((sp, -ray.dir))
         })
         .collect();

@@ -134,6 +134,7 @@ mod tests {
             name: "light".into(),
             bsdf: Bsdf::Diffuse { albedo: Vec3::ZERO },
             emission: Vec3::splat(e),
+            two_sided: false,
         };
         let camera =
             Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };

@@ -48,6 +48,7 @@ fn glossy(emission: f32) -> Material {
         name: "glossy".into(),
         bsdf: Bsdf::Glossy { albedo: Vec3::splat(0.2), specular: Vec3::splat(0.6), roughness: 0.15 },
         emission: Vec3::splat(emission),
+        two_sided: false,
     }
 }
 
@@ -116,8 +117,14 @@ fn mixed_cube() -> Scene {
         name: "mirror".into(),
         bsdf: Bsdf::Mirror { specular: Vec3::splat(0.9) },
         emission: Vec3::ZERO,
+        two_sided: false,
     };
-    let glass = Material { name: "glass".into(), bsdf: Bsdf::Glass { ior: 1.5 }, emission: Vec3::ZERO };
+    let glass = Material {
+        name: "glass".into(),
+        bsdf: Bsdf::Glass { ior: 1.5 },
+        emission: Vec3::ZERO,
+        two_sided: false,
+    };
     closed_cube_of(vec![diffuse(0.6, 1.0), glossy(0.5), mirror, glass], |face| match face {
         0 => 2,
         3 => 3,

@@ -5,7 +5,6 @@ use glam::{Vec2, Vec3};
 
 use super::{Counters, RenderContext};
 use crate::geometry::{OffsetPoint, Ray, offset_origin};
-use crate::light::emitted;
 use crate::material::{Bsdf, LocalGeometry, Material, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
@@ -173,7 +172,7 @@ pub fn emission_weighted(
     how: &Sampled,
     weight: impl FnOnce(LightSample) -> f32,
 ) -> Vec3 {
-    let le = emitted(material.emission, sp.ng, wo);
+    let le = sp.emitted(material.emission, wo);
     if le == Vec3::ZERO || how.delta {
         return le;
     }

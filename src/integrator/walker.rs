@@ -169,7 +169,7 @@ pub fn walk<E: Estimator>(
                 // the estimate weighs against it.
                 let bounce = estimator.uses_bounces() && depth + 1 < ctx.max_depth;
                 if material.is_emitter() || bounce {
-                    let sp = ctx.scene.surface_of_hit(&hit);
+                    let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
                     let wo = -ray.dir.normalize();
                     if material.is_emitter() {
                         let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &how };
@@ -186,7 +186,7 @@ pub fn walk<E: Estimator>(
             }
         }
         depth += 1;
-        let sp = ctx.scene.surface_of_hit(&hit);
+        let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         let wo = -ray.dir.normalize();
         let material = ctx.scene.material(sp.material);
 

@@ -45,6 +45,11 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Radiance emitted from the front face (zero for non-emitters).
     pub emission: Vec3,
+    /// Whether the BSDF scatters on both sides of the surface, the back as the front (Mitsuba's
+    /// `twosided`): a hit from behind sees the surface with its normal flipped towards it
+    /// ([`crate::scene::Scene::surface_of_hit`]). Otherwise light arriving from below the
+    /// geometric surface sees it black. Emission stays on the front face either way.
+    pub two_sided: bool,
 }
 
 impl Material {

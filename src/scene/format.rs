@@ -328,7 +328,7 @@ impl Doc<'_> {
             _ => return Err(self.err(&m.kind, key("kind"), "internal: incomplete material")),
         };
         let emission = self.colour(&key("emission"), m.emission.as_ref())?;
-        Ok(Material { name: name.to_string(), bsdf, emission })
+        Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false })
     }
 }
 

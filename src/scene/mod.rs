@@ -69,6 +69,8 @@ struct TriangleShading {
     material: u32,
     /// All three vertices carry a shading normal.
     smooth: bool,
+    /// Its material scatters on both sides ([`Material::two_sided`]).
+    two_sided: bool,
 }
 
 /// The triangles of a scene, as [`Scene::new`] takes them.
@@ -143,6 +145,7 @@ impl Scene {
                     flat: Frame::from_normal((b - a).cross(c - a).normalize()),
                     material,
                     smooth: tri.iter().all(|&i| normals[i as usize] != Vec3::ZERO),
+                    two_sided: materials[material as usize].two_sided,
                 }
             })
             .collect();
@@ -215,9 +218,18 @@ pub struct SurfacePoint {
     pub frame: Frame,
     pub prim: u32,
     pub material: u32,
+    /// Seen from behind a two-sided material: `ng` and `frame` are flipped towards the viewer
+    /// ([`Scene::surface_of_hit`]), and the point emits nothing.
+    pub back: bool,
 }
 
 impl SurfacePoint {
+    /// The radiance `emission` that the point emits towards `w`: on its front face only.
+    #[inline]
+    pub fn emitted(&self, emission: Vec3, w: Vec3) -> Vec3 {
+        if self.back { Vec3::ZERO } else { crate::light::emitted(emission, self.ng, w) }
+    }
+
     /// What a BSDF needs of the point: its normal and shading frame.
     #[inline]
     pub fn geometry(&self) -> LocalGeometry {
@@ -270,13 +282,22 @@ impl Scene {
                 frame = Frame::from_normal(n);
             }
         }
-        SurfacePoint { p, ng, frame, prim, material: t.material }
+        SurfacePoint { p, ng, frame, prim, material: t.material, back: false }
     }
 
-    /// The surface point of a ray's hit; the position is recomputed from the barycentrics.
+    /// The surface point of the hit of a ray of direction `dir`; the position is recomputed
+    /// from the barycentrics. On a two-sided material seen from behind (`dir` along `ng`) the
+    /// normals are flipped towards the ray, so that the BSDF scatters on that side as on the
+    /// front, and the point is marked [`SurfacePoint::back`].
     #[inline]
-    pub fn surface_of_hit(&self, hit: &Hit) -> SurfacePoint {
-        self.surface_at(hit.prim, Vec2::new(hit.u, hit.v))
+    pub fn surface_of_hit(&self, hit: &Hit, dir: Vec3) -> SurfacePoint {
+        let mut sp = self.surface_at(hit.prim, Vec2::new(hit.u, hit.v));
+        if self.shading[hit.prim as usize].two_sided && sp.ng.dot(dir) > 0.0 {
+            sp.ng = -sp.ng;
+            sp.frame = Frame { s: sp.frame.s, t: -sp.frame.t, n: -sp.frame.n };
+            sp.back = true;
+        }
+        sp
     }
 }
 
@@ -293,7 +314,12 @@ mod tests {
             tri_material: vec![0],
             degenerate_dropped: 0,
         };
-        let m = Material { name: "m".into(), bsdf: Bsdf::Diffuse { albedo: Vec3::ONE }, emission: Vec3::ONE };
+        let m = Material {
+            name: "m".into(),
+            bsdf: Bsdf::Diffuse { albedo: Vec3::ONE },
+            emission: Vec3::ONE,
+            two_sided: false,
+        };
         (geometry, vec![m])
     }
 
@@ -302,6 +328,29 @@ mod tests {
             Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };
         Scene::new("t.toml".into(), camera, RenderDefaults::default(), geometry, materials)
             .map_err(|e| e.to_string())
+    }
+
+    /// A hit from behind a two-sided material flips the normals towards the ray (a
+    /// right-handed frame) and marks the point as a back, which emits nothing; a one-sided
+    /// material is left as it is.
+    #[test]
+    fn two_sided_hits_from_behind_face_the_ray() {
+        for two_sided in [false, true] {
+            let (g, mut m) = parts();
+            m[0].two_sided = two_sided;
+            let s = build(g, m).unwrap();
+            let hit = Hit { t: 1.0, prim: 0, u: 0.25, v: 0.25 };
+            let front = s.surface_of_hit(&hit, -Vec3::Z);
+            assert!(!front.back && front.ng == Vec3::Z);
+            assert_eq!(front.emitted(Vec3::ONE, Vec3::Z), Vec3::ONE);
+            let back = s.surface_of_hit(&hit, Vec3::Z);
+            assert_eq!(back.back, two_sided);
+            let ng = if two_sided { -Vec3::Z } else { Vec3::Z };
+            assert_eq!((back.ng, back.frame.n), (ng, ng));
+            let f = back.frame;
+            assert!((f.s.cross(f.t) - f.n).length() < 1e-6, "{f:?}");
+            assert_eq!(back.emitted(Vec3::ONE, -Vec3::Z), Vec3::ZERO);
+        }
     }
 
     #[test]

@@ -36,6 +36,16 @@ pub fn closed_cube(material: Material) -> Scene {
 /// [`closed_cube`] with several materials: face f (0 to 5: −x, +x, −y, +y, −z, +z) gets
 /// material `face_material(f)`.
 pub fn closed_cube_of(materials: Vec<Material>, face_material: impl Fn(usize) -> u32) -> Scene {
+    closed_cube_facing(materials, face_material, |_| false)
+}
+
+/// [`closed_cube_of`] with the faces for which `outward(f)` holds wound the other way: their
+/// geometric normals point out of the cube, so the camera inside sees their backs.
+pub fn closed_cube_facing(
+    materials: Vec<Material>,
+    face_material: impl Fn(usize) -> u32,
+    outward: impl Fn(usize) -> bool,
+) -> Scene {
     let mut tri_material = Vec::new();
     let mut positions = Vec::new();
     let mut indices = Vec::new();
@@ -61,7 +71,7 @@ pub fn closed_cube_of(materials: Vec<Material>, face_material: impl Fn(usize) ->
                 (positions[base as usize], positions[base as usize + 1], positions[base as usize + 2]);
             let face = 2 * axis + usize::from(sign > 0.0);
             tri_material.extend([face_material(face); 2]);
-            if (b - a).cross(c - a).dot(inward) > 0.0 {
+            if ((b - a).cross(c - a).dot(inward) > 0.0) != outward(face) {
                 indices.push([base, base + 1, base + 2]);
                 indices.push([base, base + 2, base + 3]);
             } else {
@@ -94,6 +104,7 @@ pub fn diffuse(albedo: f32, emission: f32) -> Material {
         name: "m".into(),
         bsdf: Bsdf::Diffuse { albedo: Vec3::splat(albedo) },
         emission: Vec3::splat(emission),
+        two_sided: false,
     }
 }
 

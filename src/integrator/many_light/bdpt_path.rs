@@ -13,7 +13,6 @@ use crate::geometry::Ray;
 use crate::integrator::direct::sample_emitters_at;
 use crate::integrator::walker::{Arrival, Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
-use crate::light::emitted;
 use crate::material::{Bsdf, BsdfSample, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 
@@ -64,7 +63,7 @@ impl Estimator for Bidirectional<'_> {
         let sp = at.sp;
         let cos_in = sp.ng.dot(at.wo).abs();
         path.mis.arrive((sp.p - path.from).length_squared(), cos_in);
-        let le = emitted(at.material.emission, sp.ng, at.wo);
+        let le = sp.emitted(at.material.emission, at.wo);
         if le != Vec3::ZERO {
             let pdf_area = ctx.emitters.pdf_area(sp.prim);
             let w = hit_weight(&path.mis, pdf_area, cos_in, self.counts.paths, path.left_samples);

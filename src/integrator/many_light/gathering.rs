@@ -130,7 +130,7 @@ impl Estimator for WeighedGathering<'_> {
             && let material = ctx.scene.material_of(hit.prim)
             && material.is_emitter()
         {
-            let e = ctx.scene.surface_of_hit(&hit);
+            let e = ctx.scene.surface_of_hit(&hit, ray.dir);
             let how = Sampled { from: v.sp.p, pdf: s.pdf, delta: s.delta };
             found = beta * emission_weighted(ctx, material, &e, -s.wi, &how, |l| path(l).bsdf_weight());
         }

@@ -168,7 +168,7 @@ fn trace_path(
     for depth in 1..=max_depth {
         rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
-        let sp = ctx.scene.surface_of_hit(&hit);
+        let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         let w_in = -ray.dir.normalize();
         let bsdf = &ctx.scene.material(sp.material).bsdf;
         let dist2 = (sp.p - from).length_squared();
