@@ -20,7 +20,7 @@ use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 /// Ctrl-C or SIGTERM stops after the running iteration and writes what was rendered.
 #[derive(Args, Debug)]
 pub struct ReferenceArgs {
-    /// The scene file (TOML).
+    /// The scene file: pir's TOML, or a Mitsuba 3 scene (.xml).
     pub scene: PathBuf,
     /// Wall-clock budget in seconds.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -39,7 +39,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         a.out.clone().unwrap_or_else(|| PathBuf::from(format!("{}-reference.exr", scene_stem(&a.scene))));
     check_exr_output(&out)?;
 
-    let scene = pir::scene::load(&a.scene)?;
+    let scene = a.options.load(&a.scene)?;
     let renderer = Renderer::new(&scene, &a.options)?;
     let (width, height) = renderer.resolution();
     eprintln!(

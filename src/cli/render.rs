@@ -25,7 +25,7 @@ use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 #[derive(Args, Debug)]
 #[command(after_long_help = pir::integrator::methods::parameters_help())]
 pub struct RenderArgs {
-    /// The scene file (TOML, see the README's scene format).
+    /// The scene file: pir's TOML (docs/scene-format.md) or a Mitsuba 3 scene (.xml, docs/mitsuba.md).
     pub scene: PathBuf,
     #[command(flatten)]
     pub config: MethodConfig,
@@ -89,7 +89,7 @@ struct Plan {
 pub fn run(a: RenderArgs) -> Result<()> {
     let plan = check_arguments(&a)?;
     let start = Instant::now();
-    let scene = pir::scene::load(&a.scene)?;
+    let scene = a.options.load(&a.scene)?;
     let loaded = start.elapsed();
     let memory = check_memory(&a, &scene)?;
     let renderer = Renderer::new(&scene, &a.options)?;

@@ -30,7 +30,7 @@ use super::setup::{interrupt_flag, scene_stem, seconds};
 #[derive(Args, Debug)]
 #[command(after_long_help = pir::integrator::methods::parameters_help())]
 pub struct StudyArgs {
-    /// The scene file (TOML).
+    /// The scene file: pir's TOML, or a Mitsuba 3 scene (.xml).
     pub scene: PathBuf,
     /// The reference image (EXR), e.g. from `pir reference`; renders take its size.
     #[arg(long, value_name = "REF.exr")]
@@ -219,7 +219,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
         bail!("{}: the reference has NaN or infinite pixels", a.reference.display());
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
-    let scene = pir::scene::load(&a.scene)?;
+    let scene = a.options.load(&a.scene)?;
     // Every line renders at the reference's size.
     let options = SceneOptions {
         resolution: Some(vec![reference.width as u32, reference.height as u32]),

@@ -41,9 +41,36 @@ pub struct SceneOptions {
     /// (independent uniform numbers, as pir drew them before) [default: sobol].
     #[arg(long, value_name = "SAMPLER")]
     pub sampler: Option<SamplerKind>,
+    /// A Mitsuba scene's parameter: NAME=VALUE overrides its `<default name="NAME">` (and
+    /// every `$NAME`), as Mitsuba's `-D`. Repeatable.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
+}
+
+/// `NAME=VALUE` of `-D`.
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((name, value))
+            if !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') =>
+        {
+            Ok((name.to_string(), value.to_string()))
+        }
+        _ => Err(format!("{s:?}: expected NAME=VALUE (NAME of letters, digits and _)")),
+    }
 }
 
 impl SceneOptions {
+    /// Loads the scene file `path` with these options' Mitsuba parameters, printing the
+    /// loader's warnings.
+    pub fn load(&self, path: &std::path::Path) -> Result<Scene> {
+        let options = crate::scene::mitsuba::Options { defines: self.defines.clone() };
+        let (scene, warnings) = crate::scene::load_with(path, &options)?;
+        for w in warnings {
+            eprintln!("pir: warning: {w}");
+        }
+        Ok(scene)
+    }
+
     /// The checks that need no scene.
     pub fn check(&self) -> Result<()> {
         if self.threads == Some(0) {

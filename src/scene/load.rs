@@ -22,8 +22,36 @@ use super::error::read_text;
 use super::{Geometry, Scene, format, mtl, obj};
 use crate::material::Material;
 
-/// Loads the scene file `path` and everything it names.
+/// Loads the scene file `path` and everything it names: a Mitsuba 3 scene (`.xml`, see
+/// [`super::mitsuba`]) or pir's TOML. Warnings (what pir renders differently from the file's
+/// own renderer) go to standard error.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let (scene, warnings) = load_with(path, &super::mitsuba::Options::default())?;
+    for w in warnings {
+        eprintln!("pir: warning: {w}");
+    }
+    Ok(scene)
+}
+
+/// [`load`] with the Mitsuba parameters of `options` (`-D name=value`), returning the
+/// warnings.
+pub fn load_with(path: &Path, options: &super::mitsuba::Options) -> Result<(Scene, Vec<String>), SceneError> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
+        return super::mitsuba::load(path, options);
+    }
+    if !options.defines.is_empty() {
+        return Err(SceneError::Value {
+            path: path.to_path_buf(),
+            line: None,
+            key: "-D".into(),
+            problem: "parameters (-D name=value) are for Mitsuba scene files (.xml)".into(),
+        });
+    }
+    load_toml(path).map(|s| (s, Vec::new()))
+}
+
+/// Loads pir's TOML scene file `path` and everything it names.
+fn load_toml(path: &Path) -> Result<Scene, SceneError> {
     let text = read_text(path)?;
     let doc = format::Doc { path, text: &text };
     let file = doc.parse()?;

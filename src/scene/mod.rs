@@ -1,17 +1,19 @@
 //! The scene: camera, triangles in world space, materials and emitters, read from the TOML
-//! format of `shared/scene-format.md` (see [`load`]).
+//! format of `shared/scene-format.md` or from a Mitsuba 3 scene file ([`mitsuba`]); see
+//! [`load`].
 
 mod camera;
 mod error;
 mod fingerprint;
 mod format;
 mod load;
+pub mod mitsuba;
 mod mtl;
 mod obj;
 mod transform;
 
 pub use camera::{Camera, CameraRays};
-pub use load::{SceneError, load};
+pub use load::{SceneError, load, load_with};
 
 use glam::{Vec2, Vec3};
 use std::path::PathBuf;

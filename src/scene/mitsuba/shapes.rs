@@ -1,0 +1,361 @@
+//! Mitsuba's shapes as world-space triangles.
+//!
+//! - `rectangle`: the square [−1, 1]² of the plane z = 0, normal +z;
+//! - `cube`: the cube [−1, 1]³, normals outwards, flat;
+//! - `disk`: the unit disk of the plane z = 0, normal +z, as a fan of [`DISK_SEGMENTS`]
+//!   triangles inscribed in the circle;
+//! - `sphere` (`center`, `radius`): an icosphere subdivided [`SPHERE_SUBDIVISIONS`] times,
+//!   its vertices on the sphere and its shading normals the sphere's own, normals outwards;
+//! - `obj`, `ply`, `serialized`: meshes read from files.
+//!
+//! Each is moved by its `to_world`; `flip_normals` turns it inside out. Mitsuba's analytic
+//! shapes (rectangle, disk, sphere) take their normal from `to_world` applied to the normal
+//! (its inverse transpose), even where `to_world` mirrors; their triangles are wound to agree.
+//! A mesh without vertex normals gets Mitsuba's (the angle-weighted mean of its faces'
+//! normals, Thürmer and Wüthrich 1998) unless `face_normals` asks for flat shading.
+//!
+//! The tessellated disk and sphere are inscribed: their areas are those of the exact shapes
+//! times 0.99990 (disk) and 0.9996 (sphere), and so is an emitter's power.
+
+use std::f32::consts::PI;
+use std::path::Path;
+
+use glam::{Mat3, Mat4, Vec3};
+
+use super::transform::parse_number;
+use super::xml::Element;
+use crate::scene::SceneError;
+use crate::scene::error::read_text;
+
+/// Triangles of the tessellated disk.
+pub const DISK_SEGMENTS: u32 = 512;
+/// Subdivisions of the icosahedron of a sphere (20 · 4^n triangles).
+pub const SPHERE_SUBDIVISIONS: u32 = 5;
+
+/// A triangle mesh in object space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    /// Empty, or one per position.
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Flat shading asked for.
+    pub face_normals: bool,
+}
+
+/// A shape's mesh in world space, ready for the scene: unit shading normals per vertex
+/// (`Vec3::ZERO` where there are none).
+pub struct WorldMesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Whether the shape's normal comes from its `to_world` (Mitsuba's analytic shapes) rather
+/// than from the winding of its triangles.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Normals {
+    Analytic,
+    Winding,
+}
+
+/// The rectangle [−1, 1]² at z = 0, facing +z.
+pub fn rectangle() -> Mesh {
+    Mesh {
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ],
+        normals: vec![Vec3::Z; 4],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+        face_normals: false,
+    }
+}
+
+/// The cube [−1, 1]³, each face with its own four vertices and flat normal, facing out.
+pub fn cube() -> Mesh {
+    let mut m = Mesh::default();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let n = Vec3::from({
+                let mut a = [0.0; 3];
+                a[axis] = sign;
+                a
+            });
+            // Two tangents whose cross product is n.
+            let u = Vec3::from({
+                let mut a = [0.0; 3];
+                a[(axis + 1) % 3] = 1.0;
+                a
+            });
+            let v = n.cross(u);
+            let base = m.positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                m.positions.push(n + u * a + v * b);
+                m.normals.push(n);
+            }
+            m.triangles.push([base, base + 1, base + 2]);
+            m.triangles.push([base, base + 2, base + 3]);
+        }
+    }
+    m.face_normals = true;
+    m
+}
+
+/// The unit disk at z = 0, facing +z.
+pub fn disk() -> Mesh {
+    let mut m = Mesh { positions: vec![Vec3::ZERO], normals: vec![Vec3::Z], ..Mesh::default() };
+    for i in 0..DISK_SEGMENTS {
+        let phi = 2.0 * PI * i as f32 / DISK_SEGMENTS as f32;
+        m.positions.push(Vec3::new(phi.cos(), phi.sin(), 0.0));
+        m.normals.push(Vec3::Z);
+        m.triangles.push([0, 1 + i, 1 + (i + 1) % DISK_SEGMENTS]);
+    }
+    m
+}
+
+/// The unit sphere about the origin, normals outwards.
+pub fn sphere() -> Mesh {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..SPHERE_SUBDIVISIONS {
+        let mut midpoint = std::collections::HashMap::new();
+        let mut mid = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+            *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push(((positions[a as usize] + positions[b as usize]) * 0.5).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(triangles.len() * 4);
+        for [a, b, c] in triangles {
+            let (ab, bc, ca) =
+                (mid(a, b, &mut positions), mid(b, c, &mut positions), mid(c, a, &mut positions));
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        triangles = next;
+    }
+    let normals = positions.clone();
+    Mesh { positions, normals, triangles, face_normals: false }
+}
+
+/// A Wavefront OBJ file as Mitsuba reads it: `v`, `vt`, `vn` and `f` (polygons as fans, a
+/// vertex per distinct position/texture/normal triple, negative indices from the end);
+/// everything else (materials, groups) is ignored.
+pub fn obj(path: &Path) -> Result<Mesh, SceneError> {
+    let text = read_text(path)?;
+    let err = |line: usize, p: String| SceneError::syntax(path, Some(line), p);
+    let (mut v, mut vt, mut vn) = (Vec::new(), 0usize, Vec::new());
+    let mut map: std::collections::HashMap<(usize, usize, usize), u32> = std::collections::HashMap::new();
+    let mut m = Mesh::default();
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let mut toks = raw.split('#').next().unwrap_or("").split_whitespace();
+        let Some(key) = toks.next() else { continue };
+        match key {
+            "v" | "vn" => {
+                let xyz: Vec<f32> = toks.by_ref().take(3).map_while(parse_number).collect();
+                if xyz.len() != 3 {
+                    return Err(err(line, format!("{key}: expected three finite numbers")));
+                }
+                let p = Vec3::new(xyz[0], xyz[1], xyz[2]);
+                if key == "v" { v.push(p) } else { vn.push(p) }
+            }
+            "vt" => vt += 1,
+            "f" => {
+                let mut corners = Vec::new();
+                for c in toks {
+                    let mut parts = c.split('/');
+                    let idx = |s: Option<&str>, n: usize, what: &str| -> Result<usize, SceneError> {
+                        match s {
+                            None | Some("") => Ok(0),
+                            Some(s) => {
+                                let k: i64 = s.parse().map_err(|_| {
+                                    err(
+                                        line,
+                                        format!("face corner {c:?}: {what} index {s:?} is not a number"),
+                                    )
+                                })?;
+                                let k = if k < 0 { n as i64 + k + 1 } else { k };
+                                if k < 1 || k > n as i64 {
+                                    return Err(err(
+                                        line,
+                                        format!(
+                                            "face corner {c:?}: {what} index {s} is out of range (the file has {n} so far)"
+                                        ),
+                                    ));
+                                }
+                                Ok(k as usize)
+                            }
+                        }
+                    };
+                    let p = idx(parts.next(), v.len(), "vertex")?;
+                    if p == 0 {
+                        return Err(err(line, format!("face corner {c:?}: no vertex index")));
+                    }
+                    let t = idx(parts.next(), vt, "texture")?;
+                    let n = idx(parts.next(), vn.len(), "normal")?;
+                    let next = m.positions.len() as u32;
+                    let id = *map.entry((p, t, n)).or_insert_with(|| {
+                        m.positions.push(v[p - 1]);
+                        m.normals.push(if n > 0 { vn[n - 1] } else { Vec3::ZERO });
+                        next
+                    });
+                    corners.push(id);
+                }
+                if corners.len() < 3 {
+                    return Err(err(line, format!("a face of {} corners", corners.len())));
+                }
+                for k in 1..corners.len() - 1 {
+                    m.triangles.push([corners[0], corners[k], corners[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    if m.triangles.is_empty() {
+        return Err(SceneError::syntax(path, None, "no faces"));
+    }
+    // Mitsuba computes every vertex's normal when the file has none; in a file with some, a
+    // corner without one has none (a zero normal: its faces are flat-shaded here).
+    if vn.is_empty() {
+        m.normals.clear();
+    }
+    Ok(m)
+}
+
+/// `mesh` moved by `to_world`, turned inside out by `flip`, with shading normals.
+pub fn to_world(mesh: Mesh, to_world: Mat4, flip: bool, normals: Normals) -> WorldMesh {
+    let linear = Mat3::from_mat4(to_world);
+    let normal_matrix = linear.inverse().transpose();
+    let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| to_world.transform_point3(p)).collect();
+    let mut triangles = mesh.triangles;
+    let mut world_normals: Vec<Vec3> = if mesh.face_normals {
+        vec![Vec3::ZERO; positions.len()]
+    } else if mesh.normals.is_empty() {
+        vertex_normals(&positions, &triangles)
+    } else {
+        mesh.normals.iter().map(|&n| (normal_matrix * n).normalize_or_zero()).collect()
+    };
+    if flip {
+        for n in &mut world_normals {
+            *n = -*n;
+        }
+    }
+    // Analytic shapes keep the normal that to_world gives them; their winding follows it.
+    let mirrored = linear.determinant() < 0.0;
+    if flip ^ (normals == Normals::Analytic && mirrored) {
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    WorldMesh { positions, normals: world_normals, triangles }
+}
+
+/// Mitsuba's vertex normals: each face's unit normal weighted by its angle at the vertex.
+fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for t in triangles {
+        let v = t.map(|i| positions[i as usize]);
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        if n.length_squared().is_nan() || n.length_squared() <= 0.0 {
+            continue;
+        }
+        let n = n.normalize();
+        for j in 0..3 {
+            let (a, b) =
+                ((v[(j + 1) % 3] - v[j]).normalize_or_zero(), (v[(j + 2) % 3] - v[j]).normalize_or_zero());
+            let angle = a.dot(b).clamp(-1.0, 1.0).acos();
+            normals[t[j] as usize] += n * angle;
+        }
+    }
+    normals.iter().map(|n| n.normalize_or_zero()).collect()
+}
+
+/// The sphere's `center` and `radius` as a transform of the unit sphere.
+pub fn sphere_placement(shape: &Element, center: Vec3, radius: f32) -> Result<Mat4, SceneError> {
+    if !(radius > 0.0 && radius.is_finite()) {
+        return Err(shape.error(format!("radius {radius}: must be a positive number")));
+    }
+    Ok(Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn area(m: &WorldMesh) -> f32 {
+        m.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
+
+    /// The tessellations' areas against the exact shapes' (what an emitter's power follows),
+    /// and their winding: outwards for the sphere and the cube, +z for the rectangle and disk.
+    #[test]
+    fn tessellations_are_close_and_face_outwards() {
+        let sphere = to_world(sphere(), Mat4::IDENTITY, false, Normals::Analytic);
+        let ratio = area(&sphere) / (4.0 * PI);
+        assert!((0.9994..1.0).contains(&ratio), "sphere {ratio}");
+        let disk = to_world(disk(), Mat4::IDENTITY, false, Normals::Analytic);
+        let ratio = area(&disk) / PI;
+        assert!((0.9999..1.0).contains(&ratio), "disk {ratio}");
+        for m in [&sphere, &to_world(cube(), Mat4::IDENTITY, false, Normals::Winding)] {
+            for t in &m.triangles {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0);
+            }
+        }
+        // A mirroring to_world keeps an analytic shape's normal where to_world sends it.
+        let mirror = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        let r = to_world(rectangle(), mirror, false, Normals::Analytic);
+        let [a, b, c] = r.triangles[0].map(|i| r.positions[i as usize]);
+        assert!((b - a).cross(c - a).z > 0.0 && r.normals[0] == Vec3::Z);
+        let r = to_world(rectangle(), Mat4::IDENTITY, true, Normals::Analytic);
+        let [a, b, c] = r.triangles[0].map(|i| r.positions[i as usize]);
+        assert!((b - a).cross(c - a).z < 0.0 && r.normals[0] == -Vec3::Z);
+    }
+}

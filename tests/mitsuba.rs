@@ -1,0 +1,241 @@
+//! Mitsuba 3 scene files: what the loader reads (documents, transforms, shapes, materials,
+//! the camera), what it refuses (one line naming the file, the line and the plugin), and the
+//! shared scenes it loads.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use pir::scene::mitsuba::Options;
+use pir::scene::{Scene, load_with};
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn load(path: &Path, defines: &[(&str, &str)]) -> Result<(Scene, Vec<String>), String> {
+    let defines = defines.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    load_with(path, &Options { defines }).map_err(|e| e.to_string())
+}
+
+/// A small scene: a camera looking down −z from z = 5, a floor rectangle, a sphere light
+/// (twosided diffuse) and whatever `extra` adds.
+fn scene(extra: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <default name="res" value="32"/>
+    <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <string name="fov_axis" value="y"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="24"/></film>
+    </sensor>
+    <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf></bsdf>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="3"/></transform>
+        <ref id="white"/>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="0" y="1" z="2"/>
+        <float name="radius" value="0.5"/>
+        <emitter type="area"><rgb name="radiance" value="4"/></emitter>
+    </shape>
+    {extra}
+</scene>"#
+    )
+}
+
+#[test]
+fn a_small_scene_loads_with_its_camera_shapes_and_materials() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "s.xml", &scene(""));
+    let (s, warnings) = load(&p, &[]).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let c = s.camera();
+    assert_eq!((c.width, c.height), (32, 24));
+    assert!((c.fov_deg - 40.0).abs() < 1e-4 && c.eye == Vec3::new(0.0, 0.0, 5.0), "{c:?}");
+    assert!((c.target - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-6 && c.up == Vec3::Y, "{c:?}");
+    assert_eq!(s.defaults().max_depth, 6);
+    // 2 triangles of the rectangle, 20 · 4^5 of the sphere.
+    assert_eq!(s.triangle_count(), 2 + 20 * 1024);
+    // The floor: 6 × 6 at z = 0; the sphere within 0.5 of (0, 1, 2).
+    let b = s.bounds();
+    assert!((b.min - Vec3::new(-3.0, -3.0, 0.0)).length() < 1e-5, "{b:?}");
+    assert!((b.max - Vec3::new(3.0, 3.0, 2.5)).length() < 1e-5, "{b:?}");
+    // -D overrides a default.
+    let (s, _) = load(&p, &[("res", "48")]).unwrap();
+    assert_eq!(s.camera().width, 48);
+}
+
+/// Transforms compose in document order, each after the ones before it: scale, then rotate,
+/// then translate.
+#[test]
+fn transforms_compose_in_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = r#"<shape type="rectangle">
+        <transform name="to_world">
+            <scale x="2" y="1" z="1"/>
+            <rotate x="1" angle="90"/>
+            <translate value="10 0 0"/>
+        </transform>
+    </shape>"#;
+    let (s, _) = load(&write(dir.path(), "t.xml", &scene(extra)), &[]).unwrap();
+    // The rectangle: x in [8, 12], y = 0, z in [−1, 1] (rotated by 90° about x: y → z).
+    let b = s.bounds();
+    assert!((b.max.x - 12.0).abs() < 1e-4 && (b.min.z + 1.0).abs() < 1e-4, "{b:?}");
+}
+
+/// Mitsuba 0.6 files upgrade (camelCase names, `lookAt`), includes splice their scene, and a
+/// parameter is substituted wherever `$name` appears.
+#[test]
+fn old_files_upgrade_and_includes_splice() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "light.xml",
+        r#"<scene version="0.6.0">
+        <shape type="disk">
+            <transform name="toWorld"><translate z="$lz"/></transform>
+            <boolean name="flipNormals" value="true"/>
+            <emitter type="area"><spectrum name="radiance" value="2"/></emitter>
+        </shape></scene>"#,
+    );
+    let p = write(
+        dir.path(),
+        "main.xml",
+        r#"<scene version="0.6.0">
+        <default name="lz" value="3"/>
+        <sensor type="perspective">
+            <float name="fov" value="30"/>
+            <transform name="toWorld"><lookAt origin="0, 0, -5" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+        </sensor>
+        <include filename="light.xml"/>
+        <shape type="cube"/>
+    </scene>"#,
+    );
+    let (s, _) = load(&p, &[]).unwrap();
+    assert_eq!(s.triangle_count(), 12 + 512);
+    assert!((s.bounds().max.z - 3.0).abs() < 1e-6);
+    // The default (no integrator): unbounded, pir's largest max_depth.
+    assert_eq!(s.defaults().max_depth, 1024);
+}
+
+/// Errors name the file, the line and the plugin, and say what pir supports.
+#[test]
+fn what_pir_cannot_render_is_refused_with_file_line_and_plugin() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "malformed.xml",
+            "<scene version=\"3.0.0\">\n<shape type=\"cube\">\n</scene>".into(),
+            vec!["malformed.xml", "line", "malformed XML"],
+        ),
+        (
+            "plastic.xml",
+            scene(r#"<shape type="cube"><bsdf type="plastic"/></shape>"#),
+            vec!["plastic.xml", "line 20", "<bsdf type=\"plastic\">", "not supported", "diffuse"],
+        ),
+        (
+            "param.xml",
+            scene(r#"<shape type="cube"><float name="wobble" value="1"/></shape>"#),
+            vec!["param.xml", "line 20", "parameter \"wobble\"", "<shape type=\"cube\">"],
+        ),
+        (
+            "volume.xml",
+            scene(r#"<medium type="homogeneous"/>"#),
+            vec!["volume.xml", "line 20", "<medium type=\"homogeneous\">", "not supported"],
+        ),
+        (
+            "undefined.xml",
+            scene(r#"<shape type="cube"><float name="x" value="$nope"/></shape>"#),
+            vec!["undefined.xml", "line 20", "$nope"],
+        ),
+        (
+            "bright.xml",
+            scene(
+                r#"<shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="1.08, 0.5, 0.5"/></bsdf></shape>"#,
+            ),
+            vec!["bright.xml", "line 20", "reflectance", "between 0 and 1"],
+        ),
+        (
+            "missing.xml",
+            scene(r#"<shape type="obj"><string name="filename" value="nope.obj"/></shape>"#),
+            vec!["missing.xml", "line 20", "nope.obj", "cannot read"],
+        ),
+        (
+            "ref.xml",
+            scene(r#"<shape type="cube"><ref id="nothing"/></shape>"#),
+            vec!["ref.xml", "line 20", "no element has id \"nothing\""],
+        ),
+        (
+            "mirror.xml",
+            scene("").replace(
+                r#"<lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/>"#,
+                r#"<lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/><scale x="-1"/>"#,
+            ),
+            vec!["mirror.xml", "line 4", "mirrors the image"],
+        ),
+        (
+            "envmap.xml",
+            scene(r#"<emitter type="constant"/>"#),
+            vec!["envmap.xml", "line 20", "emitter type \"constant\"", "not supported yet"],
+        ),
+        (
+            "self.xml",
+            "<scene version=\"3.0.0\"><include filename=\"self.xml\"/></scene>".into(),
+            vec!["self.xml", "nested deeper"],
+        ),
+    ];
+    for (name, text, want) in cases {
+        let e = load(&write(dir.path(), name, &text), &[]).unwrap_err();
+        for w in want {
+            assert!(e.contains(w), "{name}: {e:?} lacks {w:?}");
+        }
+        assert!(!e.contains('\n'), "{name}: not one line: {e}");
+    }
+}
+
+/// An OBJ without normals gets Mitsuba's smooth vertex normals, unless `face_normals`.
+#[test]
+fn obj_meshes_get_mitsubas_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    // A tent: two triangles meeting at a ridge along y.
+    write(dir.path(), "tent.obj", "v -1 0 0\nv 0 0 1\nv 0 1 1\nv 1 0 0\nf 1 2 3\nf 2 4 3\n");
+    for (face_normals, smooth) in [("false", true), ("true", false)] {
+        let extra = format!(
+            r#"<shape type="obj"><string name="filename" value="tent.obj"/><boolean name="face_normals" value="{face_normals}"/></shape>"#
+        );
+        let (s, _) = load(&write(dir.path(), "o.xml", &scene(&extra)), &[]).unwrap();
+        // The tent's last triangle is the scene's last; at its ridge vertex the normal of a
+        // smooth mesh is the mean of the two faces', +z.
+        let last = s.triangle_count() as u32 - 1;
+        let sp = s.surface_at(last, glam::Vec2::new(0.0, 0.0));
+        let n = sp.frame.n;
+        assert_eq!((n - Vec3::Z).length() < 1e-5, smooth, "face_normals {face_normals}: {n}");
+    }
+}
+
+/// The shared scenes: the Cornell box loads whole; the others name the first thing they need
+/// that pir does not read yet.
+#[test]
+fn shared_scenes_load_or_name_what_they_need() {
+    let Some(shared) = common::shared_dir("shared_scenes_load_or_name_what_they_need") else { return };
+    let dir = shared.join("scenes/mitsuba");
+    let (s, warnings) = load(&dir.join("cornell-box/scene.xml"), &[]).unwrap();
+    assert_eq!(s.triangle_count(), 36);
+    assert_eq!((s.camera().width, s.camera().height), (1920, 1080));
+    assert_eq!(s.defaults().max_depth, 65);
+    assert!(warnings.is_empty(), "{warnings:?}");
+    // Horizontal fov 45° at 16:9.
+    let v = 2.0 * ((22.5f32).to_radians().tan() * 1080.0 / 1920.0).atan().to_degrees();
+    assert!((s.camera().fov_deg - v).abs() < 1e-4);
+    for scene in ["veach-mis/scene.xml", "living-room/scene.xml", "matpreview/matpreview.xml"] {
+        let e = load(&dir.join(scene), &[]).unwrap_err();
+        assert!(e.contains("line") && e.contains("not supported"), "{scene}: {e}");
+    }
+}
