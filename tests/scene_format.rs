@@ -816,3 +816,31 @@ fn the_conference_room_loads_with_its_ceiling_lights() {
         assert!(a.y == 645.0);
     }
 }
+
+/// A reflectance above 1 creates energy: refused in the scene file and in an MTL file alike,
+/// naming the file, the line and the value (as the Mitsuba format refuses it).
+#[test]
+fn reflectances_above_one_are_refused_in_both_formats() {
+    let m = |body: &str| format!("{LIGHT}[materials.x]\n{body}");
+    err(
+        &m("kind = \"diffuse\"\nalbedo = [1.08, 0.5, 0.5]\n"),
+        &[],
+        "s.toml",
+        &["[materials.x] albedo = [1.08, 0.5, 0.5]", "must not exceed 1"],
+    );
+    err(
+        &m("kind = \"glossy\"\nspecular = [0.5, 1.2, 0.5]\nroughness = 0.2\n"),
+        &[],
+        "s.toml",
+        &["[materials.x] specular", "must not exceed 1"],
+    );
+    err(
+        "[[mesh]]\nobj = \"m.obj\"\n",
+        &[
+            ("m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n"),
+            ("m.mtl", "# a bright white\nnewmtl a\nKd 1.08 1.08 1.08\n"),
+        ],
+        "m.mtl",
+        &["line 2", "Kd 1.08", "must not exceed 1"],
+    );
+}

@@ -52,6 +52,21 @@ pub struct Material {
     pub two_sided: bool,
 }
 
+impl Bsdf {
+    /// The first reflectance above 1 in some channel, named as the scene formats name it
+    /// (`albedo`, `specular`): such a material reflects more light than it receives, which
+    /// every scene format refuses (as Mitsuba does).
+    pub fn creates_energy(&self) -> Option<(&'static str, Vec3)> {
+        let fields: &[(&'static str, Vec3)] = match self {
+            Bsdf::Diffuse { albedo } => &[("albedo", *albedo)],
+            Bsdf::Glossy { albedo, specular, .. } => &[("albedo", *albedo), ("specular", *specular)],
+            Bsdf::Mirror { specular } => &[("specular", *specular)],
+            Bsdf::Glass { .. } => &[],
+        };
+        fields.iter().copied().find(|(_, v)| v.max_element() > 1.0)
+    }
+}
+
 impl Material {
     pub fn is_emitter(&self) -> bool {
         self.emission.max_element() > 0.0

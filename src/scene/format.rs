@@ -327,6 +327,17 @@ impl Doc<'_> {
             // Unreachable: required keys were checked above.
             _ => return Err(self.err(&m.kind, key("kind"), "internal: incomplete material")),
         };
+        if let Some((field, v)) = bsdf.creates_energy() {
+            let at = if field == "albedo" { m.albedo.as_ref() } else { m.specular.as_ref() };
+            let line = at.map(|a| self.line(a));
+            return Err(SceneError::Value {
+                path: self.path.to_path_buf(),
+                line,
+                key: key(&format!("{field} = [{}, {}, {}]", v.x, v.y, v.z)),
+                problem: "a reflectance must not exceed 1 (the material would create energy; Mitsuba refuses it too)"
+                    .into(),
+            });
+        }
         let emission = self.colour(&key("emission"), m.emission.as_ref())?;
         Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false })
     }

@@ -143,6 +143,18 @@ pub fn to_material(path: &Path, name: &str, m: &MtlEntry) -> Result<Material, Sc
         }
         _ => Bsdf::Diffuse { albedo: kd },
     };
+    if let Some((field, v)) = bsdf.creates_energy() {
+        let mtl = if field == "albedo" { "Kd" } else { "Ks" };
+        return Err(SceneError::syntax(
+            path,
+            Some(m.line),
+            format!(
+                "material {name:?}: {mtl} {} {} {}: a reflectance must not exceed 1 (the material would create \
+                 energy; Mitsuba refuses it too)",
+                v.x, v.y, v.z
+            ),
+        ));
+    }
     let emission = if ke.max_element() > 0.0 { ke } else { Vec3::ZERO };
     Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false })
 }
