@@ -239,3 +239,52 @@ fn shared_scenes_load_or_name_what_they_need() {
         assert!(e.contains("line") && e.contains("not supported"), "{scene}: {e}");
     }
 }
+
+/// Every consistent method renders the shared Cornell box (Bitterli's, in Mitsuba's format)
+/// with image means within 1 % of Mitsuba 3's per channel: `tests/data/mitsuba-cornell-box-64x36.exr`,
+/// Mitsuba 3.9.1 `llvm_ad_rgb` at 320×180 and 16,384 spp, box-averaged to 64×36 (see
+/// `tests/data/README.md`). The progressive methods get more iterations: their bias fades.
+#[test]
+fn consistent_methods_match_mitsubas_cornell_box() {
+    let Some(shared) = common::shared_dir("consistent_methods_match_mitsubas_cornell_box") else { return };
+    let scene = shared.join("scenes/mitsuba/cornell-box/scene.xml");
+    let reference =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba-cornell-box-64x36.exr");
+    let (r, _) = pir::image::read_exr(&reference).unwrap();
+    let mean = |img: &pir::image::RgbImage| {
+        let s = img.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3());
+        s / img.pixels.len() as f64
+    };
+    let want = mean(&r);
+    let dir = tempfile::tempdir().unwrap();
+    for (method, spp) in
+        [("pt", "256"), ("pir-bdpt", "256"), ("pir-mis", "256"), ("pir-clamp", "1024"), ("pir-vsl", "1024")]
+    {
+        let out = dir.path().join(format!("{method}.exr"));
+        let s = scene.to_str().unwrap();
+        let o = common::binary::pir(
+            &[
+                "render",
+                s,
+                "-D",
+                "resx=64",
+                "-D",
+                "resy=36",
+                "--spp",
+                spp,
+                "--method",
+                method,
+                "-q",
+                "--no-preview",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{method}: {}", common::binary::stderr(&o));
+        let (img, _) = pir::image::read_exr(&out).unwrap();
+        let got = mean(&img);
+        let rel = (got - want) / want;
+        assert!(rel.abs().max_element() < 0.01, "{method}: means {got} against Mitsuba's {want} ({rel})");
+    }
+}
