@@ -288,3 +288,144 @@ fn consistent_methods_match_mitsubas_cornell_box() {
         assert!(rel.abs().max_element() < 0.01, "{method}: means {got} against Mitsuba's {want} ({rel})");
     }
 }
+
+/// A deterministic xorshift generator for the mutation tests.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+/// `text` mutated once: bytes flipped, a cut, a span deleted or repeated, or a value replaced
+/// by something hostile.
+fn mutate(text: &[u8], rng: &mut Rng) -> Vec<u8> {
+    let mut t = text.to_vec();
+    let n = t.len();
+    if n == 0 {
+        return t;
+    }
+    match rng.below(6) {
+        0 => {
+            for _ in 0..1 + rng.below(8) {
+                let i = rng.below(n);
+                t[i] = rng.next() as u8;
+            }
+        }
+        1 => t.truncate(rng.below(n)),
+        2 => {
+            let (a, len) = (rng.below(n), rng.below(200));
+            t.drain(a..(a + len).min(n));
+        }
+        3 => {
+            let (a, len) = (rng.below(n), rng.below(400));
+            let span = t[a..(a + len).min(n)].to_vec();
+            let at = rng.below(t.len());
+            t.splice(at..at, span);
+        }
+        4 => {
+            // A number replaced by something hostile.
+            let hostile =
+                ["1e39", "-1", "nan", "inf", "0", "4294967296", "-2147483649", "1e-45", "", "$x", "1,2"];
+            let s = String::from_utf8_lossy(&t).into_owned();
+            let starts: Vec<usize> = s.match_indices("value=\"").map(|(i, _)| i + 7).collect();
+            if let Some(&at) = starts.get(rng.below(starts.len())) {
+                let end = s[at..].find('"').map_or(s.len(), |e| at + e);
+                let mut out = s[..at].to_string();
+                out.push_str(hostile[rng.below(hostile.len())]);
+                out.push_str(&s[end..]);
+                t = out.into_bytes();
+            }
+        }
+        _ => {
+            // An element name replaced by another plugin or property tag.
+            let tags = [
+                "shape",
+                "bsdf",
+                "emitter",
+                "ref",
+                "include",
+                "default",
+                "transform",
+                "matrix",
+                "float",
+                "rgb",
+            ];
+            let s = String::from_utf8_lossy(&t).into_owned();
+            let starts: Vec<usize> = s.match_indices('<').map(|(i, _)| i + 1).collect();
+            if let Some(&at) = starts.get(rng.below(starts.len())) {
+                let end = s[at..].find(|c: char| c.is_whitespace() || c == '>').map_or(s.len(), |e| at + e);
+                t = format!("{}{}{}", &s[..at], tags[rng.below(tags.len())], &s[end..]).into_bytes();
+            }
+        }
+    }
+    t
+}
+
+/// Runs `cases` mutations of each seed scene through the loader: each must load or fail with
+/// an error, never panic, within a second.
+fn survive_mutations(cases: usize) {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "tent.obj",
+        "v -1 0 0\nv 0 0 1\nv 0 1 1\nv 1 0 0\nvn 0 0 1\nf 1//1 2//1 3//1\nf 2 4 3\n",
+    );
+    let mut seeds =
+        vec![scene(r#"<shape type="obj"><string name="filename" value="tent.obj"/></shape>"#).into_bytes()];
+    let cornell =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/mitsuba/cornell-box/scene.xml");
+    if let Ok(text) = std::fs::read(&cornell) {
+        seeds.push(text);
+    }
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let path = dir.path().join("m.xml");
+    let (mut loaded, mut refused) = (0, 0);
+    for case in 0..cases {
+        let seed = &seeds[case % seeds.len()];
+        let mut text = mutate(seed, &mut rng);
+        if rng.below(4) == 0 {
+            text = mutate(&text, &mut rng);
+        }
+        std::fs::write(&path, &text).unwrap();
+        let start = std::time::Instant::now();
+        let result = std::panic::catch_unwind(|| load(&path, &[]).map(|_| ()));
+        let took = start.elapsed();
+        match result {
+            Ok(Ok(())) => loaded += 1,
+            Ok(Err(e)) => {
+                assert!(
+                    e.contains("m.xml") || e.contains("tent.obj"),
+                    "case {case}: an error that names no file: {e}"
+                );
+                refused += 1;
+            }
+            Err(_) => panic!("case {case} panicked; its text:\n{}", String::from_utf8_lossy(&text)),
+        }
+        assert!(took.as_secs_f64() < 1.0, "case {case} took {took:?}");
+    }
+    eprintln!("{cases} mutations: {loaded} loaded, {refused} refused");
+    assert!(loaded > 0 && refused > cases / 2, "{loaded} loaded, {refused} refused");
+}
+
+/// A few thousand mutated scene files (random bytes, cuts, repeats, hostile values and tags):
+/// a clear error or a scene every time, never a panic or a hang.
+#[test]
+fn the_loader_survives_mutated_scene_files() {
+    survive_mutations(3000);
+}
+
+/// The same with 100,000 mutations, on demand:
+/// `cargo test --release --test mitsuba -- --ignored mutations_100k`.
+#[test]
+#[ignore]
+fn the_loader_survives_100k_mutations() {
+    survive_mutations(100_000);
+}
