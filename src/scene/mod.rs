@@ -6,8 +6,10 @@ mod error;
 mod fingerprint;
 mod format;
 mod load;
+pub mod mesh_data;
 mod mtl;
 mod obj;
+pub mod ply;
 mod transform;
 
 pub use camera::{Camera, CameraRays};
