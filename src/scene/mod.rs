@@ -10,6 +10,7 @@ pub mod mesh_data;
 mod mtl;
 mod obj;
 pub mod ply;
+pub mod serialized;
 mod transform;
 
 pub use camera::{Camera, CameraRays};
