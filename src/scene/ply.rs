@@ -43,10 +43,12 @@
 //! No count is trusted: before an element is read, its record count times the smallest size
 //! a record can have (binary: the scalar sizes plus each list's count; ASCII: one byte per
 //! value) must fit in the bytes left, so a header claiming 10^12 vertices in a small file is
-//! refused before anything is allocated. Output vectors are therefore at most a small multiple
-//! of the file size, and a list's items are read one at a time into a reused buffer, so a
-//! claimed count of 2^60 items ends at the end of the data. Every loop consumes input, except
-//! for elements whose records have no properties, which are not looped over.
+//! refused before anything is allocated. The vertex arrays reserved up front are then at most
+//! 4 × the bytes left per array (12 bytes per vertex of at least 3 bytes), the triangles at
+//! most 3 × (12 bytes per face of at least 4); fans grow the triangles by one per index read.
+//! A list's items are read one at a time into a reused buffer, so a claimed count of 2^60
+//! items ends at the end of the data. Every loop consumes input, except for elements whose
+//! records have no properties, which are not looped over.
 
 use std::path::Path;
 
@@ -370,6 +372,8 @@ trait Source {
     fn skip_fixed(&mut self, element: &Element, records: u64, size: usize) -> Result<(), String>;
     /// Bytes not yet read.
     fn remaining(&self) -> usize;
+    /// Whether values are text (ASCII) rather than packed bytes.
+    fn is_text(&self) -> bool;
     /// An error if anything but whitespace (ASCII) or nothing (binary) is left.
     fn finish(&mut self) -> Result<(), String>;
 }
@@ -437,6 +441,10 @@ impl Source for Binary<'_> {
 
     fn remaining(&self) -> usize {
         self.bytes.len().saturating_sub(self.pos)
+    }
+
+    fn is_text(&self) -> bool {
+        false
     }
 
     fn finish(&mut self) -> Result<(), String> {
@@ -511,6 +519,10 @@ impl Source for Ascii<'_> {
 
     fn remaining(&self) -> usize {
         self.text.len().saturating_sub(self.pos)
+    }
+
+    fn is_text(&self) -> bool {
+        true
     }
 
     fn finish(&mut self) -> Result<(), String> {
@@ -667,19 +679,23 @@ fn read_faces(
         (Some(i), None) | (None, Some(i)) => i,
         (None, None) => return Err("element `face` has no `vertex_indices` list".into()),
     };
-    if let Kind::List { item, .. } = element.props[list].kind {
-        if !item.is_int() {
-            return Err(format!(
-                "element `face`: `{}` has non-integer items (`{}`)",
-                element.props[list].name,
-                item.name()
-            ));
-        }
-    } else {
+    let Kind::List { count: count_ty, item } = element.props[list].kind else {
         return Err(format!("element `face`: `{}` is not a list", element.props[list].name));
+    };
+    if !item.is_int() {
+        return Err(format!(
+            "element `face`: `{}` has non-integer items (`{}`)",
+            element.props[list].name,
+            item.name()
+        ));
     }
-    // At most `remaining` records, as checked by the caller; each gives at least a triangle.
-    mesh.triangles.reserve(element.count as usize);
+    // A face that reads takes at least a count and three indices (ASCII: one byte each), so
+    // the triangles' first allocation is at most three times the bytes left.
+    let smallest_face = match r.is_text() {
+        true => 4,
+        false => count_ty.size() + 3 * item.size(),
+    };
+    mesh.triangles.reserve((element.count as usize).min(r.remaining() / smallest_face));
     let mut corners: Vec<u32> = Vec::new();
     for f in 0..element.count {
         for (i, p) in element.props.iter().enumerate() {
