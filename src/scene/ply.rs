@@ -938,6 +938,8 @@ mod tests {
             ),
             ("".into(), "empty file"),
         ];
+        let missing = read_ply(Path::new("/nonexistent/t.ply")).unwrap_err();
+        assert!(matches!(missing, SceneError::Io { .. }), "{missing}");
         for (text, want) in cases {
             let e = err(text.as_bytes());
             assert!(e.starts_with("t.ply: ") && e.contains(want), "{e:?} lacks {want:?}");

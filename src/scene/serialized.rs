@@ -477,6 +477,8 @@ mod tests {
             let e = read(&bytes, 0).unwrap_err();
             assert!(e.starts_with("t.serialized: ") && e.contains(want), "{e:?} lacks {want:?}");
         }
+        let missing = read_serialized(Path::new("/nonexistent/t.serialized"), 0).unwrap_err();
+        assert!(matches!(missing, SceneError::Io { .. }), "{missing}");
         // A bad offset, and a corrupt stream.
         let mut bytes = one(&base);
         let n = bytes.len();
