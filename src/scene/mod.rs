@@ -7,9 +7,12 @@ mod error;
 mod fingerprint;
 mod format;
 mod load;
+pub mod mesh_data;
 pub mod mitsuba;
 mod mtl;
 mod obj;
+pub mod ply;
+pub mod serialized;
 mod transform;
 
 pub use camera::{Camera, CameraRays};
