@@ -429,3 +429,30 @@ fn the_loader_survives_mutated_scene_files() {
 fn the_loader_survives_100k_mutations() {
     survive_mutations(100_000);
 }
+
+/// PLY and `.serialized` meshes load through the scene file (`shape_index` picks a shape of a
+/// `.serialized` file).
+#[test]
+fn ply_and_serialized_meshes_load() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "quad.ply",
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 9\n1 0 9\n1 1 9\n0 1 9\n4 0 1 2 3\n",
+    );
+    let extra = r#"<shape type="ply"><string name="filename" value="quad.ply"/></shape>"#;
+    let (s, _) = load(&write(dir.path(), "p.xml", &scene(extra)), &[]).unwrap();
+    assert_eq!(s.triangle_count(), 2 + 20 * 1024 + 2);
+    assert_eq!(s.bounds().max.z, 9.0);
+    let Some(shared) = common::shared_dir("ply_and_serialized_meshes_load") else { return };
+    let file = shared.join("scenes/mitsuba/matpreview/matpreview.serialized");
+    for (index, triangles) in [(0, 512), (2, 57_152)] {
+        let extra = format!(
+            r#"<shape type="serialized"><string name="filename" value="{}"/><integer name="shape_index" value="{index}"/></shape>"#,
+            file.display()
+        );
+        let (s, _) = load(&write(dir.path(), "s.xml", &scene(&extra)), &[]).unwrap();
+        assert_eq!(s.triangle_count() - 2 - 20 * 1024, triangles, "shape {index}");
+    }
+}

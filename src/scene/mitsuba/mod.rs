@@ -5,7 +5,8 @@
 //! Supported so far:
 //! - the document ([`xml`]): `<default>`, `-D name=value`, `$name`, `<include>`, ids and
 //!   `<ref>`, Mitsuba 0.6 files (upgraded as Mitsuba 3 does), `<transform>`s ([`transform`]);
-//! - shapes ([`shapes`]): `obj`, `rectangle`, `cube`, `disk`, `sphere`, with `to_world`,
+//! - shapes ([`shapes`]): `obj`, `ply`, `serialized` ([`super::ply`], [`super::serialized`]),
+//!   `rectangle`, `cube`, `disk`, `sphere`, with `to_world`,
 //!   `flip_normals`, `face_normals` and Mitsuba's vertex normals for meshes without them;
 //! - BSDFs: `diffuse` (its `reflectance` a colour) and `twosided` around it
 //!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
@@ -435,9 +436,24 @@ impl<'a> Builder<'a> {
                 (shapes::sphere(), Normals::Analytic, shapes::sphere_placement(e, center, radius)?)
             }
             "obj" => (shapes::obj(&file(&p)?).map_err(file_err)?, Normals::Winding, Mat4::IDENTITY),
+            "ply" => {
+                let path = file(&p)?;
+                let data = super::ply::read_ply(&path).map_err(file_err)?;
+                (shapes::from_data(data, &path)?, Normals::Winding, Mat4::IDENTITY)
+            }
+            "serialized" => {
+                let path = file(&p)?;
+                let index = match p.integer("shape_index")? {
+                    None => 0,
+                    Some(i) if (0..=u32::MAX as i64).contains(&i) => i as u32,
+                    Some(i) => return Err(e.error(format!("shape_index {i}: must not be negative"))),
+                };
+                let data = super::serialized::read_serialized(&path, index).map_err(file_err)?;
+                (shapes::from_data(data, &path)?, Normals::Winding, Mat4::IDENTITY)
+            }
             other => {
                 return Err(e.error(format!(
-                    "shape type \"{other}\" is not supported: pir reads obj, rectangle, cube, disk and sphere"
+                    "shape type \"{other}\" is not supported: pir reads obj, ply, serialized, rectangle, cube, disk and sphere"
                 )));
             }
         };

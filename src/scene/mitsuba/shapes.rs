@@ -6,7 +6,7 @@
 //!   triangles inscribed in the circle;
 //! - `sphere` (`center`, `radius`): an icosphere subdivided [`SPHERE_SUBDIVISIONS`] times,
 //!   its vertices on the sphere and its shading normals the sphere's own, normals outwards;
-//! - `obj`, `ply`, `serialized`: meshes read from files.
+//! - `obj` ([`obj`]), `ply` and `serialized` ([`from_data`]): meshes read from files.
 //!
 //! Each is moved by its `to_world`; `flip_normals` turns it inside out. Mitsuba's analytic
 //! shapes (rectangle, disk, sphere) take their normal from `to_world` applied to the normal
@@ -261,6 +261,20 @@ pub fn obj(path: &Path) -> Result<Mesh, SceneError> {
         m.normals.clear();
     }
     Ok(m)
+}
+
+/// A mesh read from a PLY or `.serialized` file: its faces and normals as the file stores
+/// them (texture coordinates are not used yet).
+pub fn from_data(data: crate::scene::mesh_data::MeshData, path: &Path) -> Result<Mesh, SceneError> {
+    if data.triangles.is_empty() {
+        return Err(SceneError::syntax(path, None, "no faces"));
+    }
+    Ok(Mesh {
+        positions: data.positions,
+        normals: data.normals,
+        triangles: data.triangles,
+        face_normals: data.face_normals,
+    })
 }
 
 /// `mesh` moved by `to_world`, turned inside out by `flip`, with shading normals.
