@@ -85,7 +85,7 @@ impl Emitters {
     /// that the rest keeps full precision. Why: a stratified `u` then stays stratified over
     /// every triangle of a light, where a separate number for the choice made each
     /// triangle's points a random subset of the stratified set.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
         let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
         let prim = self.prims[i];

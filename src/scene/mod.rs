@@ -294,7 +294,7 @@ impl Scene {
     /// from the barycentrics. On a two-sided material seen from behind (`dir` along `ng`) the
     /// normals are flipped towards the ray, so that the BSDF scatters on that side as on the
     /// front, and the point is marked [`SurfacePoint::back`].
-    #[inline]
+    #[inline(always)]
     pub fn surface_of_hit(&self, hit: &Hit, dir: Vec3) -> SurfacePoint {
         let mut sp = self.surface_at(hit.prim, Vec2::new(hit.u, hit.v));
         if self.shading[hit.prim as usize].two_sided && sp.ng.dot(dir) > 0.0 {
