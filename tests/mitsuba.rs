@@ -456,3 +456,57 @@ fn ply_and_serialized_meshes_load() {
         assert_eq!(s.triangle_count() - 2 - 20 * 1024, triangles, "shape {index}");
     }
 }
+
+/// `pir convert` writes a scene as a Mitsuba scene file that pir reads back into the same
+/// scene: the Cornell box's triangles and materials, and its image within float rounding.
+#[test]
+fn converted_scenes_read_back_as_the_same_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml");
+    let xml = dir.path().join("cb.xml");
+    let o =
+        common::binary::pir(&["convert", toml.to_str().unwrap(), "--to", xml.to_str().unwrap()], dir.path());
+    assert!(o.status.success(), "{}", common::binary::stderr(&o));
+    let a = pir::scene::load(&toml).unwrap();
+    let (b, warnings) = load(&xml, &[]).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(a.triangle_count(), b.triangle_count());
+    assert_eq!(a.defaults().max_depth, b.defaults().max_depth);
+    let key = |s: &Scene| {
+        let mut m: Vec<String> =
+            s.materials().iter().map(|m| format!("{:?} {:?}", m.bsdf, m.emission)).collect();
+        m.sort();
+        m.dedup();
+        m
+    };
+    // (Equal materials of other names are one material once read from Mitsuba's format.)
+    assert_eq!(key(&a), key(&b));
+    let render = |scene: &Path, out: &str| {
+        let out = dir.path().join(out);
+        let o = common::binary::pir(
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "--resolution",
+                "24",
+                "24",
+                "--spp",
+                "8",
+                "-q",
+                "--no-preview",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", common::binary::stderr(&o));
+        pir::image::read_exr(&out).unwrap().0
+    };
+    let (ia, ib) = (render(&toml, "a.exr"), render(&xml, "b.exr"));
+    for (p, q) in ia.pixels.iter().zip(&ib.pixels) {
+        assert!((*p - *q).abs().max_element() <= 1e-4 * p.max_element().max(1e-3), "{p} against {q}");
+    }
+    // The output must be an .xml.
+    let o = common::binary::pir(&["convert", toml.to_str().unwrap(), "--to", "x.toml"], dir.path());
+    common::binary::assert_clean_failure(&o, &["x.toml", ".xml"]);
+}

@@ -1,6 +1,7 @@
 //! Command-line interface: argument definitions and dispatch.
 
 mod compare;
+mod convert;
 mod merge;
 mod progress;
 mod reference;
@@ -12,7 +13,7 @@ use clap::{Parser, Subcommand};
 
 /// pir: Progressive Instant Radiosity.
 ///
-/// Renders scenes written to pir's TOML scene format with a path tracer (the ground truth) or
+/// Renders scenes written to pir's TOML scene format (or Mitsuba 3's) with a path tracer (the ground truth) or
 /// with progressive many-light methods, and compares images with references.
 #[derive(Parser, Debug)]
 #[command(name = "pir", version, about, long_about)]
@@ -28,6 +29,7 @@ pub enum Command {
     Merge(merge::MergeArgs),
     Study(study::StudyArgs),
     Reference(reference::ReferenceArgs),
+    Convert(convert::ConvertArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -37,5 +39,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(a) => merge::run(a),
         Command::Study(a) => study::run(a),
         Command::Reference(a) => reference::run(a),
+        Command::Convert(a) => convert::run(a),
     }
 }

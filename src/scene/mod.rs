@@ -192,6 +192,10 @@ impl Scene {
     pub fn indices(&self) -> &[[u32; 3]] {
         &self.indices
     }
+    /// The material (index into [`Scene::materials`]) of every triangle.
+    pub fn triangle_materials(&self) -> &[u32] {
+        &self.tri_material
+    }
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
     }

@@ -23,7 +23,10 @@
 
 mod shapes;
 mod transform;
+mod write;
 mod xml;
+
+pub use write::write;
 
 use std::cell::RefCell;
 use std::collections::HashMap;
