@@ -458,55 +458,107 @@ fn ply_and_serialized_meshes_load() {
 }
 
 /// `pir convert` writes a scene as a Mitsuba scene file that pir reads back into the same
-/// scene: the Cornell box's triangles and materials, and its image within float rounding.
+/// scene: the Cornell box exactly (its triangles and materials, its image within float
+/// rounding), the glossy Cornell box (glossy as a blend of diffuse and GGX) and the caustic box
+/// (mirror, glass) up to the rounding of their weights.
 #[test]
 fn converted_scenes_read_back_as_the_same_scene() {
     let dir = tempfile::tempdir().unwrap();
-    let toml = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml");
-    let xml = dir.path().join("cb.xml");
-    let o =
-        common::binary::pir(&["convert", toml.to_str().unwrap(), "--to", xml.to_str().unwrap()], dir.path());
-    assert!(o.status.success(), "{}", common::binary::stderr(&o));
-    let a = pir::scene::load(&toml).unwrap();
-    let (b, warnings) = load(&xml, &[]).unwrap();
-    assert!(warnings.is_empty(), "{warnings:?}");
-    assert_eq!(a.triangle_count(), b.triangle_count());
-    assert_eq!(a.defaults().max_depth, b.defaults().max_depth);
-    let key = |s: &Scene| {
-        let mut m: Vec<String> =
-            s.materials().iter().map(|m| format!("{:?} {:?}", m.bsdf, m.emission)).collect();
-        m.sort();
-        m.dedup();
-        m
-    };
-    // (Equal materials of other names are one material once read from Mitsuba's format.)
-    assert_eq!(key(&a), key(&b));
-    let render = |scene: &Path, out: &str| {
-        let out = dir.path().join(out);
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    for (k, name) in [
+        "scenes/cornell-box/scene.toml",
+        "scenes/cornell-box/glossy.toml",
+        "scenes/stress/caustic/scene.toml",
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let toml = root.join(name);
+        let xml = dir.path().join(format!("s{k}.xml"));
         let o = common::binary::pir(
-            &[
-                "render",
-                scene.to_str().unwrap(),
-                "--resolution",
-                "24",
-                "24",
-                "--spp",
-                "8",
-                "-q",
-                "--no-preview",
-                "--out",
-                out.to_str().unwrap(),
-            ],
+            &["convert", toml.to_str().unwrap(), "--to", xml.to_str().unwrap()],
             dir.path(),
         );
-        assert!(o.status.success(), "{}", common::binary::stderr(&o));
-        pir::image::read_exr(&out).unwrap().0
-    };
-    let (ia, ib) = (render(&toml, "a.exr"), render(&xml, "b.exr"));
-    for (p, q) in ia.pixels.iter().zip(&ib.pixels) {
-        assert!((*p - *q).abs().max_element() <= 1e-4 * p.max_element().max(1e-3), "{p} against {q}");
+        assert!(o.status.success(), "{name}: {}", common::binary::stderr(&o));
+        let a = pir::scene::load(&toml).unwrap();
+        let (b, warnings) = load(&xml, &[]).unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert_eq!(a.triangle_count(), b.triangle_count(), "{name}");
+        assert_eq!(a.defaults().max_depth, b.defaults().max_depth, "{name}");
+        if k == 0 {
+            let key = |s: &Scene| {
+                let mut m: Vec<String> =
+                    s.materials().iter().map(|m| format!("{:?} {:?}", m.bsdf, m.emission)).collect();
+                m.sort();
+                m.dedup();
+                m
+            };
+            // (Equal materials of other names are one material once read from Mitsuba's format.)
+            assert_eq!(key(&a), key(&b));
+        }
+        let render = |scene: &Path, out: &str| {
+            let out = dir.path().join(out);
+            let o = common::binary::pir(
+                &[
+                    "render",
+                    scene.to_str().unwrap(),
+                    "--resolution",
+                    "24",
+                    "24",
+                    "--spp",
+                    "8",
+                    "-q",
+                    "--no-preview",
+                    "--out",
+                    out.to_str().unwrap(),
+                ],
+                dir.path(),
+            );
+            assert!(o.status.success(), "{}", common::binary::stderr(&o));
+            pir::image::read_exr(&out).unwrap().0
+        };
+        let (ia, ib) = (render(&toml, &format!("a{k}.exr")), render(&xml, &format!("b{k}.exr")));
+        let m = pir::image::metrics(&ib, &ia).unwrap();
+        assert!(m.rel_mse < 1e-6, "{name}: relative MSE {} between the two", m.rel_mse);
     }
     // The output must be an .xml.
+    let toml = root.join("scenes/cornell-box/scene.toml");
     let o = common::binary::pir(&["convert", toml.to_str().unwrap(), "--to", "x.toml"], dir.path());
     common::binary::assert_clean_failure(&o, &["x.toml", ".xml"]);
+}
+
+/// Mitsuba's smooth dielectric (numbers or names of its IOR table), its conductor and
+/// roughconductor without a Fresnel term (material none, GGX), and what pir refuses of them.
+#[test]
+fn dielectrics_and_conductors() {
+    let dir = tempfile::tempdir().unwrap();
+    let with = |bsdf: &str| scene(&format!(r#"<shape type="cube">{bsdf}</shape>"#));
+    let glass = |s: &Scene| {
+        s.materials().iter().find_map(|m| match m.bsdf {
+            pir::material::Bsdf::Glass { ior } => Some(ior),
+            _ => None,
+        })
+    };
+    let (s, _) = load(&write(dir.path(), "d.xml", &with(r#"<bsdf type="dielectric"><string name="int_ior" value="water"/><string name="ext_ior" value="vacuum"/></bsdf>"#)), &[]).unwrap();
+    assert_eq!(glass(&s), Some(1.333));
+    let (s, _) = load(&write(dir.path(), "d.xml", &with(r#"<bsdf type="dielectric"/>"#)), &[]).unwrap();
+    assert!((glass(&s).unwrap() - 1.5046 / 1.000277).abs() < 1e-6);
+    let (s, _) = load(&write(dir.path(), "c.xml", &with(r#"<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/><rgb name="specular_reflectance" value="0.5"/></bsdf>"#)), &[]).unwrap();
+    assert!(s.materials().iter().any(|m| m.bsdf
+        == pir::material::Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.5), roughness: 0.2 }));
+    for (bsdf, want) in [
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>"#,
+            "distribution \"beckmann\"",
+        ),
+        (r#"<bsdf type="conductor"><string name="material" value="Au"/></bsdf>"#, "material \"Au\""),
+        (r#"<bsdf type="dielectric"><string name="int_ior" value="unobtainium"/></bsdf>"#, "unobtainium"),
+        (
+            r#"<bsdf type="dielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf>"#,
+            "specular_transmittance",
+        ),
+    ] {
+        let e = load(&write(dir.path(), "e.xml", &with(bsdf)), &[]).unwrap_err();
+        assert!(e.contains("e.xml") && e.contains("line 20") && e.contains(want), "{e}");
+    }
 }

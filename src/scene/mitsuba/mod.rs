@@ -532,14 +532,65 @@ impl<'a> Builder<'a> {
                     _ => return Err(e.error("needs one nested bsdf")),
                 }
             }
-            "diffuse" => {
-                let albedo = p.colour("reflectance")?.unwrap_or(Vec3::splat(0.5));
-                reflectance(e, "reflectance", albedo)?;
-                (Bsdf::Diffuse { albedo }, false)
+            "diffuse" => (Bsdf::Diffuse { albedo: diffuse_albedo(&p)? }, false),
+            "dielectric" => {
+                let int = ior(&p, "int_ior", 1.5046)?;
+                let ext = ior(&p, "ext_ior", 1.000277)?;
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if let Some(v) = p.colour(name)?
+                        && v != Vec3::ONE
+                    {
+                        return Err(e.error(format!(
+                            "{name} {v}: pir's dielectric reflects and transmits in full (1)"
+                        )));
+                    }
+                }
+                (Bsdf::Glass { ior: int / ext }, false)
+            }
+            "conductor" => {
+                none_material(e, &p)?;
+                let specular = p.colour("specular_reflectance")?.unwrap_or(Vec3::ONE);
+                reflectance(e, "specular_reflectance", specular)?;
+                (Bsdf::Mirror { specular }, false)
+            }
+            "roughconductor" => {
+                let (specular, roughness) = rough_mirror(e, &p)?;
+                (Bsdf::Glossy { albedo: Vec3::ZERO, specular, roughness }, false)
+            }
+            "blendbsdf" => {
+                let w = p
+                    .float("weight")?
+                    .ok_or_else(|| e.error("needs a weight (a texture weight is not supported)"))?;
+                if !(0.0..=1.0).contains(&w) {
+                    return Err(e.error(format!("weight {w}: must lie between 0 and 1")));
+                }
+                let inner = p.plugins(self, "bsdf")?;
+                let [a, b] = inner.as_slice() else { return Err(e.error("needs two nested bsdfs")) };
+                // (1 − w) · a + w · b, a Lambertian lobe and a GGX one: pir's glossy material.
+                let parts = |d: &'a Element, g: &'a Element, wd: f32, wg: f32| -> Result<Bsdf, SceneError> {
+                    let (pd, pg) = (Params::new(d), Params::new(g));
+                    let albedo = diffuse_albedo(&pd)?;
+                    let (specular, roughness) = rough_mirror(g, &pg)?;
+                    pd.finish(self)?;
+                    pg.finish(self)?;
+                    Ok(Bsdf::Glossy { albedo: albedo * wd, specular: specular * wg, roughness })
+                };
+                let bsdf = match (a.type_name(), b.type_name()) {
+                    ("diffuse", "roughconductor") => parts(a, b, 1.0 - w, w)?,
+                    ("roughconductor", "diffuse") => parts(b, a, w, 1.0 - w)?,
+                    _ => {
+                        return Err(e.error(
+                            "a blendbsdf is supported of a diffuse and a roughconductor (material none, ggx): \
+                             pir's glossy material",
+                        ));
+                    }
+                };
+                (bsdf, false)
             }
             other => {
                 return Err(e.error(format!(
-                    "bsdf type \"{other}\" is not supported yet: pir reads diffuse and twosided"
+                    "bsdf type \"{other}\" is not supported yet: pir reads diffuse, dielectric, conductor and \
+                     roughconductor (material none; ggx), blendbsdf of diffuse and roughconductor, and twosided"
                 )));
             }
         };
@@ -563,6 +614,101 @@ impl<'a> Builder<'a> {
         p.finish(self)?;
         Ok(radiance)
     }
+}
+
+/// A diffuse BSDF's reflectance (default 0.5).
+fn diffuse_albedo(p: &Params) -> Result<Vec3, SceneError> {
+    let albedo = p.colour("reflectance")?.unwrap_or(Vec3::splat(0.5));
+    reflectance(p.e, "reflectance", albedo)?;
+    Ok(albedo)
+}
+
+/// A conductor's Fresnel term must be 1 (`material` "none", Mitsuba 3's default): pir's
+/// mirror and glossy lobes have no Fresnel term.
+fn none_material(e: &Element, p: &Params) -> Result<(), SceneError> {
+    let material = p.string("material")?;
+    let (eta, k) = (p.get("eta").is_some(), p.get("k").is_some());
+    if material.is_some_and(|m| m != "none") || eta || k {
+        return Err(e.error(format!(
+            "a conductor's Fresnel term ({}) is not supported yet: pir reads material \"none\" (a perfect \
+             mirror times specular_reflectance)",
+            match material {
+                Some(m) if m != "none" => format!("material \"{m}\""),
+                _ => "eta and k".to_string(),
+            }
+        )));
+    }
+    Ok(())
+}
+
+/// A `roughconductor` of material none and GGX distribution: its specular reflectance and
+/// isotropic alpha (pir's glossy lobe: specular · D G1 G1 / (4 cos cos), no Fresnel term).
+fn rough_mirror(e: &Element, p: &Params) -> Result<(Vec3, f32), SceneError> {
+    if e.type_name() != "roughconductor" {
+        return Err(e.error("expected a roughconductor"));
+    }
+    none_material(e, p)?;
+    match p.string("distribution")?.unwrap_or("beckmann") {
+        "ggx" => {}
+        d => return Err(e.error(format!("distribution \"{d}\" is not supported: pir's microfacets are GGX"))),
+    }
+    let alpha = p.float("alpha")?;
+    let (u, v) = (p.float("alpha_u")?, p.float("alpha_v")?);
+    let alpha = match (alpha, u, v) {
+        (Some(a), None, None) => a,
+        (None, Some(u), Some(v)) if u == v => u,
+        (None, None, None) => 0.1,
+        _ => return Err(e.error("an anisotropic alpha is not supported: give one alpha")),
+    };
+    if !(alpha > 0.0 && alpha <= super::format::MAX_ROUGHNESS) {
+        return Err(e.error(format!("alpha {alpha}: must lie in (0, {}]", super::format::MAX_ROUGHNESS)));
+    }
+    p.ignore(&["sample_visible"]);
+    let specular = p.colour("specular_reflectance")?.unwrap_or(Vec3::ONE);
+    reflectance(e, "specular_reflectance", specular)?;
+    Ok((specular, alpha))
+}
+
+/// An index of refraction: a number, or a name of Mitsuba's table.
+fn ior(p: &Params, name: &str, default: f32) -> Result<f32, SceneError> {
+    let Some(e) = p.get(name) else { return Ok(default) };
+    let v = p.value(e)?;
+    if let Some(x) = parse_number(v) {
+        if x > 0.0 {
+            return Ok(x);
+        }
+        return Err(e.error(format!("{name} {x}: must be positive")));
+    }
+    const TABLE: [(&str, f32); 23] = [
+        ("vacuum", 1.0),
+        ("helium", 1.000036),
+        ("hydrogen", 1.000132),
+        ("air", 1.000277),
+        ("carbon dioxide", 1.00045),
+        ("water", 1.333),
+        ("acetone", 1.36),
+        ("ethanol", 1.361),
+        ("carbon tetrachloride", 1.461),
+        ("glycerol", 1.4729),
+        ("benzene", 1.501),
+        ("silicone oil", 1.52045),
+        ("bromine", 1.661),
+        ("water ice", 1.31),
+        ("fused quartz", 1.458),
+        ("pyrex", 1.47),
+        ("acrylic glass", 1.49),
+        ("polypropylene", 1.49),
+        ("bk7", 1.5046),
+        ("sodium chloride", 1.544),
+        ("amber", 1.55),
+        ("pet", 1.575),
+        ("diamond", 2.419),
+    ];
+    TABLE.iter().find(|(n, _)| *n == v.trim()).map(|(_, x)| *x).ok_or_else(|| {
+        e.error(format!(
+            "{name} \"{v}\": neither a number nor a name of Mitsuba's table (bk7, water, air, …)"
+        ))
+    })
 }
 
 /// A reflectance must lie in [0, 1] in every channel.
