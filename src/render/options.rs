@@ -64,7 +64,12 @@ impl SceneOptions {
     /// loader's warnings.
     pub fn load(&self, path: &std::path::Path) -> Result<Scene> {
         let options = crate::scene::mitsuba::Options { defines: self.defines.clone() };
-        let (scene, warnings) = crate::scene::load_with(path, &options)?;
+        // The meshes of a Mitsuba scene are read in parallel: on --threads threads.
+        let load = || crate::scene::load_with(path, &options);
+        let (scene, warnings) = match self.threads {
+            Some(n) => rayon::ThreadPoolBuilder::new().num_threads(n).build()?.install(load)?,
+            None => load()?,
+        };
         for w in warnings {
             eprintln!("pir: warning: {w}");
         }

@@ -57,6 +57,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let mut camera = None;
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
     let mut integrator_seen = false;
+    let mut shape_elements = Vec::new();
     for e in &doc.elements {
         match e.tag.as_str() {
             "integrator" => {
@@ -71,7 +72,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
                 }
                 camera = Some(b.sensor(e)?);
             }
-            "shape" => b.shape(e)?,
+            "shape" => shape_elements.push(e),
             // Definitions, instantiated where a shape refers to them.
             "bsdf" | "texture" if e.attr("id").is_some() => {}
             "emitter" => {
@@ -82,6 +83,17 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
             }
             other => return Err(e.error(format!("<{other}> is not supported at the top of a scene"))),
         }
+    }
+    // The shapes' files are read in parallel, and added in the document's order.
+    let shapes: Vec<Result<(WorldMesh, Material), SceneError>> = {
+        use rayon::prelude::*;
+        let b = &b;
+        shape_elements.par_iter().map(|e| b.shape(e)).collect()
+    };
+    for shape in shapes {
+        let (mesh, material) = shape?;
+        let material = b.material(material);
+        b.add(mesh, material);
     }
     let camera = camera.ok_or_else(|| SceneError::Value {
         path: path.to_path_buf(),
@@ -417,8 +429,8 @@ impl<'a> Builder<'a> {
         Ok((width, height))
     }
 
-    /// A shape's triangles and material, added to the scene.
-    fn shape(&mut self, e: &'a Element) -> Result<(), SceneError> {
+    /// A shape's world-space triangles and its material (shapes are read in parallel).
+    fn shape(&self, e: &'a Element) -> Result<(WorldMesh, Material), SceneError> {
         let p = Params::new(e);
         let dir = e.file.parent().unwrap_or(Path::new("")).to_path_buf();
         let file = |p: &Params<'a>| -> Result<PathBuf, SceneError> {
@@ -481,10 +493,7 @@ impl<'a> Builder<'a> {
         };
         let name =
             e.attr("id").or_else(|| bsdfs.first().and_then(|b| b.attr("id"))).unwrap_or("shape").to_string();
-        let material = self.material(Material { name, bsdf, emission, two_sided });
-        let world = shapes::to_world(mesh, to_world, flip, kind);
-        self.add(world, material);
-        Ok(())
+        Ok((shapes::to_world(mesh, to_world, flip, kind), Material { name, bsdf, emission, two_sided }))
     }
 
     /// The index of `m` among the scene's materials (equal ones are stored once).
@@ -516,7 +525,7 @@ impl<'a> Builder<'a> {
     }
 
     /// A BSDF and whether it is two-sided.
-    fn bsdf(&mut self, e: &'a Element) -> Result<(Bsdf, bool), SceneError> {
+    fn bsdf(&self, e: &'a Element) -> Result<(Bsdf, bool), SceneError> {
         let p = Params::new(e);
         let out = match e.type_name() {
             "twosided" => {
@@ -599,7 +608,7 @@ impl<'a> Builder<'a> {
     }
 
     /// An area emitter's radiance.
-    fn area_emitter(&mut self, e: &'a Element) -> Result<Vec3, SceneError> {
+    fn area_emitter(&self, e: &'a Element) -> Result<Vec3, SceneError> {
         let p = Params::new(e);
         if e.type_name() != "area" {
             return Err(e.error(format!(

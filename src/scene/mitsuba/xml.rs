@@ -14,7 +14,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use std::sync::Arc;
 
 use crate::scene::SceneError;
 use crate::scene::error::read_text;
@@ -31,7 +31,7 @@ pub struct Element {
     pub tag: String,
     pub attrs: Vec<(String, String)>,
     pub children: Vec<Element>,
-    pub file: Rc<PathBuf>,
+    pub file: Arc<PathBuf>,
     pub line: usize,
 }
 
@@ -108,7 +108,7 @@ impl Reader {
         )
         .map_err(|e| SceneError::syntax(path, Some(e.pos().row as usize), format!("malformed XML: {e}")))?;
         let root = doc.root_element();
-        let file = Rc::new(path.to_path_buf());
+        let file = Arc::new(path.to_path_buf());
         let line_of = |n: roxmltree::Node| doc.text_pos_at(n.range().start).row as usize;
         if root.tag_name().name() != "scene" {
             return Err(SceneError::syntax(
@@ -175,7 +175,7 @@ impl Reader {
         &mut self,
         node: roxmltree::Node,
         doc: &roxmltree::Document,
-        file: &Rc<PathBuf>,
+        file: &Arc<PathBuf>,
         params: &HashMap<String, String>,
         upgrade: bool,
     ) -> Result<Element, SceneError> {
