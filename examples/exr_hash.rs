@@ -15,20 +15,12 @@ fn main() -> ExitCode {
     for path in std::env::args().skip(1) {
         match read_exr(Path::new(&path)) {
             Ok((img, _)) => {
-                let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-                let mut eat = |bytes: &[u8]| {
-                    for b in bytes {
-                        h = (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
-                    }
-                };
-                eat(&(img.width as u64).to_le_bytes());
-                eat(&(img.height as u64).to_le_bytes());
+                let mut h = pir::hash::Fnv1a::default();
+                h.u64s(&[img.width as u64, img.height as u64]);
                 for p in &img.pixels {
-                    for c in p.to_array() {
-                        eat(&c.to_bits().to_le_bytes());
-                    }
+                    h.f32s(&p.to_array());
                 }
-                println!("{h:016x}  {path}");
+                println!("{:016x}  {path}", h.finish());
             }
             Err(e) => {
                 eprintln!("exr_hash: {path}: {e:#}");

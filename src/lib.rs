@@ -10,6 +10,7 @@
 
 pub mod accel;
 pub mod geometry;
+pub mod hash;
 pub mod image;
 pub mod integrator;
 pub mod light;

@@ -95,22 +95,13 @@ fn render_hash(entry: &str) -> u64 {
     let renderer = Renderer::new(&scene, &options).unwrap();
     let budget = Budget { iterations: Some(2), time: None };
     let (film, _) = renderer.render(&config, budget, |_, _| Control::Continue);
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for b in bytes {
-            h = (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
+    let mut h = pir::hash::Fnv1a::default();
     let (w, hgt) = renderer.resolution();
-    for n in [u64::from(w), u64::from(hgt), film.iterations()] {
-        eat(&n.to_le_bytes());
-    }
+    h.u64s(&[u64::from(w), u64::from(hgt), film.iterations()]);
     for v in film.sums().iter().chain(film.sums_of_squares()) {
-        for c in v.to_array() {
-            eat(&c.to_bits().to_le_bytes());
-        }
+        h.f64s(&v.to_array());
     }
-    h
+    h.finish()
 }
 
 /// The stored file: the revision its hashes were made at, and the hash of each entry.

@@ -4,33 +4,12 @@
 //! render job and checked separately).
 
 use super::Scene;
-
-/// FNV-1a, 64 bits: stable across runs, platforms and Rust versions (unlike `std`'s hasher).
-struct Fnv(u64);
-
-impl Fnv {
-    fn bytes(&mut self, b: &[u8]) {
-        for &x in b {
-            self.0 ^= u64::from(x);
-            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
-        }
-    }
-    fn f32s(&mut self, v: &[f32]) {
-        for x in v {
-            self.bytes(&x.to_bits().to_le_bytes());
-        }
-    }
-    fn u32s(&mut self, v: &[u32]) {
-        for x in v {
-            self.bytes(&x.to_le_bytes());
-        }
-    }
-}
+use crate::hash::Fnv1a;
 
 impl Scene {
     /// A 16-hex-digit fingerprint of the scene's contents.
     pub fn fingerprint(&self) -> String {
-        let mut h = Fnv(0xCBF2_9CE4_8422_2325);
+        let mut h = Fnv1a::default();
         for p in self.positions.iter().chain(self.normals.iter()) {
             h.f32s(&p.to_array());
         }
@@ -54,7 +33,7 @@ impl Scene {
         h.f32s(&[
             c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,
         ]);
-        format!("{:016x}", h.0)
+        format!("{:016x}", h.finish())
     }
 }
 
