@@ -7,8 +7,8 @@
 
 use glam::Vec3;
 
-use super::direct::{emission, sample_emitters};
-use super::walker::{Arrival, Estimator, Vertex, walk};
+use super::direct::sample_emitters;
+use super::walker::{Estimator, Vertex, walk};
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::Ray;
 use crate::sampling::Sampler;
@@ -23,14 +23,6 @@ impl Estimator for PathTracer {
     type State = ();
 
     #[inline]
-    fn start(&self, _ray: &Ray) {}
-
-    #[inline]
-    fn on_hit(&self, _: &mut (), ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
-        light_hit(ctx, at, beta, radiance);
-    }
-
-    #[inline]
     fn at_vertex(
         &self,
         _: &mut (),
@@ -43,13 +35,6 @@ impl Estimator for PathTracer {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters);
     }
-}
-
-/// The emission a camera path finds at `at`, weighed against light sampling by the power
-/// heuristic (in full from the camera or a delta lobe).
-#[inline(always)]
-pub fn light_hit(ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
-    *radiance += beta * emission(ctx, at.material, at.sp, at.wo, at.how);
 }
 
 /// One light sample at the non-delta vertex `v`, weighed against BSDF sampling by the power

@@ -36,7 +36,7 @@
 
 use glam::Vec3;
 
-use super::direct::Sampled;
+use super::direct::{Sampled, emission};
 use super::scatter::{scatter, survives_roulette};
 use super::{Counters, RenderContext};
 use crate::geometry::{Ray, offset_origin};
@@ -82,20 +82,28 @@ pub trait Estimator {
     const COVERS_SURFACES: bool;
 
     /// What the method keeps along one camera path.
-    type State;
+    type State: Default;
 
     /// The state of a path that starts along the camera ray `ray`.
-    fn start(&self, ray: &Ray) -> Self::State;
+    #[inline]
+    fn start(&self, _ray: &Ray) -> Self::State {
+        Self::State::default()
+    }
 
-    /// At every vertex the walk reaches: the emission found there.
+    /// At every vertex the walk reaches: the emission found there. By default the path
+    /// tracer's: weighed against light sampling by the power heuristic, in full from the
+    /// camera or a delta lobe.
+    #[inline]
     fn on_hit(
         &self,
-        state: &mut Self::State,
+        _state: &mut Self::State,
         ctx: &RenderContext,
         at: &Arrival,
         beta: Vec3,
         radiance: &mut Vec3,
-    );
+    ) {
+        *radiance += beta * emission(ctx, at.material, at.sp, at.wo, at.how);
+    }
 
     /// At a non-delta vertex below `max_depth`, after [`Estimator::on_hit`] and before BSDF
     /// sampling, with the vertex's sampler: light sampling and the method's own techniques.

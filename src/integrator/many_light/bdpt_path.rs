@@ -29,13 +29,12 @@ pub struct Bidirectional<'a> {
 }
 
 /// The camera subpath's bookkeeping along the walk.
+#[derive(Default)]
 pub struct CameraPath {
     /// The running sums of its weights.
     mis: MisState,
     /// The vertex the current ray left (the camera's origin at first).
     from: Vec3,
-    /// Light samples at the vertex the current ray left (for the weight of an emitter it hits).
-    left_samples: f32,
     /// The BSDF of the vertex the current ray left (none at the camera).
     previous: Option<Bsdf>,
 }
@@ -46,7 +45,7 @@ impl Estimator for Bidirectional<'_> {
 
     #[inline]
     fn start(&self, ray: &Ray) -> CameraPath {
-        CameraPath { mis: MisState::CAMERA, from: ray.origin, left_samples: 1.0, previous: None }
+        CameraPath { mis: MisState::CAMERA, from: ray.origin, previous: None }
     }
 
     /// The emission found by the camera ray or a BSDF sample, weighed against next-event
@@ -66,7 +65,9 @@ impl Estimator for Bidirectional<'_> {
         let le = sp.emitted(at.material.emission, at.wo);
         if le != Vec3::ZERO {
             let pdf_area = ctx.emitters.pdf_area(sp.prim);
-            let w = hit_weight(&path.mis, pdf_area, cos_in, self.counts.paths, path.left_samples);
+            // Light samples at the vertex the ray left: `light_samples` at the first.
+            let left_samples = if at.depth == 2 { self.light_samples as f32 } else { 1.0 };
+            let w = hit_weight(&path.mis, pdf_area, cos_in, self.counts.paths, left_samples);
             *radiance += beta * le * w;
         }
     }
@@ -126,7 +127,6 @@ impl Estimator for Bidirectional<'_> {
         let cos_out = sp.ng.dot(s.wi).abs();
         path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, self.connect, v.depth, count_in));
         path.previous = Some(*bsdf);
-        path.left_samples = if v.depth == 1 { self.light_samples as f32 } else { 1.0 };
         path.from = sp.p;
     }
 }

@@ -11,9 +11,9 @@ use super::points::PointLights;
 use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
 use crate::integrator::direct::{Sampled, emission_weighted, sample_emitters_weighted};
-use crate::integrator::path::{light_hit, light_sample};
+use crate::integrator::path::light_sample;
 use crate::integrator::scatter::scatter;
-use crate::integrator::walker::{Arrival, Estimator, Vertex};
+use crate::integrator::walker::{Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
 use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
@@ -29,14 +29,6 @@ pub struct Gathering<'a, L> {
 impl<L: Lights> Estimator for Gathering<'_, L> {
     const COVERS_SURFACES: bool = true;
     type State = ();
-
-    #[inline]
-    fn start(&self, _ray: &Ray) {}
-
-    #[inline]
-    fn on_hit(&self, _: &mut (), ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
-        light_hit(ctx, at, beta, radiance);
-    }
 
     #[inline]
     fn at_vertex(
@@ -68,14 +60,6 @@ pub struct WeighedGathering<'a> {
 impl Estimator for WeighedGathering<'_> {
     const COVERS_SURFACES: bool = true;
     type State = ();
-
-    #[inline]
-    fn start(&self, _ray: &Ray) {}
-
-    #[inline]
-    fn on_hit(&self, _: &mut (), ctx: &RenderContext, at: &Arrival, beta: Vec3, radiance: &mut Vec3) {
-        light_hit(ctx, at, beta, radiance);
-    }
 
     #[inline]
     fn at_vertex(
