@@ -22,13 +22,20 @@
 //! dispatches on the [`Bsdf`] enum; the lobes work in the local shading frame.
 
 mod adjoint;
+pub mod conductor;
 pub mod diffuse;
 pub mod fresnel;
 pub mod ggx;
 pub mod glass;
 pub mod glossy;
+pub mod mask;
+pub mod microfacet;
 pub mod mirror;
+#[cfg(test)]
+mod mitsuba_values;
+pub mod plastic;
 mod prepared;
+pub mod thin_dielectric;
 
 pub use adjoint::{Lanes, shading_correction};
 pub use prepared::{PreparedBsdf, PreparedDiffuse};
@@ -36,7 +43,11 @@ pub use prepared::{PreparedBsdf, PreparedDiffuse};
 use glam::{Vec2, Vec3};
 
 use crate::geometry::Frame;
+use crate::sampling::reuse::{choose, refined};
+use conductor::{ComplexIor, RoughConductor};
 use glossy::Glossy;
+use microfacet::Microfacet;
+use plastic::{Plastic, RoughPlastic, RoughPlasticTable};
 
 /// A named material: how it scatters and what it emits.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,11 +71,57 @@ impl Bsdf {
         let fields: &[(&'static str, Vec3)] = match self {
             Bsdf::Diffuse { albedo } => &[("albedo", *albedo)],
             Bsdf::Glossy { albedo, specular, .. } => &[("albedo", *albedo), ("specular", *specular)],
-            Bsdf::Mirror { specular } => &[("specular", *specular)],
+            Bsdf::Mirror { specular }
+            | Bsdf::Conductor { specular, .. }
+            | Bsdf::RoughConductor { specular, .. } => &[("specular", *specular)],
+            Bsdf::Plastic { diffuse, specular, .. } | Bsdf::RoughPlastic { diffuse, specular, .. } => {
+                &[("diffuse", *diffuse), ("specular", *specular)]
+            }
+            Bsdf::Dielectric { reflectance, transmittance, .. }
+            | Bsdf::ThinDielectric { reflectance, transmittance, .. } => {
+                &[("specular_reflectance", *reflectance), ("specular_transmittance", *transmittance)]
+            }
+            Bsdf::Mask { albedo, .. } => &[("albedo", *albedo)],
             Bsdf::Glass { .. } => &[],
         };
         fields.iter().copied().find(|(_, v)| v.max_element() > 1.0)
     }
+}
+
+impl Bsdf {
+    /// Mitsuba's `plastic`: `diffuse` under a coating of relative index `eta`; `specular` is
+    /// `specular_reflectance`, `None` when the file gives none (Mitsuba then steers the lobe
+    /// choice as for a white one). The means are over the surface (a texture's mean).
+    pub fn plastic(diffuse: Vec3, specular: Option<Vec3>, eta: f32, nonlinear: bool) -> Bsdf {
+        let specular_weight = specular_weight(diffuse, specular);
+        Bsdf::Plastic { diffuse, specular: specular.unwrap_or(Vec3::ONE), eta, specular_weight, nonlinear }
+    }
+
+    /// Mitsuba's `roughplastic` (see [`Bsdf::plastic`]).
+    pub fn rough_plastic(
+        diffuse: Vec3,
+        specular: Option<Vec3>,
+        eta: f32,
+        microfacet: Microfacet,
+        nonlinear: bool,
+    ) -> Bsdf {
+        let specular_weight = specular_weight(diffuse, specular);
+        let table = RoughPlasticTable::get(microfacet.kind, microfacet.alpha, eta);
+        Bsdf::RoughPlastic {
+            diffuse,
+            specular: specular.unwrap_or(Vec3::ONE),
+            specular_weight,
+            nonlinear,
+            table,
+        }
+    }
+}
+
+/// w = s̄ / (ρ̄ + s̄), s̄ = 1 without a specular reflectance (Mitsuba's plastics).
+fn specular_weight(diffuse: Vec3, specular: Option<Vec3>) -> f32 {
+    let d = diffuse.element_sum() / 3.0;
+    let s = specular.map_or(1.0, |s| s.element_sum() / 3.0);
+    if d + s > 0.0 { s / (d + s) } else { 0.0 }
 }
 
 impl Material {
@@ -85,6 +142,31 @@ pub enum Bsdf {
     Mirror { specular: Vec3 },
     /// Smooth dielectric of index `ior` against 1, exact Fresnel, no absorption.
     Glass { ior: f32 },
+    /// Mitsuba's `conductor`: perfect specular reflection weighted by `specular` and the
+    /// Fresnel reflectance of the complex index `ior` ([`conductor`]).
+    Conductor { specular: Vec3, ior: ComplexIor },
+    /// Mitsuba's `roughconductor`: a microfacet lobe with the conductor's Fresnel term.
+    RoughConductor { specular: Vec3, ior: ComplexIor, microfacet: Microfacet },
+    /// Mitsuba's `plastic`: a delta dielectric coating of relative index `eta` over a diffuse
+    /// base ([`plastic`]); `specular_weight` steers the lobe choice (from the reflectances'
+    /// means over the surface, so not changed by a texture's value at a point).
+    Plastic { diffuse: Vec3, specular: Vec3, eta: f32, specular_weight: f32, nonlinear: bool },
+    /// Mitsuba's `roughplastic`: a microfacet coating over a diffuse base; the coating's
+    /// integrals (and its distribution, α and η) are in the shared `table`.
+    RoughPlastic {
+        diffuse: Vec3,
+        specular: Vec3,
+        specular_weight: f32,
+        nonlinear: bool,
+        table: &'static RoughPlasticTable,
+    },
+    /// Mitsuba's `dielectric` with its reflection and transmission weighted by
+    /// `reflectance` and `transmittance` (Glass when both are 1).
+    Dielectric { ior: f32, reflectance: Vec3, transmittance: Vec3 },
+    /// Mitsuba's `thindielectric` ([`thin_dielectric`]).
+    ThinDielectric { ior: f32, reflectance: Vec3, transmittance: Vec3 },
+    /// Mitsuba's `mask` of a diffuse BSDF ([`mask`]): opaque with probability `opacity`.
+    Mask { opacity: f32, albedo: Vec3 },
 }
 
 /// Whether radiance (camera paths) or importance (light paths) is being transported.
@@ -123,13 +205,54 @@ impl Bsdf {
         match *self {
             Bsdf::Diffuse { albedo } => albedo,
             Bsdf::Glossy { albedo, specular, .. } => albedo + specular,
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
+            // Schlick's mean of the Fresnel term over the hemisphere, F₀ + (1 − F₀)/21.
+            Bsdf::RoughConductor { specular, ior, .. } => {
+                let f0 = ior.reflectance(1.0);
+                specular * (f0 + (Vec3::ONE - f0) / 21.0)
+            }
+            // The base, plus the rough coating at normal incidence.
+            Bsdf::Plastic { diffuse, .. } => diffuse,
+            Bsdf::RoughPlastic { diffuse, specular, table, .. } => {
+                diffuse + specular * fresnel::fresnel_dielectric(1.0, table.eta).reflectance
+            }
+            Bsdf::Mask { opacity, albedo } => albedo * opacity,
+            Bsdf::Mirror { .. }
+            | Bsdf::Glass { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => Vec3::ZERO,
         }
     }
 
-    /// True for materials that have only delta lobes (mirror, glass).
+    /// True for materials that have only delta lobes (mirror, glass, smooth conductors and
+    /// dielectrics). Plastic and mask have a delta lobe and a diffuse one: not delta, and their
+    /// samples say which lobe they came from ([`BsdfSample::delta`]).
     pub fn is_delta(&self) -> bool {
-        matches!(self, Bsdf::Mirror { .. } | Bsdf::Glass { .. })
+        matches!(
+            self,
+            Bsdf::Mirror { .. }
+                | Bsdf::Glass { .. }
+                | Bsdf::Conductor { .. }
+                | Bsdf::Dielectric { .. }
+                | Bsdf::ThinDielectric { .. }
+        )
+    }
+
+    /// Whether some of its samples come from a delta lobe: the delta materials, plastic and
+    /// mask.
+    pub fn has_delta(&self) -> bool {
+        self.is_delta() || matches!(self, Bsdf::Plastic { .. } | Bsdf::Mask { .. })
+    }
+
+    /// The narrowest microfacet roughness (α) of its non-delta lobes; `None` without a
+    /// microfacet lobe.
+    pub fn glossy_alpha(&self) -> Option<f32> {
+        match *self {
+            Bsdf::Glossy { roughness, .. } => Some(roughness),
+            Bsdf::RoughConductor { microfacet, .. } => Some(microfacet.alpha),
+            Bsdf::RoughPlastic { table, .. } => Some(table.microfacet.alpha),
+            _ => None,
+        }
     }
 
     /// Whether light that arrives from `w` (a unit direction away from the surface) can
@@ -180,6 +303,16 @@ impl Bsdf {
                 let lobe = Glossy::new(albedo, specular, roughness);
                 if lobe.is_black() { 0.0 } else { lobe.pdf(wo_l, wi_l) }
             }
+            Bsdf::RoughConductor { specular, ior, microfacet } if specular.max_element() > 0.0 => {
+                RoughConductor { specular, ior, microfacet }.pdf(wo_l, wi_l)
+            }
+            Bsdf::Plastic { diffuse, specular, eta, specular_weight, nonlinear } => {
+                Plastic { diffuse, specular, eta, specular_weight, nonlinear }.pdf(wo_l, wi_l)
+            }
+            Bsdf::RoughPlastic { diffuse, specular, specular_weight, nonlinear, table } => {
+                RoughPlastic { diffuse, specular, specular_weight, nonlinear, table }.pdf(wo_l, wi_l)
+            }
+            Bsdf::Mask { opacity, albedo } if albedo.max_element() > 0.0 => opacity * diffuse::pdf(wi_l),
             _ => 0.0,
         };
         if p.is_finite() { p.max(0.0) } else { 0.0 }
@@ -221,7 +354,68 @@ impl Bsdf {
     ) -> Option<BsdfSample> {
         match *self {
             // The Lambertian lobe never comes here ([`Bsdf::sample`] takes it first).
-            Bsdf::Diffuse { .. } | Bsdf::Glossy { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
+            Bsdf::Diffuse { .. }
+            | Bsdf::Glossy { .. }
+            | Bsdf::RoughConductor { .. }
+            | Bsdf::RoughPlastic { .. } => self.sample_non_delta(g, wo, u_lobe, u, mode),
+            Bsdf::Conductor { specular, ior } => {
+                let n = g.frame.n;
+                let cos_o = wo.dot(n);
+                if !(wo.dot(g.ng) > 0.0 && cos_o > 0.0) {
+                    return None;
+                }
+                let wi = mirror::reflect(wo, n).try_normalize()?;
+                if wi.dot(g.ng).is_nan() || wi.dot(g.ng) <= 0.0 {
+                    return None;
+                }
+                let weight = specular * ior.reflectance(cos_o) * mode_factor(g, wo, wi, mode);
+                finite_sample(wi, weight, 1.0, true, 1.0)
+            }
+            Bsdf::Plastic { diffuse, specular, eta, specular_weight, nonlinear } => {
+                let prepared = PreparedBsdf::new(*self, *g, wo, mode);
+                if !prepared.is_active() {
+                    return None;
+                }
+                let lobe = Plastic { diffuse, specular, eta, specular_weight, nonlinear };
+                match lobe.choose(prepared.wo_local(), u_lobe, u) {
+                    Err((wi_l, weight, p)) => {
+                        let wi = g.frame.to_world(wi_l).try_normalize()?;
+                        if wi.dot(g.ng).is_nan() || wi.dot(g.ng) <= 0.0 {
+                            return None;
+                        }
+                        finite_sample(wi, weight * mode_factor(g, wo, wi, mode), p, true, 1.0)
+                    }
+                    Ok(wi_l) => Self::sampled_non_delta(&prepared, g, wi_l),
+                }
+            }
+            Bsdf::Mask { opacity, .. } => {
+                let (pass, x) = choose(refined(u.x, u_lobe), 1.0 - opacity);
+                if pass {
+                    return finite_sample(-wo, Vec3::ONE, 1.0 - opacity, true, 1.0);
+                }
+                let prepared = PreparedBsdf::new(*self, *g, wo, mode);
+                if !prepared.is_active() {
+                    return None;
+                }
+                Self::sampled_non_delta(&prepared, g, diffuse::sample(Vec2::new(x, u.y)))
+            }
+            Bsdf::Dielectric { ior, reflectance, transmittance } => {
+                let s = glass::sample(g.frame.n, ior, wo, u_lobe, mode)?;
+                let lobe = if s.eta == 1.0 && s.wi.dot(g.frame.n) * wo.dot(g.frame.n) > 0.0 {
+                    reflectance
+                } else {
+                    transmittance
+                };
+                let weight = lobe * (s.weight * mode_factor(g, wo, s.wi, mode));
+                finite_sample(s.wi, weight, s.prob, true, s.eta)
+            }
+            Bsdf::ThinDielectric { ior, reflectance, transmittance } => {
+                let n = g.frame.n;
+                let n = if wo.dot(n) < 0.0 { -n } else { n };
+                let (wi, reflected, p) = thin_dielectric::sample(n, ior, wo, u_lobe)?;
+                let lobe = if reflected { reflectance } else { transmittance };
+                finite_sample(wi, lobe * mode_factor(g, wo, wi, mode), p, true, 1.0)
+            }
             Bsdf::Mirror { specular } => {
                 let n = g.frame.n;
                 if !(wo.dot(g.ng) > 0.0 && wo.dot(n) > 0.0) {
@@ -264,8 +458,24 @@ impl Bsdf {
             Bsdf::Glossy { albedo, specular, roughness } => {
                 Glossy::new(albedo, specular, roughness).sample(prepared.wo_local(), u_lobe, u)?
             }
+            Bsdf::RoughConductor { specular, ior, microfacet } => {
+                RoughConductor { specular, ior, microfacet }.sample(prepared.wo_local(), u)?
+            }
+            Bsdf::RoughPlastic { diffuse, specular, specular_weight, nonlinear, table } => {
+                RoughPlastic { diffuse, specular, specular_weight, nonlinear, table }.sample(
+                    prepared.wo_local(),
+                    u_lobe,
+                    u,
+                )?
+            }
             _ => return None,
         };
+        Self::sampled_non_delta(&prepared, g, wi_l)
+    }
+
+    /// The sample of the non-delta direction `wi_l` (shading frame), with the values of the
+    /// public eval and pdf, so that weight == eval / pdf exactly.
+    fn sampled_non_delta(prepared: &PreparedBsdf, g: &LocalGeometry, wi_l: Vec3) -> Option<BsdfSample> {
         let wi = g.frame.to_world(wi_l).try_normalize()?;
         // The values of the public eval and pdf, so that weight == eval / pdf exactly.
         let (f, pdf) = prepared.eval_pdf(wi);
@@ -380,6 +590,77 @@ mod tests {
             }
         }
         assert!(reflecting > 200 && not > 200, "{reflecting} reflecting, {not} not");
+    }
+
+    /// Every BSDF of Mitsuba's set: a non-delta sample's pdf and weight are the public pdf and
+    /// eval / pdf; the share of non-delta samples is the integral of the pdf over the sphere
+    /// (by uniform directions); white materials reflect at most what they receive (white
+    /// furnace), and, reciprocal ones, the same in importance mode with ns = ng.
+    #[test]
+    fn sampling_matches_pdf_and_conserves_energy() {
+        use microfacet::Distribution::{Beckmann, Ggx};
+        let mut rng = Sampler::new(21, 0, Domain::Iteration, 0);
+        let white = Vec3::ONE;
+        let ior = conductor::ComplexIor { eta: Vec3::new(0.2, 0.9, 1.1), k: Vec3::new(3.9, 2.4, 2.1) };
+        let bsdfs = [
+            Bsdf::RoughConductor {
+                specular: white,
+                ior: conductor::ComplexIor::NONE,
+                microfacet: Microfacet::new(Ggx, 0.3),
+            },
+            Bsdf::RoughConductor { specular: white, ior, microfacet: Microfacet::new(Beckmann, 0.2) },
+            Bsdf::RoughConductor {
+                specular: white,
+                ior: conductor::ComplexIor::NONE,
+                microfacet: Microfacet::new(Beckmann, 0.6),
+            },
+            Bsdf::Conductor { specular: white, ior },
+            Bsdf::plastic(white, None, 1.5, false),
+            Bsdf::plastic(Vec3::new(0.9, 0.5, 0.1), Some(white), 1.9, true),
+            Bsdf::rough_plastic(white, None, 1.5, Microfacet::new(Ggx, 0.2), false),
+            Bsdf::rough_plastic(white, Some(white), 1.5, Microfacet::new(Beckmann, 0.4), true),
+            Bsdf::Dielectric { ior: 1.5, reflectance: white, transmittance: Vec3::ZERO },
+            Bsdf::ThinDielectric { ior: 1.5, reflectance: white, transmittance: white },
+            Bsdf::Mask { opacity: 0.7, albedo: white },
+        ];
+        for bsdf in bsdfs {
+            let g = LocalGeometry { ng: Vec3::Z, frame: Frame::from_normal(Vec3::Z) };
+            for cos_o in [0.95f32, 0.5, 0.15] {
+                let wo = Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o);
+                let n = 40_000;
+                let (mut non_delta, mut energy) = (0usize, Vec3::ZERO);
+                for _ in 0..n {
+                    let Some(s) = bsdf.sample(&g, wo, rng.next_f32(), rng.next_2d(), TransportMode::Radiance)
+                    else {
+                        continue;
+                    };
+                    energy += s.weight;
+                    if !s.delta {
+                        non_delta += 1;
+                        let (f, pdf) =
+                            (bsdf.eval(&g, wo, s.wi, TransportMode::Radiance), bsdf.pdf(&g, wo, s.wi));
+                        assert!((pdf - s.pdf).abs() <= 1e-4 * pdf, "{bsdf:?}: {pdf} vs {}", s.pdf);
+                        assert!(
+                            (f / pdf - s.weight).abs().max_element() <= 1e-3 * s.weight.max_element() + 1e-6
+                        );
+                    }
+                }
+                let albedo = energy / n as f32;
+                assert!(albedo.max_element() <= 1.02, "{bsdf:?} cos {cos_o}: albedo {albedo}");
+                // ∫ pdf dω over the upper hemisphere, by uniform directions.
+                let m = 200_000;
+                let integral =
+                    (0..m).map(|_| bsdf.pdf(&g, wo, uniform_cone(rng.next_2d(), 0.0)) as f64).sum::<f64>()
+                        * 2.0
+                        * std::f64::consts::PI
+                        / m as f64;
+                let share = non_delta as f64 / n as f64;
+                assert!(
+                    (integral - share).abs() < 0.03,
+                    "{bsdf:?} cos {cos_o}: ∫ pdf {integral}, share {share}"
+                );
+            }
+        }
     }
 
     /// The Lambertian fast paths give what the general paths give: the evaluation bit for bit,

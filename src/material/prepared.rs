@@ -6,7 +6,9 @@
 
 use glam::Vec3;
 
+use super::conductor::RoughConductor;
 use super::glossy::Glossy;
+use super::plastic::{Plastic, RoughPlastic};
 use super::{Bsdf, LocalGeometry, TransportMode, diffuse, shading_correction};
 
 /// An active Lambertian [`PreparedBsdf`], taken apart ([`PreparedBsdf::as_diffuse`]). Its
@@ -93,7 +95,21 @@ impl PreparedBsdf {
             Bsdf::Glossy { albedo, specular, roughness } => {
                 Glossy::new(albedo, specular, roughness).eval(self.wo_l, wi_l)
             }
-            Bsdf::Mirror { .. } | Bsdf::Glass { .. } => Vec3::ZERO,
+            Bsdf::RoughConductor { specular, ior, microfacet } => {
+                RoughConductor { specular, ior, microfacet }.eval(self.wo_l, wi_l)
+            }
+            Bsdf::Plastic { diffuse, specular, eta, specular_weight, nonlinear } => {
+                Plastic { diffuse, specular, eta, specular_weight, nonlinear }.eval(self.wo_l, wi_l)
+            }
+            Bsdf::RoughPlastic { diffuse, specular, specular_weight, nonlinear, table } => {
+                RoughPlastic { diffuse, specular, specular_weight, nonlinear, table }.eval(self.wo_l, wi_l)
+            }
+            Bsdf::Mask { opacity, albedo } => diffuse::eval(albedo * opacity, wi_l),
+            Bsdf::Mirror { .. }
+            | Bsdf::Glass { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => Vec3::ZERO,
         }
     }
 

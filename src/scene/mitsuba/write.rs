@@ -143,6 +143,52 @@ fn bsdf_xml(m: &Material, pad: &str) -> String {
         Bsdf::Glass { ior } => format!(
             "<bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"{ior}\"/><float name=\"ext_ior\" value=\"1\"/></bsdf>"
         ),
+        Bsdf::Conductor { specular, ior } => format!(
+            "<bsdf type=\"conductor\"><rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/><rgb name=\"specular_reflectance\" value=\"{}\"/></bsdf>",
+            v3(ior.eta),
+            v3(ior.k),
+            v3(specular)
+        ),
+        Bsdf::RoughConductor { specular, ior, microfacet } => format!(
+            "<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"{}\"/><float name=\"alpha\" value=\"{:?}\"/><rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/><rgb name=\"specular_reflectance\" value=\"{}\"/></bsdf>",
+            microfacet.kind.name(),
+            microfacet.alpha,
+            v3(ior.eta),
+            v3(ior.k),
+            v3(specular)
+        ),
+        Bsdf::Plastic { diffuse, specular, eta, nonlinear, .. } => format!(
+            "<bsdf type=\"plastic\"><rgb name=\"diffuse_reflectance\" value=\"{}\"/><rgb name=\"specular_reflectance\" value=\"{}\"/><float name=\"int_ior\" value=\"{eta:?}\"/><float name=\"ext_ior\" value=\"1\"/><boolean name=\"nonlinear\" value=\"{nonlinear}\"/></bsdf>",
+            v3(diffuse),
+            v3(specular)
+        ),
+        Bsdf::RoughPlastic { diffuse, specular, nonlinear, table, .. } => format!(
+            "<bsdf type=\"roughplastic\"><string name=\"distribution\" value=\"{}\"/><float name=\"alpha\" value=\"{:?}\"/><rgb name=\"diffuse_reflectance\" value=\"{}\"/><rgb name=\"specular_reflectance\" value=\"{}\"/><float name=\"int_ior\" value=\"{:?}\"/><float name=\"ext_ior\" value=\"1\"/><boolean name=\"nonlinear\" value=\"{nonlinear}\"/></bsdf>",
+            table.microfacet.kind.name(),
+            table.microfacet.alpha,
+            v3(diffuse),
+            v3(specular),
+            table.eta
+        ),
+        Bsdf::Dielectric { ior, reflectance, transmittance } => format!(
+            "<bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"{ior:?}\"/><float name=\"ext_ior\" value=\"1\"/><rgb name=\"specular_reflectance\" value=\"{}\"/><rgb name=\"specular_transmittance\" value=\"{}\"/></bsdf>",
+            v3(reflectance),
+            v3(transmittance)
+        ),
+        Bsdf::ThinDielectric { ior, reflectance, transmittance } => format!(
+            "<bsdf type=\"thindielectric\"><float name=\"int_ior\" value=\"{ior:?}\"/><float name=\"ext_ior\" value=\"1\"/><rgb name=\"specular_reflectance\" value=\"{}\"/><rgb name=\"specular_transmittance\" value=\"{}\"/></bsdf>",
+            v3(reflectance),
+            v3(transmittance)
+        ),
+        Bsdf::Mask { opacity, albedo } => {
+            let inner =
+                format!("<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"{}\"/></bsdf>", v3(albedo));
+            let inner = if m.two_sided { format!("<bsdf type=\"twosided\">{inner}</bsdf>") } else { inner };
+            // The mask is the outer plugin: the nested BSDF carries the sidedness.
+            return format!(
+                "{pad}<bsdf type=\"mask\"><float name=\"opacity\" value=\"{opacity:?}\"/>{inner}</bsdf>\n"
+            );
+        }
         Bsdf::Glossy { albedo, specular, roughness } => {
             let (d, s) = (albedo.max_element(), specular.max_element());
             let spec = |scale: f32| {

@@ -1,0 +1,14 @@
+//! Mitsuba 3's `mask` of a diffuse BSDF: with probability 1 − opacity light passes straight
+//! through the surface (a null interaction, a delta lobe of weight 1 in either direction);
+//! otherwise it meets the Lambertian surface, f · cos θi = opacity · albedo / π · cos θi.
+//! The opacity is a scalar (Mitsuba evaluates the opacity texture's luminance).
+//!
+//! Shadow rays are blocked by masked surfaces, as in Mitsuba 3's `path` integrator: only
+//! sampled paths pass through them.
+
+use glam::Vec3;
+
+/// Luminance of a linear RGB colour (Rec. 709 primaries, Mitsuba's `luminance`).
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.212671, 0.715160, 0.072169))
+}
