@@ -176,21 +176,41 @@ pub fn walk<E: Estimator>(
                 // left (the BSDF-sampled half of direct light), and the bounce's share of what
                 // the estimate weighs against it.
                 let bounce = estimator.uses_bounces() && depth + 1 < ctx.max_depth;
-                if material.is_emitter() || bounce {
-                    let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
-                    let wo = -ray.dir.normalize();
-                    if material.is_emitter() {
-                        let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &how };
-                        estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
-                    }
-                    if bounce {
-                        let v = Vertex { sp: &sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
-                        if let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {
-                            radiance += beta * l;
-                        }
-                    }
+                // A plastic or a mask: the estimate covered its non-delta lobe only; the paths
+                // through its delta lobe go on ([`Bsdf::has_delta`]).
+                let through = material.bsdf.has_delta() && depth + 1 < ctx.max_depth;
+                if !(material.is_emitter() || bounce || through) {
+                    break;
                 }
-                break;
+                let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
+                let wo = -ray.dir.normalize();
+                if material.is_emitter() {
+                    let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &how };
+                    estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
+                }
+                let v = Vertex { sp: &sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
+                if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {
+                    radiance += beta * l;
+                }
+                if !through {
+                    break;
+                }
+                // Sampled in full, kept only when the delta lobe was drawn: its weight
+                // f / p of the lobe's probability p is the delta paths' share, unbiased.
+                let Some(s) = scatter(&material.bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta)
+                else {
+                    break;
+                };
+                if !s.delta {
+                    break;
+                }
+                depth += 1;
+                eta_scale *= s.eta * s.eta;
+                estimator.on_scatter(&mut state, &v, &s);
+                how = Sampled { from: sp.p, pdf: s.pdf, delta: true };
+                covered = false;
+                ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+                continue;
             }
         }
         depth += 1;
@@ -223,7 +243,7 @@ pub fn walk<E: Estimator>(
         eta_scale *= s.eta * s.eta;
         estimator.on_scatter(&mut state, &v, &s);
         how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
-        covered = !bsdf.is_delta();
+        covered = !s.delta;
         if !E::COVERS_SURFACES
             && depth >= RR_DEPTH
             && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler)

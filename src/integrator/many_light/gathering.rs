@@ -107,6 +107,10 @@ impl Estimator for WeighedGathering<'_> {
         let Some(s) = scatter(v.bsdf, v.sp, v.wo, TransportMode::Radiance, sampler, &mut beta) else {
             return Some(direct + gathered);
         };
+        // A delta lobe of a plastic or a mask: the walk itself goes on through it.
+        if s.delta {
+            return Some(direct + gathered);
+        }
         counters.rays += 1;
         let ray = Ray::new(offset_origin(v.sp.p, v.sp.ng, s.wi), s.wi);
         let mut found = Vec3::ZERO;
