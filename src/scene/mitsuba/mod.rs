@@ -21,6 +21,7 @@
 //!
 //! A reflectance above 1 creates energy: refused, as Mitsuba does.
 
+mod bsdfs;
 mod shapes;
 mod transform;
 mod write;
@@ -53,7 +54,13 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let doc = xml::read(path, &options.defines)?;
     let mut ids = HashMap::new();
     collect_ids(&doc.elements, &mut ids)?;
-    let mut b = Builder { ids, warnings: Vec::new(), materials: Vec::new(), geometry: Geometry::default() };
+    let mut b = Builder {
+        ids,
+        warnings: Vec::new(),
+        late_warnings: Default::default(),
+        materials: Vec::new(),
+        geometry: Geometry::default(),
+    };
     let mut camera = None;
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
     let mut integrator_seen = false;
@@ -105,7 +112,12 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         return Err(SceneError::NoEmitter { path: path.to_path_buf() });
     }
     let scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?;
-    Ok((scene, b.warnings))
+    let mut warnings = b.warnings;
+    let mut late = b.late_warnings.into_inner().unwrap_or_else(|e| e.into_inner());
+    late.sort();
+    late.dedup();
+    warnings.extend(late);
+    Ok((scene, warnings))
 }
 
 /// Every element with an id, by id (a second element of the same id is an error).
@@ -128,6 +140,9 @@ fn collect_ids<'a>(
 struct Builder<'a> {
     ids: HashMap<String, &'a Element>,
     warnings: Vec<String>,
+    /// Warnings of the plugins read in parallel (the shapes' BSDFs), added to `warnings` at
+    /// the end.
+    late_warnings: std::sync::Mutex<Vec<String>>,
     materials: Vec<Material>,
     geometry: Geometry,
 }
@@ -482,7 +497,9 @@ impl<'a> Builder<'a> {
         let emitters = p.plugins(self, "emitter")?;
         p.finish(self)?;
         let (bsdf, two_sided) = match bsdfs.as_slice() {
-            [] => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false),
+            // Mitsuba's default: diffuse 0.5, black on an emitter (`Shape::Shape`).
+            [] if emitters.is_empty() => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false),
+            [] => (Bsdf::Diffuse { albedo: Vec3::ZERO }, false),
             [b] => self.bsdf(b)?,
             _ => return Err(e.error("more than one bsdf")),
         };
@@ -542,29 +559,21 @@ impl<'a> Builder<'a> {
                 }
             }
             "diffuse" => (Bsdf::Diffuse { albedo: diffuse_albedo(&p)? }, false),
-            "dielectric" => {
-                let int = ior(&p, "int_ior", 1.5046)?;
-                let ext = ior(&p, "ext_ior", 1.000277)?;
-                for name in ["specular_reflectance", "specular_transmittance"] {
-                    if let Some(v) = p.colour(name)?
-                        && v != Vec3::ONE
-                    {
-                        return Err(e.error(format!(
-                            "{name} {v}: pir's dielectric reflects and transmits in full (1)"
-                        )));
-                    }
-                }
-                (Bsdf::Glass { ior: int / ext }, false)
+            "dielectric" => (bsdfs::dielectric(e, &p)?, false),
+            "thindielectric" => (bsdfs::thin_dielectric(e, &p)?, false),
+            "roughdielectric" => {
+                let (bsdf, warning) = bsdfs::rough_dielectric(e, &p)?;
+                self.late_warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
+                (bsdf, false)
             }
-            "conductor" => {
-                none_material(e, &p)?;
-                let specular = p.colour("specular_reflectance")?.unwrap_or(Vec3::ONE);
-                reflectance(e, "specular_reflectance", specular)?;
-                (Bsdf::Mirror { specular }, false)
-            }
-            "roughconductor" => {
-                let (specular, roughness) = rough_mirror(e, &p)?;
-                (Bsdf::Glossy { albedo: Vec3::ZERO, specular, roughness }, false)
+            "conductor" => (bsdfs::conductor(e, &p)?, false),
+            "roughconductor" => (bsdfs::rough_conductor(e, &p)?, false),
+            "plastic" => (bsdfs::plastic(e, &p, false)?, false),
+            "roughplastic" => (bsdfs::plastic(e, &p, true)?, false),
+            "mask" => {
+                let inner = p.plugins(self, "bsdf")?;
+                let [b] = inner.as_slice() else { return Err(e.error("needs one nested bsdf")) };
+                bsdfs::mask(e, &p, self.bsdf(b)?)?
             }
             "blendbsdf" => {
                 let w = p
@@ -598,8 +607,9 @@ impl<'a> Builder<'a> {
             }
             other => {
                 return Err(e.error(format!(
-                    "bsdf type \"{other}\" is not supported yet: pir reads diffuse, dielectric, conductor and \
-                     roughconductor (material none; ggx), blendbsdf of diffuse and roughconductor, and twosided"
+                    "bsdf type \"{other}\" is not supported yet: pir reads diffuse, plastic, roughplastic, conductor, \
+                     roughconductor, dielectric, thindielectric, roughdielectric (without transmission), mask (of a \
+                     diffuse), twosided and blendbsdf of diffuse and roughconductor (material none, ggx)"
                 )));
             }
         };
