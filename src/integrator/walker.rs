@@ -184,7 +184,8 @@ pub fn walk<E: Estimator>(
                         estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
                     }
                     if bounce {
-                        let v = Vertex { sp: &sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
+                        let bsdf = material.bsdf_at(sp.uv);
+                        let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
                         if let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {
                             radiance += beta * l;
                         }
@@ -212,7 +213,7 @@ pub fn walk<E: Estimator>(
 
         // ---- Light sampling and the method's techniques (one more segment at least, so
         // depth + 1 ≤ max_depth).
-        let bsdf = &material.bsdf;
+        let bsdf = &material.bsdf_at(sp.uv);
         let v = Vertex { sp: &sp, wo, bsdf, depth };
         if !bsdf.is_delta() {
             estimator.at_vertex(&mut state, ctx, &v, beta, &mut radiance, sampler, counters);

@@ -94,7 +94,7 @@ impl Weighing<'_> {
                 let b = fx.pdf(to_vpl) / dist2;
                 if vpl.nee_pdf > 0.0 {
                     // Lit directly: C, BSDF sampling from y towards the emitter, competes too.
-                    let bsdf = scene.material(vpl.material).bsdf;
+                    let bsdf = vpl.bsdf(scene);
                     let p_y = bsdf.pdf(&vpl.geometry(), -to_vpl, vpl.w_in);
                     share(vpl.arrival, vpl.arrival + b + b * p_y / vpl.nee_pdf)
                 } else {
@@ -102,7 +102,7 @@ impl Weighing<'_> {
                 }
             }
             Technique::Bidirectional { ref end, scene } => {
-                connection_weight(end, x, vpl, &scene.material(vpl.material).bsdf, emitting)
+                connection_weight(end, x, vpl, &vpl.bsdf(scene), emitting)
             }
             Technique::Bounce { bounce } => {
                 let d = x - vpl.p;

@@ -8,7 +8,10 @@
 //! - shapes ([`shapes`]): `obj`, `ply`, `serialized` ([`super::ply`], [`super::serialized`]),
 //!   `rectangle`, `cube`, `disk`, `sphere`, with `to_world`,
 //!   `flip_normals`, `face_normals` and Mitsuba's vertex normals for meshes without them;
-//! - BSDFs: `diffuse` (its `reflectance` a colour) and `twosided` around it
+//! - textures ([`textures`]): `bitmap` (PNG, JPEG, OpenEXR, Radiance HDR) and `checkerboard`,
+//!   for a `diffuse` BSDF's `reflectance`; shapes' texture coordinates as Mitsuba's
+//!   ([`shapes`]);
+//! - BSDFs: `diffuse` (its `reflectance` a colour or a texture) and `twosided` around it
 //!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
 //!   a one-sided diffuse of reflectance 0.5;
 //! - emitters: `area` with a constant `radiance`;
@@ -22,6 +25,7 @@
 //! A reflectance above 1 creates energy: refused, as Mitsuba does.
 
 mod shapes;
+mod textures;
 mod transform;
 mod write;
 mod xml;
@@ -36,7 +40,11 @@ use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
 use super::{Camera, Geometry, RenderDefaults, Scene, SceneError};
-use crate::material::{Bsdf, Material};
+use crate::material::{Bsdf, Material, Slot, Textured};
+use crate::texture::Texture;
+
+/// A BSDF's textured slots.
+type Slots = Vec<(Slot, Texture)>;
 use shapes::{Normals, WorldMesh};
 use transform::{numbers, parse_number};
 use xml::Element;
@@ -53,7 +61,13 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let doc = xml::read(path, &options.defines)?;
     let mut ids = HashMap::new();
     collect_ids(&doc.elements, &mut ids)?;
-    let mut b = Builder { ids, warnings: Vec::new(), materials: Vec::new(), geometry: Geometry::default() };
+    let mut b = Builder {
+        ids,
+        warnings: Vec::new(),
+        materials: Vec::new(),
+        geometry: Geometry::default(),
+        images: textures::ImageCache::default(),
+    };
     let mut camera = None;
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
     let mut integrator_seen = false;
@@ -95,6 +109,11 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         let material = b.material(material);
         b.add(mesh, material);
     }
+    // Texture coordinates of the vertices after the last textured shape's.
+    if !b.geometry.uvs.is_empty() {
+        let n = b.geometry.positions.len();
+        b.geometry.uvs.resize(n, glam::Vec2::NAN);
+    }
     let camera = camera.ok_or_else(|| SceneError::Value {
         path: path.to_path_buf(),
         line: None,
@@ -130,6 +149,7 @@ struct Builder<'a> {
     warnings: Vec<String>,
     materials: Vec<Material>,
     geometry: Geometry,
+    images: textures::ImageCache,
 }
 
 /// Property tags: the children of a plugin that are its parameters.
@@ -481,8 +501,8 @@ impl<'a> Builder<'a> {
         let bsdfs = p.plugins(self, "bsdf")?;
         let emitters = p.plugins(self, "emitter")?;
         p.finish(self)?;
-        let (bsdf, two_sided) = match bsdfs.as_slice() {
-            [] => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false),
+        let (bsdf, two_sided, textures) = match bsdfs.as_slice() {
+            [] => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false, None),
             [b] => self.bsdf(b)?,
             _ => return Err(e.error("more than one bsdf")),
         };
@@ -493,12 +513,23 @@ impl<'a> Builder<'a> {
         };
         let name =
             e.attr("id").or_else(|| bsdfs.first().and_then(|b| b.attr("id"))).unwrap_or("shape").to_string();
-        Ok((shapes::to_world(mesh, to_world, flip, kind), Material { name, bsdf, emission, two_sided }))
+        let mut mesh = shapes::to_world(mesh, to_world, flip, kind);
+        // Texture coordinates are kept only where a texture reads them.
+        if textures.is_none() {
+            mesh.uvs = Vec::new();
+        }
+        let textures = textures.map(|slots| std::sync::Arc::new(Textured::new(slots)));
+        Ok((mesh, Material { name, bsdf, emission, two_sided, textures }))
     }
 
     /// The index of `m` among the scene's materials (equal ones are stored once).
     fn material(&mut self, m: Material) -> u32 {
-        let same = |a: &Material| a.bsdf == m.bsdf && a.emission == m.emission && a.two_sided == m.two_sided;
+        let same = |a: &Material| {
+            a.bsdf == m.bsdf
+                && a.emission == m.emission
+                && a.two_sided == m.two_sided
+                && a.textures == m.textures
+        };
         match self.materials.iter().position(same) {
             Some(i) => i as u32,
             None => {
@@ -520,19 +551,26 @@ impl<'a> Builder<'a> {
                 g.degenerate_dropped += 1;
             }
         }
+        if !m.uvs.is_empty() {
+            g.uvs.resize(g.positions.len(), glam::Vec2::NAN);
+            g.uvs.extend(m.uvs);
+        }
         g.positions.extend(m.positions);
         g.normals.extend(m.normals);
     }
 
-    /// A BSDF and whether it is two-sided.
-    fn bsdf(&self, e: &'a Element) -> Result<(Bsdf, bool), SceneError> {
+    /// A BSDF, whether it is two-sided, and its textured slots (`None` where it has none).
+    fn bsdf(&self, e: &'a Element) -> Result<(Bsdf, bool, Option<Slots>), SceneError> {
         let p = Params::new(e);
         let out = match e.type_name() {
             "twosided" => {
                 let inner = p.plugins(self, "bsdf")?;
                 match inner.as_slice() {
                     [b] if b.type_name() == "twosided" => return Err(b.error("a twosided inside a twosided")),
-                    [b] => (self.bsdf(b)?.0, true),
+                    [b] => {
+                        let (bsdf, _, textures) = self.bsdf(b)?;
+                        (bsdf, true, textures)
+                    }
                     [_, _] => {
                         return Err(
                             e.error("a twosided with two BSDFs (front, back) is not supported: give one")
@@ -541,7 +579,23 @@ impl<'a> Builder<'a> {
                     _ => return Err(e.error("needs one nested bsdf")),
                 }
             }
-            "diffuse" => (Bsdf::Diffuse { albedo: diffuse_albedo(&p)? }, false),
+            "diffuse" => match p.texture(self, "reflectance")? {
+                Some(Texture::Constant(albedo)) => {
+                    reflectance(e, "reflectance", albedo)?;
+                    (Bsdf::Diffuse { albedo }, false, None)
+                }
+                Some(t) => {
+                    let (lo, hi) = t.range();
+                    if lo < 0.0 || hi > 1.0 {
+                        return Err(e.error(format!(
+                            "reflectance: the texture's values span {lo} to {hi}; they must lie between 0 and 1 \
+                             (above 1 the material creates energy; Mitsuba refuses it too)"
+                        )));
+                    }
+                    (Bsdf::Diffuse { albedo: t.mean() }, false, Some(vec![(Slot::Reflectance, t)]))
+                }
+                None => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false, None),
+            },
             "dielectric" => {
                 let int = ior(&p, "int_ior", 1.5046)?;
                 let ext = ior(&p, "ext_ior", 1.000277)?;
@@ -554,17 +608,17 @@ impl<'a> Builder<'a> {
                         )));
                     }
                 }
-                (Bsdf::Glass { ior: int / ext }, false)
+                (Bsdf::Glass { ior: int / ext }, false, None)
             }
             "conductor" => {
                 none_material(e, &p)?;
                 let specular = p.colour("specular_reflectance")?.unwrap_or(Vec3::ONE);
                 reflectance(e, "specular_reflectance", specular)?;
-                (Bsdf::Mirror { specular }, false)
+                (Bsdf::Mirror { specular }, false, None)
             }
             "roughconductor" => {
                 let (specular, roughness) = rough_mirror(e, &p)?;
-                (Bsdf::Glossy { albedo: Vec3::ZERO, specular, roughness }, false)
+                (Bsdf::Glossy { albedo: Vec3::ZERO, specular, roughness }, false, None)
             }
             "blendbsdf" => {
                 let w = p
@@ -594,7 +648,7 @@ impl<'a> Builder<'a> {
                         ));
                     }
                 };
-                (bsdf, false)
+                (bsdf, false, None)
             }
             other => {
                 return Err(e.error(format!(
