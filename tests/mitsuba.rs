@@ -562,3 +562,199 @@ fn dielectrics_and_conductors() {
         assert!(e.contains("e.xml") && e.contains("line 20") && e.contains(want), "{e}");
     }
 }
+
+/// The texture coordinates of the point `p` of the textured shapes of `s` (`None` off them).
+fn uv_at(s: &Scene, p: Vec3) -> Option<glam::Vec2> {
+    for prim in 0..s.triangle_count() as u32 {
+        if s.material_of(prim).textures.is_none() {
+            continue;
+        }
+        let [a, b, c] = s.triangle(prim);
+        let n = (b - a).cross(c - a);
+        if (p - a).dot(n).abs() > 1e-5 * n.length() {
+            continue;
+        }
+        let area = n.length_squared();
+        let u = (p - a).cross(c - a).dot(n) / area;
+        let v = (b - a).cross(p - a).dot(n) / area;
+        if u >= -1e-6 && v >= -1e-6 && u + v <= 1.0 + 1e-6 {
+            return Some(s.surface_at(prim, glam::Vec2::new(u, v)).uv);
+        }
+    }
+    None
+}
+
+/// Texture coordinates are Mitsuba 3's: the values of Mitsuba 3.9.1's own ray intersections
+/// (its Python bindings) at points of each shape, the OBJ reader's flipped v and the
+/// barycentrics of a mesh without coordinates included.
+#[test]
+fn texture_coordinates_are_mitsubas() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.9 0.3\nvt 0.4 0.8\nf 1/1 2/2 3/3\n",
+    );
+    write(dir.path(), "bare.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let tex = r#"<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf>"#;
+    // Each shape moved 10 below the floor of `scene`.
+    let one = |shape: &str, params: &str| {
+        let extra = format!(
+            "<shape type=\"{shape}\">{params}<transform name=\"to_world\"><translate z=\"-10\"/></transform>{tex}</shape>"
+        );
+        let p = write(dir.path(), "uv.xml", &scene(&extra));
+        load(&p, &[]).unwrap().0
+    };
+    let at = |s: &Scene, p: [f32; 3]| uv_at(s, Vec3::from(p) - Vec3::Z * 10.0);
+    let close = |got: Option<glam::Vec2>, want: [f32; 2], tol: f32| {
+        let g = got.expect("a point on the shape");
+        assert!((g - glam::Vec2::from(want)).abs().max_element() <= tol, "{g} against {want:?}");
+    };
+    let rect = one("rectangle", "");
+    close(at(&rect, [0.5, -0.25, 0.0]), [0.75, 0.375], 1e-6);
+    let disk = one("disk", "");
+    close(at(&disk, [0.0, 0.5, 0.0]), [0.5, 0.25], 1e-3);
+    close(at(&disk, [0.3, -0.4, 0.0]), [0.5, 1.0 - (4f32).atan2(3.0) / std::f32::consts::TAU], 1e-3);
+    let sphere = one("sphere", "");
+    // Points of the tessellation near the exact ones: (φ / 2π, θ / π) of the point found.
+    for (x, y, z) in
+        [(0.866, 0.05, 0.5), (0.866, -0.05, 0.5), (0.0, 1.0, 0.0), (-0.5, -0.5, 0.7), (0.6, -0.1, -0.79)]
+    {
+        let d = Vec3::new(x, y, z).normalize();
+        // The triangle under d: the point where the ray from the centre meets the mesh.
+        let hit = (0..sphere.triangle_count() as u32).find_map(|prim| {
+            sphere.material_of(prim).textures.as_ref()?;
+            let [a, b, c] = sphere.triangle(prim).map(|q| q + Vec3::Z * 10.0);
+            let n = (b - a).cross(c - a);
+            let t = a.dot(n) / d.dot(n);
+            let p = d * t;
+            let area = n.length_squared();
+            let (u, v) = ((p - a).cross(c - a).dot(n) / area, (b - a).cross(p - a).dot(n) / area);
+            (t > 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0)
+                .then(|| sphere.surface_at(prim, glam::Vec2::new(u, v)).uv)
+        });
+        let phi = d.y.atan2(d.x).rem_euclid(std::f32::consts::TAU);
+        close(hit, [phi / std::f32::consts::TAU, d.z.acos() / std::f32::consts::PI], 2e-3);
+    }
+    let cube = one("cube", "");
+    for (p, want) in [
+        ([0.5, 0.25, 1.0], [0.625, 0.75]),
+        ([0.5, 0.25, -1.0], [0.375, 0.75]),
+        ([1.0, 0.25, 0.5], [0.625, 0.25]),
+        ([-1.0, 0.25, 0.5], [0.625, 0.75]),
+        ([0.25, 1.0, 0.5], [0.375, 0.25]),
+        ([0.25, -1.0, 0.5], [0.75, 0.625]),
+    ] {
+        close(at(&cube, p), want, 1e-6);
+    }
+    let obj = one("obj", r#"<string name="filename" value="tri.obj"/>"#);
+    close(at(&obj, [0.25, 0.25, 0.0]), [0.375, 0.625], 1e-6);
+    let bare = one("obj", r#"<string name="filename" value="bare.obj"/>"#);
+    close(at(&bare, [0.25, 0.125, 0.0]), [0.25, 0.125], 1e-6);
+    // Untextured shapes keep no texture coordinates.
+    let (plain, _) = load(&write(dir.path(), "plain.xml", &scene("")), &[]).unwrap();
+    assert!(plain.uvs().is_empty());
+}
+
+/// What the texture plugins refuse, each in one line naming the file, the line and the plugin.
+#[test]
+fn texture_errors_name_the_file_line_and_plugin() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = pir_png(dir.path());
+    let cases = [
+        (r#"<texture type="noise" name="reflectance"/>"#, "texture type \"noise\" is not supported"),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><float name="gamma" value="2"/></texture>"#,
+            "parameter \"gamma\" of <texture type=\"bitmap\" name=\"reflectance\"> is not supported",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="wrap_mode" value="wrap"/></texture>"#,
+            "wrap_mode \"wrap\": must be repeat, mirror or clamp",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="none.png"/></texture>"#,
+            "none.png: cannot read",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="s.xml"/></texture>"#,
+            "not a PNG, JPEG, OpenEXR or Radiance HDR",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="hot.hdr"/></texture>"#,
+            "must lie between 0 and 1",
+        ),
+        (r#"<ref name="reflectance" id="white"/>"#, "is not a texture"),
+        (r#"<texture type="bitmap" name="reflectance"/>"#, "needs a filename"),
+    ];
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/textures/ramp-9x3.hdr"),
+        dir.path().join("hot.hdr"),
+    )
+    .unwrap();
+    assert!(png.exists());
+    for (texture, want) in cases {
+        let extra = format!("<shape type=\"rectangle\"><bsdf type=\"diffuse\">{texture}</bsdf></shape>");
+        let p = write(dir.path(), "s.xml", &scene(&extra));
+        let e = load(&p, &[]).unwrap_err();
+        assert!(e.contains(want), "{e:?} lacks {want:?}");
+        assert!(e.contains("s.xml: line ") && !e.contains('\n'), "{e:?}");
+    }
+}
+
+/// A 2 × 2 PNG in `dir` (t.png) for the tests that need a valid image.
+fn pir_png(dir: &Path) -> PathBuf {
+    let pixels = [Vec3::new(1.0, 0.0, 0.0), Vec3::ONE, Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0)];
+    let p = dir.join("t.png");
+    pir::image::write_png(&p, 2, 2, &pixels).unwrap();
+    p
+}
+
+/// A textured scene (`tests/data/textured/scene.xml`: PNG, OpenEXR and JPEG bitmaps, nearest
+/// and bilinear, repeat and mirror, `to_uv`, a checkerboard of a bitmap and a colour, a
+/// textured `twosided`) rendered by `pt` against Mitsuba 3's rendering
+/// (`tests/data/mitsuba-textured-64x36.exr`): image means within 1 % per channel and every
+/// 8 × 9-pixel block within 5 % (which a texture flipped, shifted or averaged fails).
+#[test]
+fn textured_scene_matches_mitsuba() {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let (want, _) = pir::image::read_exr(&data.join("mitsuba-textured-64x36.exr")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pt.exr");
+    let scene = data.join("textured/scene.xml");
+    let o = common::binary::pir(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--spp",
+            "512",
+            "--method",
+            "pt",
+            "-q",
+            "--no-preview",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", common::binary::stderr(&o));
+    let (got, _) = pir::image::read_exr(&out).unwrap();
+    let (mg, mw) = (glam::DVec3::from(got.mean()), glam::DVec3::from(want.mean()));
+    let rel = (mg - mw) / mw;
+    assert!(rel.abs().max_element() < 0.01, "means {mg} against Mitsuba's {mw} ({rel})");
+    let block = |img: &pir::image::RgbImage, bx: usize, by: usize| {
+        let mut s = glam::DVec3::ZERO;
+        for y in by * 9..by * 9 + 9 {
+            for x in bx * 8..bx * 8 + 8 {
+                s += img.get(x, y).as_dvec3();
+            }
+        }
+        s / 72.0
+    };
+    for by in 0..4 {
+        for bx in 0..8 {
+            let (g, w) = (block(&got, bx, by), block(&want, bx, by));
+            let rel = (g - w) / w.max(glam::DVec3::splat(0.01));
+            assert!(rel.abs().max_element() < 0.05, "block ({bx}, {by}): {g} against Mitsuba's {w}");
+        }
+    }
+}

@@ -100,6 +100,70 @@ mod tests {
         assert!(e.starts_with("/nonexistent/t.png: cannot read"), "{e}");
     }
 
+    /// Small valid files of every format and variant the readers take.
+    fn inputs() -> Vec<(&'static str, Vec<u8>, bool)> {
+        use crate::image::png_read::tests::encode;
+        use png::{BitDepth as D, ColorType as C};
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/textures");
+        let file = |n: &str| std::fs::read(dir.join(n)).unwrap();
+        let mut flat_hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 3\n".to_vec();
+        flat_hdr.extend([128, 64, 0, 129, 1, 1, 1, 2, 9, 9, 9, 130, 0, 0, 0, 0, 1, 2, 3, 128, 1, 1, 1, 1]);
+        let mut exr = std::io::Cursor::new(Vec::new());
+        {
+            use exr::prelude::*;
+            Image::from_channels(
+                (5, 3),
+                SpecificChannels::rgb(|p: Vec2<usize>| (p.x() as f32, p.y() as f32, 0.5f32)),
+            )
+            .write()
+            .to_buffered(&mut exr)
+            .unwrap();
+        }
+        vec![
+            ("rgb8.png", encode(3, 2, C::Rgb, D::Eight, None, &[7; 18]), false),
+            ("gray16.png", encode(2, 2, C::Grayscale, D::Sixteen, None, &[1, 2, 3, 4, 5, 6, 7, 8]), false),
+            (
+                "palette.png",
+                encode(4, 1, C::Indexed, D::Two, Some(vec![1, 2, 3, 4, 5, 6]), &[0b0001_0100]),
+                false,
+            ),
+            ("rgba.png", encode(2, 1, C::Rgba, D::Eight, None, &[1, 2, 3, 4, 5, 6, 7, 8]), false),
+            ("rgb.jpg", file("rgb-8x4.jpg"), false),
+            ("gray.jpg", file("gray-8x4.jpg"), false),
+            ("rle.hdr", file("ramp-9x3.hdr"), false),
+            ("flat.hdr", flat_hdr, false),
+            ("rgb.exr", exr.into_inner(), false),
+        ]
+    }
+
+    fn mutations(cases: usize, seed: u64) {
+        use crate::scene::mesh_data::mutation::survive;
+        let (ok, err) = survive(
+            "texture images",
+            &inputs(),
+            cases,
+            seed,
+            1 << 18,
+            |b| decode(b).map_err(|e| crate::scene::SceneError::syntax(Path::new("t"), None, e)),
+            |t| t.data.len(),
+        );
+        assert!(ok > 0 && err > cases / 10, "{ok} Ok, {err} Err");
+    }
+
+    /// Random byte and structure mutations of valid files of every format: each gives an image
+    /// or an error, never a panic, a hang or an allocation beyond what the file justifies.
+    #[test]
+    fn mutated_images_are_read_or_refused() {
+        mutations(3000, 1);
+    }
+
+    /// The same on 100,000 cases (`cargo test --release --lib -- --ignored mutated_images`).
+    #[test]
+    #[ignore]
+    fn mutated_images_are_read_or_refused_100k() {
+        mutations(100_000, 2);
+    }
+
     #[test]
     fn srgb_curve_matches_the_standard() {
         assert_eq!(srgb_to_linear(0.0), 0.0);
