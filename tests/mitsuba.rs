@@ -758,3 +758,19 @@ fn textured_scene_matches_mitsuba() {
         }
     }
 }
+
+/// An emitter without a BSDF is black, as Mitsuba 3's `Shape` makes it (a shape without one
+/// otherwise a diffuse of 0.5): its light reflected off it would add about 0.6 % to
+/// `tests/data/textured/scene.xml`.
+#[test]
+fn an_emitter_without_a_bsdf_reflects_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra =
+        r#"<shape type="rectangle"><transform name="to_world"><translate z="1"/></transform></shape>"#;
+    let (s, _) = load(&write(dir.path(), "s.xml", &scene(extra)), &[]).unwrap();
+    let bsdf = |emitter: bool| s.materials().iter().find(|m| m.is_emitter() == emitter).unwrap().bsdf;
+    assert_eq!(bsdf(true), pir::material::Bsdf::Diffuse { albedo: Vec3::ZERO });
+    assert!(
+        s.materials().iter().any(|m| m.bsdf == pir::material::Bsdf::Diffuse { albedo: Vec3::splat(0.5) })
+    );
+}

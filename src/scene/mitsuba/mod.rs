@@ -13,7 +13,7 @@
 //!   ([`shapes`]);
 //! - BSDFs: `diffuse` (its `reflectance` a colour or a texture) and `twosided` around it
 //!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
-//!   a one-sided diffuse of reflectance 0.5;
+//!   a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
 //! - emitters: `area` with a constant `radiance`;
 //! - the sensor: `perspective` (`fov`, `fov_axis`, `to_world`; `near_clip`, `far_clip` and
 //!   `focus_distance` are accepted and change nothing in front of the near plane), its
@@ -502,6 +502,9 @@ impl<'a> Builder<'a> {
         let emitters = p.plugins(self, "emitter")?;
         p.finish(self)?;
         let (bsdf, two_sided, textures) = match bsdfs.as_slice() {
+            // Mitsuba's default (`Shape`'s constructor): a one-sided diffuse of 0.5, black on
+            // an emitter.
+            [] if !emitters.is_empty() => (Bsdf::Diffuse { albedo: Vec3::ZERO }, false, None),
             [] => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false, None),
             [b] => self.bsdf(b)?,
             _ => return Err(e.error("more than one bsdf")),
