@@ -716,19 +716,36 @@ fn pir_png(dir: &Path) -> PathBuf {
 /// 8 × 9-pixel block within 5 % (which a texture flipped, shifted or averaged fails).
 #[test]
 fn textured_scene_matches_mitsuba() {
+    textured_scene_against_mitsuba("pt", "512", 0.01, 0.05);
+}
+
+/// Every method renders the textured scene with its textures (cheaply: 128 spp, so the
+/// tolerances are wider, and the biased methods' bias is in them): means within 3 %, blocks
+/// within 15 %.
+#[test]
+fn every_method_renders_textures() {
+    for method in common::methods() {
+        textured_scene_against_mitsuba(method, "128", 0.03, 0.15);
+    }
+}
+
+/// `method`'s rendering of `tests/data/textured/scene.xml` at `spp` against Mitsuba's: the
+/// relative difference of the means at most `mean_tol` per channel, of every 8 × 9-pixel
+/// block at most `block_tol`.
+fn textured_scene_against_mitsuba(method: &str, spp: &str, mean_tol: f64, block_tol: f64) {
     let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     let (want, _) = pir::image::read_exr(&data.join("mitsuba-textured-64x36.exr")).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("pt.exr");
+    let out = dir.path().join("out.exr");
     let scene = data.join("textured/scene.xml");
     let o = common::binary::pir(
         &[
             "render",
             scene.to_str().unwrap(),
             "--spp",
-            "512",
+            spp,
             "--method",
-            "pt",
+            method,
             "-q",
             "--no-preview",
             "--out",
@@ -736,11 +753,11 @@ fn textured_scene_matches_mitsuba() {
         ],
         dir.path(),
     );
-    assert!(o.status.success(), "{}", common::binary::stderr(&o));
+    assert!(o.status.success(), "{method}: {}", common::binary::stderr(&o));
     let (got, _) = pir::image::read_exr(&out).unwrap();
     let (mg, mw) = (glam::DVec3::from(got.mean()), glam::DVec3::from(want.mean()));
     let rel = (mg - mw) / mw;
-    assert!(rel.abs().max_element() < 0.01, "means {mg} against Mitsuba's {mw} ({rel})");
+    assert!(rel.abs().max_element() < mean_tol, "{method}: means {mg} against Mitsuba's {mw} ({rel})");
     let block = |img: &pir::image::RgbImage, bx: usize, by: usize| {
         let mut s = glam::DVec3::ZERO;
         for y in by * 9..by * 9 + 9 {
@@ -754,7 +771,10 @@ fn textured_scene_matches_mitsuba() {
         for bx in 0..8 {
             let (g, w) = (block(&got, bx, by), block(&want, bx, by));
             let rel = (g - w) / w.max(glam::DVec3::splat(0.01));
-            assert!(rel.abs().max_element() < 0.05, "block ({bx}, {by}): {g} against Mitsuba's {w}");
+            assert!(
+                rel.abs().max_element() < block_tol,
+                "{method}: block ({bx}, {by}): {g} against Mitsuba's {w}"
+            );
         }
     }
 }
