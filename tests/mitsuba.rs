@@ -651,6 +651,15 @@ fn texture_coordinates_are_mitsubas() {
     close(at(&obj, [0.25, 0.25, 0.0]), [0.375, 0.625], 1e-6);
     let bare = one("obj", r#"<string name="filename" value="bare.obj"/>"#);
     close(at(&bare, [0.25, 0.125, 0.0]), [0.25, 0.125], 1e-6);
+    // flip_normals turns the triangles, not Mitsuba's coordinates.
+    let flipped = one(
+        "obj",
+        r#"<string name="filename" value="bare.obj"/><boolean name="flip_normals" value="true"/>"#,
+    );
+    close(at(&flipped, [0.25, 0.125, 0.0]), [0.25, 0.125], 1e-6);
+    let flipped =
+        one("obj", r#"<string name="filename" value="tri.obj"/><boolean name="flip_normals" value="true"/>"#);
+    close(at(&flipped, [0.25, 0.25, 0.0]), [0.375, 0.625], 1e-6);
     // Untextured shapes keep no texture coordinates.
     let (plain, _) = load(&write(dir.path(), "plain.xml", &scene("")), &[]).unwrap();
     assert!(plain.uvs().is_empty());

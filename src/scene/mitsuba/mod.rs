@@ -517,9 +517,13 @@ impl<'a> Builder<'a> {
         let name =
             e.attr("id").or_else(|| bsdfs.first().and_then(|b| b.attr("id"))).unwrap_or("shape").to_string();
         let mut mesh = shapes::to_world(mesh, to_world, flip, kind);
-        // Texture coordinates are kept only where a texture reads them.
+        // Texture coordinates are kept only where a texture reads them; a textured mesh
+        // without them gets Mitsuba's barycentric ones (meshes are never analytic shapes, so
+        // only `flip_normals` swaps their winding).
         if textures.is_none() {
             mesh.uvs = Vec::new();
+        } else if mesh.uvs.is_empty() {
+            mesh = shapes::barycentric_uvs(mesh, flip);
         }
         let textures = textures.map(|slots| std::sync::Arc::new(Textured::new(slots)));
         Ok((mesh, Material { name, bsdf, emission, two_sided, textures }))

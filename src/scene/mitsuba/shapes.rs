@@ -13,8 +13,9 @@
 //! (r, φ / 2π), the sphere's (φ / 2π, θ / π) with θ from +z, interpolated over the triangles
 //! (vertices are split at the seam φ = 0 and at the poles, where each triangle's pole vertex
 //! takes the φ of its other two); an OBJ file's `vt` with v flipped (1 − v, as Mitsuba's OBJ
-//! reader), a PLY or `.serialized` file's as stored. Meshes without any get none here, and
-//! their points the barycentrics ([`crate::scene::SurfacePoint::uv`]).
+//! reader), a PLY or `.serialized` file's as stored (checked: Mitsuba flips neither). A
+//! textured mesh without any gets Mitsuba's rule, a point's barycentrics in the file's corner
+//! order, whatever `flip_normals` does to the winding ([`barycentric_uvs`]).
 //!
 //! Each is moved by its `to_world`; `flip_normals` turns it inside out. Mitsuba's analytic
 //! shapes (rectangle, disk, sphere) take their normal from `to_world` applied to the normal
@@ -375,6 +376,29 @@ pub fn to_world(mesh: Mesh, to_world: Mat4, flip: bool, normals: Normals) -> Wor
         }
     }
     WorldMesh { positions, normals: world_normals, triangles, uvs: mesh.uvs }
+}
+
+/// Texture coordinates for a textured mesh without any: Mitsuba's rule, each point's
+/// barycentrics (b1, b2) in the file's corner order, as per-corner coordinates (0, 0), (1, 0),
+/// (0, 1) of vertices of its own (so that the rule holds where `to_world` swapped the winding,
+/// `swapped`, which the scene's own barycentric rule would not see).
+pub fn barycentric_uvs(mesh: WorldMesh, swapped: bool) -> WorldMesh {
+    let mut corners = [Vec2::ZERO, Vec2::X, Vec2::Y];
+    if swapped {
+        corners.swap(1, 2);
+    }
+    let mut out =
+        WorldMesh { positions: Vec::new(), normals: Vec::new(), triangles: Vec::new(), uvs: Vec::new() };
+    for t in &mesh.triangles {
+        let base = out.positions.len() as u32;
+        for (k, &i) in t.iter().enumerate() {
+            out.positions.push(mesh.positions[i as usize]);
+            out.normals.push(mesh.normals[i as usize]);
+            out.uvs.push(corners[k]);
+        }
+        out.triangles.push([base, base + 1, base + 2]);
+    }
+    out
 }
 
 /// Mitsuba's vertex normals: each face's unit normal weighted by its angle at the vertex.
