@@ -803,3 +803,23 @@ fn an_emitter_without_a_bsdf_reflects_nothing() {
         s.materials().iter().any(|m| m.bsdf == pir::material::Bsdf::Diffuse { albedo: Vec3::splat(0.5) })
     );
 }
+
+/// The fingerprint covers the textures (another wrap mode is another scene), and `pir convert`
+/// refuses a textured scene rather than writing it untextured.
+#[test]
+fn textures_are_in_the_fingerprint_and_convert_refuses_them() {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/textured");
+    let dir = tempfile::tempdir().unwrap();
+    for f in ["floor.png", "wall.exr", "sphere.jpg", "quad.obj"] {
+        std::fs::copy(data.join(f), dir.path().join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(data.join("scene.xml")).unwrap();
+    let a = load(&write(dir.path(), "a.xml", &text), &[]).unwrap().0;
+    let mirrored = text.replace(r#"value="mirror""#, r#"value="clamp""#);
+    assert_ne!(mirrored, text);
+    let b = load(&write(dir.path(), "b.xml", &mirrored), &[]).unwrap().0;
+    assert_ne!(a.fingerprint(), b.fingerprint());
+    assert_eq!(a.fingerprint(), load(&dir.path().join("a.xml"), &[]).unwrap().0.fingerprint());
+    let e = pir::scene::mitsuba::write(&a, &dir.path().join("out.xml")).unwrap_err().to_string();
+    assert!(e.contains("is textured"), "{e}");
+}

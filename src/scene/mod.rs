@@ -409,13 +409,32 @@ mod tests {
         }
     }
 
+    /// A point's texture coordinates interpolate its triangle's vertices' and are its
+    /// barycentrics where a vertex has none.
+    #[test]
+    fn texture_coordinates_interpolate_or_are_the_barycentrics() {
+        let (mut g, m) = parts();
+        let at = Vec2::new(0.25, 0.5);
+        assert_eq!(build(g.clone(), m.clone()).unwrap().surface_at(0, at).uv, at);
+        g.uvs = vec![Vec2::new(0.5, 1.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 0.0)];
+        let s = build(g.clone(), m.clone()).unwrap();
+        assert_eq!(s.surface_at(0, at).uv, Vec2::new(0.375, 0.5));
+        assert_eq!(s.surface_at(0, Vec2::new(1.0, 0.0)).uv, Vec2::new(1.0, 1.0));
+        g.uvs[2] = Vec2::NAN;
+        assert_eq!(build(g, m).unwrap().surface_at(0, at).uv, at);
+    }
+
     #[test]
     fn new_checks_every_invariant_and_names_the_scene() {
         let (g, m) = parts();
         let s = build(g.clone(), m.clone()).unwrap();
         assert_eq!((s.triangle_count(), s.bounds().max), (1, Vec3::new(1.0, 1.0, 0.0)));
         type Break = fn(&mut Geometry);
-        let broken: [(&str, Break); 6] = [
+        let broken: [(&str, Break); 8] = [
+            ("2 texture coordinates for 3 vertices", |g| g.uvs = vec![Vec2::ZERO; 2]),
+            ("texture coordinates [inf, 0] are not finite", |g| {
+                g.uvs = vec![Vec2::new(f32::INFINITY, 0.0); 3]
+            }),
             ("not finite", |g| g.positions[1].x = f32::NAN),
             ("2 normals for 3 vertices", |g| g.normals.truncate(2)),
             ("neither zero nor unit", |g| g.normals[0] = Vec3::splat(2.0)),
