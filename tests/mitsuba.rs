@@ -823,3 +823,15 @@ fn textures_are_in_the_fingerprint_and_convert_refuses_them() {
     let e = pir::scene::mitsuba::write(&a, &dir.path().join("out.xml")).unwrap_err().to_string();
     assert!(e.contains("is textured"), "{e}");
 }
+
+/// A texture on a parameter other than a diffuse reflectance is refused by name.
+#[test]
+fn a_texture_elsewhere_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = r#"<shape type="rectangle"><bsdf type="conductor"><texture type="checkerboard" name="specular_reflectance"/></bsdf></shape>"#;
+    let e = load(&write(dir.path(), "s.xml", &scene(extra)), &[]).unwrap_err();
+    assert!(
+        e.contains("specular_reflectance: a texture (type \"checkerboard\") is not supported here"),
+        "{e}"
+    );
+}

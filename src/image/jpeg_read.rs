@@ -58,7 +58,6 @@ mod tests {
         let g = decode(&fixture("gray-8x4.jpg")).unwrap();
         assert!(g.data.iter().all(|&v| (v * 255.0 - 100.0).abs() <= 1.0), "{:?}", &g.data[..6]);
         let bytes = fixture("rgb-8x4.jpg");
-        assert!(decode(&bytes[..bytes.len() / 2]).is_err() || decode(&bytes[..bytes.len() / 2]).is_ok());
         assert!(decode(&bytes[..20]).is_err());
     }
 }

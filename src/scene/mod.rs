@@ -239,10 +239,6 @@ impl Scene {
     pub fn bsdf_at(&self, sp: &SurfacePoint) -> crate::material::Bsdf {
         self.materials[sp.material as usize].bsdf_at(sp.uv)
     }
-    /// Whether any material has textures.
-    pub fn has_textures(&self) -> bool {
-        self.materials.iter().any(|m| m.textures.is_some())
-    }
     /// Bounds of all vertices.
     pub fn bounds(&self) -> Aabb {
         self.bounds

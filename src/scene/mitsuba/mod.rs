@@ -273,7 +273,8 @@ impl<'a> Params<'a> {
                 }
             }
             "texture" => Err(p.error(format!(
-                "texture type \"{}\" is not supported yet: pir reads constant colours (<rgb>)",
+                "{name}: a texture (type \"{}\") is not supported here yet: pir reads textures on a diffuse \
+                 BSDF's reflectance; give a colour (<rgb>)",
                 p.type_name()
             ))),
             other => Err(p.error(format!("{name}: expected a colour (<rgb>), not <{other}>"))),
