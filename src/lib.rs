@@ -19,3 +19,4 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod study;
+pub mod texture;

@@ -125,6 +125,7 @@ mod tests {
         let positions = [square(0.0, 1.0), square(2.0, 2.0)].concat();
         let geometry = Geometry {
             normals: vec![Vec3::ZERO; positions.len()],
+            uvs: vec![],
             positions,
             indices: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]],
             tri_material: vec![0, 0, 1, 1],
@@ -135,6 +136,7 @@ mod tests {
             bsdf: Bsdf::Diffuse { albedo: Vec3::ZERO },
             emission: Vec3::splat(e),
             two_sided: false,
+            textures: None,
         };
         let camera =
             Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };

@@ -49,6 +49,7 @@ fn glossy(emission: f32) -> Material {
         bsdf: Bsdf::Glossy { albedo: Vec3::splat(0.2), specular: Vec3::splat(0.6), roughness: 0.15 },
         emission: Vec3::splat(emission),
         two_sided: false,
+        textures: None,
     }
 }
 
@@ -118,12 +119,14 @@ fn mixed_cube() -> Scene {
         bsdf: Bsdf::Mirror { specular: Vec3::splat(0.9) },
         emission: Vec3::ZERO,
         two_sided: false,
+        textures: None,
     };
     let glass = Material {
         name: "glass".into(),
         bsdf: Bsdf::Glass { ior: 1.5 },
         emission: Vec3::ZERO,
         two_sided: false,
+        textures: None,
     };
     closed_cube_of(vec![diffuse(0.6, 1.0), glossy(0.5), mirror, glass], |face| match face {
         0 => 2,

@@ -24,6 +24,7 @@ fn glossy_cube() -> Scene {
         bsdf: Bsdf::Glossy { albedo: Vec3::splat(0.2), specular: Vec3::splat(0.6), roughness: 0.15 },
         emission: Vec3::ONE,
         two_sided: false,
+        textures: None,
     })
 }
 

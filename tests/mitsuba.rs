@@ -670,3 +670,276 @@ fn dielectrics_and_conductors() {
         assert!(e.contains("e.xml") && e.contains("line 20") && e.contains(want), "{e}");
     }
 }
+
+/// The texture coordinates of the point `p` of the textured shapes of `s` (`None` off them).
+fn uv_at(s: &Scene, p: Vec3) -> Option<glam::Vec2> {
+    for prim in 0..s.triangle_count() as u32 {
+        if s.material_of(prim).textures.is_none() {
+            continue;
+        }
+        let [a, b, c] = s.triangle(prim);
+        let n = (b - a).cross(c - a);
+        if (p - a).dot(n).abs() > 1e-5 * n.length() {
+            continue;
+        }
+        let area = n.length_squared();
+        let u = (p - a).cross(c - a).dot(n) / area;
+        let v = (b - a).cross(p - a).dot(n) / area;
+        if u >= -1e-6 && v >= -1e-6 && u + v <= 1.0 + 1e-6 {
+            return Some(s.surface_at(prim, glam::Vec2::new(u, v)).uv);
+        }
+    }
+    None
+}
+
+/// Texture coordinates are Mitsuba 3's: the values of Mitsuba 3.9.1's own ray intersections
+/// (its Python bindings) at points of each shape, the OBJ reader's flipped v and the
+/// barycentrics of a mesh without coordinates included.
+#[test]
+fn texture_coordinates_are_mitsubas() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.9 0.3\nvt 0.4 0.8\nf 1/1 2/2 3/3\n",
+    );
+    write(dir.path(), "bare.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let tex = r#"<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf>"#;
+    // Each shape moved 10 below the floor of `scene`.
+    let one = |shape: &str, params: &str| {
+        let extra = format!(
+            "<shape type=\"{shape}\">{params}<transform name=\"to_world\"><translate z=\"-10\"/></transform>{tex}</shape>"
+        );
+        let p = write(dir.path(), "uv.xml", &scene(&extra));
+        load(&p, &[]).unwrap().0
+    };
+    let at = |s: &Scene, p: [f32; 3]| uv_at(s, Vec3::from(p) - Vec3::Z * 10.0);
+    let close = |got: Option<glam::Vec2>, want: [f32; 2], tol: f32| {
+        let g = got.expect("a point on the shape");
+        assert!((g - glam::Vec2::from(want)).abs().max_element() <= tol, "{g} against {want:?}");
+    };
+    let rect = one("rectangle", "");
+    close(at(&rect, [0.5, -0.25, 0.0]), [0.75, 0.375], 1e-6);
+    let disk = one("disk", "");
+    close(at(&disk, [0.0, 0.5, 0.0]), [0.5, 0.25], 1e-3);
+    close(at(&disk, [0.3, -0.4, 0.0]), [0.5, 1.0 - (4f32).atan2(3.0) / std::f32::consts::TAU], 1e-3);
+    let sphere = one("sphere", "");
+    // Points of the tessellation near the exact ones: (φ / 2π, θ / π) of the point found.
+    for (x, y, z) in
+        [(0.866, 0.05, 0.5), (0.866, -0.05, 0.5), (0.0, 1.0, 0.0), (-0.5, -0.5, 0.7), (0.6, -0.1, -0.79)]
+    {
+        let d = Vec3::new(x, y, z).normalize();
+        // The triangle under d: the point where the ray from the centre meets the mesh.
+        let hit = (0..sphere.triangle_count() as u32).find_map(|prim| {
+            sphere.material_of(prim).textures.as_ref()?;
+            let [a, b, c] = sphere.triangle(prim).map(|q| q + Vec3::Z * 10.0);
+            let n = (b - a).cross(c - a);
+            let t = a.dot(n) / d.dot(n);
+            let p = d * t;
+            let area = n.length_squared();
+            let (u, v) = ((p - a).cross(c - a).dot(n) / area, (b - a).cross(p - a).dot(n) / area);
+            (t > 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0)
+                .then(|| sphere.surface_at(prim, glam::Vec2::new(u, v)).uv)
+        });
+        let phi = d.y.atan2(d.x).rem_euclid(std::f32::consts::TAU);
+        close(hit, [phi / std::f32::consts::TAU, d.z.acos() / std::f32::consts::PI], 2e-3);
+    }
+    let cube = one("cube", "");
+    for (p, want) in [
+        ([0.5, 0.25, 1.0], [0.625, 0.75]),
+        ([0.5, 0.25, -1.0], [0.375, 0.75]),
+        ([1.0, 0.25, 0.5], [0.625, 0.25]),
+        ([-1.0, 0.25, 0.5], [0.625, 0.75]),
+        ([0.25, 1.0, 0.5], [0.375, 0.25]),
+        ([0.25, -1.0, 0.5], [0.75, 0.625]),
+    ] {
+        close(at(&cube, p), want, 1e-6);
+    }
+    let obj = one("obj", r#"<string name="filename" value="tri.obj"/>"#);
+    close(at(&obj, [0.25, 0.25, 0.0]), [0.375, 0.625], 1e-6);
+    let bare = one("obj", r#"<string name="filename" value="bare.obj"/>"#);
+    close(at(&bare, [0.25, 0.125, 0.0]), [0.25, 0.125], 1e-6);
+    // flip_normals turns the triangles, not Mitsuba's coordinates.
+    let flipped = one(
+        "obj",
+        r#"<string name="filename" value="bare.obj"/><boolean name="flip_normals" value="true"/>"#,
+    );
+    close(at(&flipped, [0.25, 0.125, 0.0]), [0.25, 0.125], 1e-6);
+    let flipped =
+        one("obj", r#"<string name="filename" value="tri.obj"/><boolean name="flip_normals" value="true"/>"#);
+    close(at(&flipped, [0.25, 0.25, 0.0]), [0.375, 0.625], 1e-6);
+    // Untextured shapes keep no texture coordinates.
+    let (plain, _) = load(&write(dir.path(), "plain.xml", &scene("")), &[]).unwrap();
+    assert!(plain.uvs().is_empty());
+}
+
+/// What the texture plugins refuse, each in one line naming the file, the line and the plugin.
+#[test]
+fn texture_errors_name_the_file_line_and_plugin() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = pir_png(dir.path());
+    let cases = [
+        (r#"<texture type="noise" name="reflectance"/>"#, "texture type \"noise\" is not supported"),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><float name="gamma" value="2"/></texture>"#,
+            "parameter \"gamma\" of <texture type=\"bitmap\" name=\"reflectance\"> is not supported",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><string name="wrap_mode" value="wrap"/></texture>"#,
+            "wrap_mode \"wrap\": must be repeat, mirror or clamp",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="none.png"/></texture>"#,
+            "none.png: cannot read",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="s.xml"/></texture>"#,
+            "not a PNG, JPEG, OpenEXR or Radiance HDR",
+        ),
+        (
+            r#"<texture type="bitmap" name="reflectance"><string name="filename" value="hot.hdr"/></texture>"#,
+            "must lie between 0 and 1",
+        ),
+        (r#"<ref name="reflectance" id="white"/>"#, "is not a texture"),
+        (r#"<texture type="bitmap" name="reflectance"/>"#, "needs a filename"),
+    ];
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/textures/ramp-9x3.hdr"),
+        dir.path().join("hot.hdr"),
+    )
+    .unwrap();
+    assert!(png.exists());
+    for (texture, want) in cases {
+        let extra = format!("<shape type=\"rectangle\"><bsdf type=\"diffuse\">{texture}</bsdf></shape>");
+        let p = write(dir.path(), "s.xml", &scene(&extra));
+        let e = load(&p, &[]).unwrap_err();
+        assert!(e.contains(want), "{e:?} lacks {want:?}");
+        assert!(e.contains("s.xml: line ") && !e.contains('\n'), "{e:?}");
+    }
+}
+
+/// A 2 × 2 PNG in `dir` (t.png) for the tests that need a valid image.
+fn pir_png(dir: &Path) -> PathBuf {
+    let pixels = [Vec3::new(1.0, 0.0, 0.0), Vec3::ONE, Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0)];
+    let p = dir.join("t.png");
+    pir::image::write_png(&p, 2, 2, &pixels).unwrap();
+    p
+}
+
+/// A textured scene (`tests/data/textured/scene.xml`: PNG, OpenEXR and JPEG bitmaps, nearest
+/// and bilinear, repeat and mirror, `to_uv`, a checkerboard of a bitmap and a colour, a
+/// textured `twosided`) rendered by `pt` against Mitsuba 3's rendering
+/// (`tests/data/mitsuba-textured-64x36.exr`): image means within 1 % per channel and every
+/// 8 × 9-pixel block within 5 % (which a texture flipped, shifted or averaged fails).
+#[test]
+fn textured_scene_matches_mitsuba() {
+    textured_scene_against_mitsuba("pt", "512", 0.01, 0.05);
+}
+
+/// Every method renders the textured scene with its textures (cheaply: 128 spp, so the
+/// tolerances are wider, and the biased methods' bias is in them): means within 3 %, blocks
+/// within 15 %.
+#[test]
+fn every_method_renders_textures() {
+    for method in common::methods() {
+        textured_scene_against_mitsuba(method, "128", 0.03, 0.15);
+    }
+}
+
+/// `method`'s rendering of `tests/data/textured/scene.xml` at `spp` against Mitsuba's: the
+/// relative difference of the means at most `mean_tol` per channel, of every 8 × 9-pixel
+/// block at most `block_tol`.
+fn textured_scene_against_mitsuba(method: &str, spp: &str, mean_tol: f64, block_tol: f64) {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let (want, _) = pir::image::read_exr(&data.join("mitsuba-textured-64x36.exr")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.exr");
+    let scene = data.join("textured/scene.xml");
+    let o = common::binary::pir(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--spp",
+            spp,
+            "--method",
+            method,
+            "-q",
+            "--no-preview",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{method}: {}", common::binary::stderr(&o));
+    let (got, _) = pir::image::read_exr(&out).unwrap();
+    let (mg, mw) = (glam::DVec3::from(got.mean()), glam::DVec3::from(want.mean()));
+    let rel = (mg - mw) / mw;
+    assert!(rel.abs().max_element() < mean_tol, "{method}: means {mg} against Mitsuba's {mw} ({rel})");
+    let block = |img: &pir::image::RgbImage, bx: usize, by: usize| {
+        let mut s = glam::DVec3::ZERO;
+        for y in by * 9..by * 9 + 9 {
+            for x in bx * 8..bx * 8 + 8 {
+                s += img.get(x, y).as_dvec3();
+            }
+        }
+        s / 72.0
+    };
+    for by in 0..4 {
+        for bx in 0..8 {
+            let (g, w) = (block(&got, bx, by), block(&want, bx, by));
+            let rel = (g - w) / w.max(glam::DVec3::splat(0.01));
+            assert!(
+                rel.abs().max_element() < block_tol,
+                "{method}: block ({bx}, {by}): {g} against Mitsuba's {w}"
+            );
+        }
+    }
+}
+
+/// An emitter without a BSDF is black, as Mitsuba 3's `Shape` makes it (a shape without one
+/// otherwise a diffuse of 0.5): its light reflected off it would add about 0.6 % to
+/// `tests/data/textured/scene.xml`.
+#[test]
+fn an_emitter_without_a_bsdf_reflects_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra =
+        r#"<shape type="rectangle"><transform name="to_world"><translate z="1"/></transform></shape>"#;
+    let (s, _) = load(&write(dir.path(), "s.xml", &scene(extra)), &[]).unwrap();
+    let bsdf = |emitter: bool| s.materials().iter().find(|m| m.is_emitter() == emitter).unwrap().bsdf;
+    assert_eq!(bsdf(true), pir::material::Bsdf::Diffuse { albedo: Vec3::ZERO });
+    assert!(
+        s.materials().iter().any(|m| m.bsdf == pir::material::Bsdf::Diffuse { albedo: Vec3::splat(0.5) })
+    );
+}
+
+/// The fingerprint covers the textures (another wrap mode is another scene), and `pir convert`
+/// refuses a textured scene rather than writing it untextured.
+#[test]
+fn textures_are_in_the_fingerprint_and_convert_refuses_them() {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/textured");
+    let dir = tempfile::tempdir().unwrap();
+    for f in ["floor.png", "wall.exr", "sphere.jpg", "quad.obj"] {
+        std::fs::copy(data.join(f), dir.path().join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(data.join("scene.xml")).unwrap();
+    let a = load(&write(dir.path(), "a.xml", &text), &[]).unwrap().0;
+    let mirrored = text.replace(r#"value="mirror""#, r#"value="clamp""#);
+    assert_ne!(mirrored, text);
+    let b = load(&write(dir.path(), "b.xml", &mirrored), &[]).unwrap().0;
+    assert_ne!(a.fingerprint(), b.fingerprint());
+    assert_eq!(a.fingerprint(), load(&dir.path().join("a.xml"), &[]).unwrap().0.fingerprint());
+    let e = pir::scene::mitsuba::write(&a, &dir.path().join("out.xml")).unwrap_err().to_string();
+    assert!(e.contains("is textured"), "{e}");
+}
+
+/// A texture on a parameter other than a diffuse reflectance is refused by name.
+#[test]
+fn a_texture_elsewhere_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = r#"<shape type="rectangle"><bsdf type="conductor"><texture type="checkerboard" name="specular_reflectance"/></bsdf></shape>"#;
+    let e = load(&write(dir.path(), "s.xml", &scene(extra)), &[]).unwrap_err();
+    assert!(
+        e.contains("specular_reflectance: a texture (type \"checkerboard\") is not supported here"),
+        "{e}"
+    );
+}

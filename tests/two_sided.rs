@@ -16,6 +16,7 @@ fn material(albedo: f32, emission: f32, two_sided: bool) -> Material {
         bsdf: Bsdf::Diffuse { albedo: Vec3::splat(albedo) },
         emission: Vec3::splat(emission),
         two_sided,
+        textures: None,
     }
 }
 

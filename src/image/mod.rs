@@ -1,15 +1,22 @@
 //! Images in and out: linear RGB float images, EXR files with pir's metadata, sRGB PNG
-//! previews, error metrics against a reference, all written atomically.
+//! previews, error metrics against a reference, all written atomically; and images read as
+//! textures ([`texels`]: PNG, JPEG, OpenEXR, Radiance HDR).
 
 mod atomic;
 mod exr_io;
+mod exr_read;
+mod hdr_read;
+mod jpeg_read;
 mod metrics;
 mod png_io;
+mod png_read;
+pub mod texels;
 
 pub use atomic::write_atomically;
 pub use exr_io::{ReadExr, read_exr, read_exr_with_channels, write_exr, write_exr_with_channels};
 pub use metrics::{Metrics, error_map, metrics};
 pub use png_io::{write_png, write_preview};
+pub use texels::{Texels, read_texels};
 
 use glam::Vec3;
 

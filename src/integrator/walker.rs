@@ -188,7 +188,8 @@ pub fn walk<E: Estimator>(
                     let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &how };
                     estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
                 }
-                let v = Vertex { sp: &sp, wo, bsdf: &material.bsdf, depth: depth + 1 };
+                let bsdf = material.bsdf_at(sp.uv);
+                let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
                 if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {
                     radiance += beta * l;
                 }
@@ -197,8 +198,7 @@ pub fn walk<E: Estimator>(
                 }
                 // Sampled in full, kept only when the delta lobe was drawn: its weight
                 // f / p of the lobe's probability p is the delta paths' share, unbiased.
-                let Some(s) = scatter(&material.bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta)
-                else {
+                let Some(s) = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else {
                     break;
                 };
                 if !s.delta {
@@ -232,7 +232,7 @@ pub fn walk<E: Estimator>(
 
         // ---- Light sampling and the method's techniques (one more segment at least, so
         // depth + 1 ≤ max_depth).
-        let bsdf = &material.bsdf;
+        let bsdf = &material.bsdf_at(sp.uv);
         let v = Vertex { sp: &sp, wo, bsdf, depth };
         if !bsdf.is_delta() {
             estimator.at_vertex(&mut state, ctx, &v, beta, &mut radiance, sampler, counters);

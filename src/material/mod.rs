@@ -35,10 +35,12 @@ pub mod mirror;
 mod mitsuba_values;
 pub mod plastic;
 mod prepared;
+mod textured;
 pub mod thin_dielectric;
 
 pub use adjoint::{Lanes, shading_correction};
 pub use prepared::{PreparedBsdf, PreparedDiffuse};
+pub use textured::{Slot, Textured};
 
 use glam::{Vec2, Vec3};
 
@@ -61,6 +63,9 @@ pub struct Material {
     /// ([`crate::scene::Scene::surface_of_hit`]). Otherwise light arriving from below the
     /// geometric surface sees it black. Emission stays on the front face either way.
     pub two_sided: bool,
+    /// Textures that set fields of `bsdf` per surface point ([`Material::bsdf_at`]); `None` for
+    /// a constant material, whose `bsdf` holds everywhere.
+    pub textures: Option<std::sync::Arc<Textured>>,
 }
 
 impl Bsdf {
@@ -127,6 +132,26 @@ fn specular_weight(diffuse: Vec3, specular: Option<Vec3>) -> f32 {
 impl Material {
     pub fn is_emitter(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    /// The BSDF at texture coordinates `uv` ([`crate::scene::SurfacePoint::uv`]): `bsdf` itself
+    /// for an untextured material, else `bsdf` with each textured slot set to its texture's
+    /// value there.
+    #[inline(always)]
+    pub fn bsdf_at(&self, uv: Vec2) -> Bsdf {
+        match &self.textures {
+            None => self.bsdf,
+            Some(t) => t.apply(self.bsdf, uv),
+        }
+    }
+
+    /// The BSDF with every textured slot at its texture's mean (for estimates over a whole
+    /// material).
+    pub fn mean_bsdf(&self) -> Bsdf {
+        match &self.textures {
+            None => self.bsdf,
+            Some(t) => t.apply_mean(self.bsdf),
+        }
     }
 }
 

@@ -37,6 +37,12 @@ pub struct PreparedBsdf {
 }
 
 impl PreparedBsdf {
+    /// The BSDF it was prepared of (at its point: textures already evaluated).
+    #[inline]
+    pub fn bsdf(&self) -> &Bsdf {
+        &self.bsdf
+    }
+
     /// `wo` is the fixed direction (away from the surface); see [`Bsdf::eval`] for the
     /// conventions.
     #[inline]

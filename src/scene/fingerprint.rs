@@ -21,12 +21,26 @@ impl Scene {
             // The Debug form spells out every field of the BSDF and its emission exactly; the
             // two-sided flag is added only where it is set, so that the fingerprints of scenes
             // without it are those of pirs that did not have it.
-            let crate::material::Material { name, bsdf, emission, two_sided } = m;
+            let crate::material::Material { name, bsdf, emission, two_sided, textures } = m;
             h.bytes(
                 format!("Material {{ name: {name:?}, bsdf: {bsdf:?}, emission: {emission:?} }}").as_bytes(),
             );
             if *two_sided {
                 h.bytes(b"two-sided");
+            }
+            // Textures likewise, only where there are some.
+            if let Some(t) = textures {
+                for (slot, texture) in &t.slots {
+                    h.bytes(slot.name().as_bytes());
+                    texture.hash_into(&mut |b| h.bytes(b));
+                }
+            }
+        }
+        // Texture coordinates only in scenes that have some.
+        if !self.uvs.is_empty() {
+            h.bytes(b"uvs");
+            for uv in &self.uvs {
+                h.f32s(&uv.to_array());
             }
         }
         let c = &self.camera;

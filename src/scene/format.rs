@@ -339,7 +339,7 @@ impl Doc<'_> {
             });
         }
         let emission = self.colour(&key("emission"), m.emission.as_ref())?;
-        Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false })
+        Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false, textures: None })
     }
 }
 

@@ -171,6 +171,7 @@ fn load_toml(path: &Path) -> Result<Scene, SceneError> {
     let geometry = Geometry {
         positions: b.positions,
         normals: b.normals,
+        uvs: Vec::new(),
         indices: b.indices,
         tri_material: b.tri_material,
         degenerate_dropped: b.degenerate_dropped,

@@ -52,6 +52,9 @@ pub struct Scene {
     render: RenderDefaults,
     positions: VertexBuffer,
     normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates, empty when no mesh of the scene has any
+    /// ([`Geometry::uvs`]).
+    uvs: Vec<Vec2>,
     indices: Vec<[u32; 3]>,
     tri_material: Vec<u32>,
     /// Per triangle, what turning a hit into a surface point needs, in one place.
@@ -62,7 +65,8 @@ pub struct Scene {
 }
 
 /// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, the
-/// shading frame of its unit geometric normal, its material and whether it is smooth-shaded.
+/// shading frame of its unit geometric normal, its material, whether it is smooth-shaded and
+/// whether its vertices have texture coordinates.
 /// One record per triangle (80 bytes) instead of an index load, three position loads, a cross
 /// product, a square root and (for flat triangles, whose shading frame it is) the frame's
 /// construction per hit.
@@ -76,6 +80,9 @@ struct TriangleShading {
     smooth: bool,
     /// Its material scatters on both sides ([`Material::two_sided`]).
     two_sided: bool,
+    /// All three vertices have texture coordinates; otherwise the point's are its
+    /// barycentrics (Mitsuba's rule for meshes without them).
+    textured: bool,
 }
 
 /// The triangles of a scene, as [`Scene::new`] takes them.
@@ -86,6 +93,9 @@ pub struct Geometry {
     /// World-space unit shading normals aligned with `positions`; `Vec3::ZERO` where a vertex
     /// has none. A triangle is smooth-shaded only when all three of its vertices have one.
     pub normals: Vec<Vec3>,
+    /// Texture coordinates: empty, or aligned with `positions` with `Vec2::NAN` where a
+    /// vertex has none (Mitsuba's convention: v = 0 at the top row of an image).
+    pub uvs: Vec<Vec2>,
     /// Triangles as indices into `positions`.
     pub indices: Vec<[u32; 3]>,
     /// Material index (into the scene's materials) of every triangle.
@@ -104,7 +114,7 @@ impl Scene {
         materials: Vec<Material>,
     ) -> Result<Scene, SceneError> {
         let invalid = |problem: String| SceneError::Invalid { path: path.clone(), problem };
-        let Geometry { positions, normals, indices, tri_material, degenerate_dropped } = geometry;
+        let Geometry { positions, normals, uvs, indices, tri_material, degenerate_dropped } = geometry;
         if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
             return Err(invalid(format!("vertex {p} is not finite")));
         }
@@ -113,6 +123,16 @@ impl Scene {
         }
         if let Some(n) = normals.iter().find(|n| **n != Vec3::ZERO && !n.is_normalized()) {
             return Err(invalid(format!("shading normal {n} is neither zero nor unit")));
+        }
+        if !uvs.is_empty() && uvs.len() != positions.len() {
+            return Err(invalid(format!(
+                "{} texture coordinates for {} vertices",
+                uvs.len(),
+                positions.len()
+            )));
+        }
+        if let Some(uv) = uvs.iter().find(|uv| !uv.is_finite() && !uv.is_nan()) {
+            return Err(invalid(format!("texture coordinates {uv} are not finite")));
         }
         if indices.is_empty() {
             return Err(invalid("no triangles".into()));
@@ -151,6 +171,7 @@ impl Scene {
                     material,
                     smooth: tri.iter().all(|&i| normals[i as usize] != Vec3::ZERO),
                     two_sided: materials[material as usize].two_sided,
+                    textured: !uvs.is_empty() && tri.iter().all(|&i| uvs[i as usize].is_finite()),
                 }
             })
             .collect();
@@ -160,6 +181,7 @@ impl Scene {
             render,
             positions: positions.into(),
             normals,
+            uvs,
             indices,
             tri_material,
             shading,
@@ -188,6 +210,11 @@ impl Scene {
     pub fn normals(&self) -> &[Vec3] {
         &self.normals
     }
+    /// Per-vertex texture coordinates (empty when no mesh has any; `Vec2::NAN` for vertices
+    /// without).
+    pub fn uvs(&self) -> &[Vec2] {
+        &self.uvs
+    }
     /// Triangles as indices into [`Scene::positions`].
     pub fn indices(&self) -> &[[u32; 3]] {
         &self.indices
@@ -206,6 +233,11 @@ impl Scene {
     #[inline]
     pub fn material(&self, index: u32) -> &Material {
         &self.materials[index as usize]
+    }
+    /// The BSDF at a surface point: its material's, with the textures evaluated at its uv.
+    #[inline(always)]
+    pub fn bsdf_at(&self, sp: &SurfacePoint) -> crate::material::Bsdf {
+        self.materials[sp.material as usize].bsdf_at(sp.uv)
     }
     /// Bounds of all vertices.
     pub fn bounds(&self) -> Aabb {
@@ -227,6 +259,9 @@ pub struct SurfacePoint {
     pub frame: Frame,
     pub prim: u32,
     pub material: u32,
+    /// Texture coordinates: the vertices' interpolated, or the barycentrics where the mesh has
+    /// none.
+    pub uv: Vec2,
     /// Seen from behind a two-sided material: `ng` and `frame` are flipped towards the viewer
     /// ([`Scene::surface_of_hit`]), and the point emits nothing.
     pub back: bool,
@@ -282,6 +317,12 @@ impl Scene {
         let p = a * w + b * uv.x + c * uv.y;
         let ng = t.flat.n;
         let mut frame = t.flat;
+        let mut tex = uv;
+        if t.textured {
+            let [ia, ib, ic] = self.indices[prim as usize];
+            let (ta, tb, tc) = (self.uvs[ia as usize], self.uvs[ib as usize], self.uvs[ic as usize]);
+            tex = ta * w + tb * uv.x + tc * uv.y;
+        }
         if t.smooth {
             let [ia, ib, ic] = self.indices[prim as usize];
             let (na, nb, nc) =
@@ -291,7 +332,7 @@ impl Scene {
                 frame = Frame::from_normal(n);
             }
         }
-        SurfacePoint { p, ng, frame, prim, material: t.material, back: false }
+        SurfacePoint { p, ng, frame, prim, material: t.material, uv: tex, back: false }
     }
 
     /// The surface point of the hit of a ray of direction `dir`; the position is recomputed
@@ -319,6 +360,7 @@ mod tests {
         let geometry = Geometry {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             normals: vec![Vec3::ZERO; 3],
+            uvs: vec![],
             indices: vec![[0, 1, 2]],
             tri_material: vec![0],
             degenerate_dropped: 0,
@@ -328,6 +370,7 @@ mod tests {
             bsdf: Bsdf::Diffuse { albedo: Vec3::ONE },
             emission: Vec3::ONE,
             two_sided: false,
+            textures: None,
         };
         (geometry, vec![m])
     }
@@ -362,13 +405,32 @@ mod tests {
         }
     }
 
+    /// A point's texture coordinates interpolate its triangle's vertices' and are its
+    /// barycentrics where a vertex has none.
+    #[test]
+    fn texture_coordinates_interpolate_or_are_the_barycentrics() {
+        let (mut g, m) = parts();
+        let at = Vec2::new(0.25, 0.5);
+        assert_eq!(build(g.clone(), m.clone()).unwrap().surface_at(0, at).uv, at);
+        g.uvs = vec![Vec2::new(0.5, 1.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 0.0)];
+        let s = build(g.clone(), m.clone()).unwrap();
+        assert_eq!(s.surface_at(0, at).uv, Vec2::new(0.375, 0.5));
+        assert_eq!(s.surface_at(0, Vec2::new(1.0, 0.0)).uv, Vec2::new(1.0, 1.0));
+        g.uvs[2] = Vec2::NAN;
+        assert_eq!(build(g, m).unwrap().surface_at(0, at).uv, at);
+    }
+
     #[test]
     fn new_checks_every_invariant_and_names_the_scene() {
         let (g, m) = parts();
         let s = build(g.clone(), m.clone()).unwrap();
         assert_eq!((s.triangle_count(), s.bounds().max), (1, Vec3::new(1.0, 1.0, 0.0)));
         type Break = fn(&mut Geometry);
-        let broken: [(&str, Break); 6] = [
+        let broken: [(&str, Break); 8] = [
+            ("2 texture coordinates for 3 vertices", |g| g.uvs = vec![Vec2::ZERO; 2]),
+            ("texture coordinates [inf, 0] are not finite", |g| {
+                g.uvs = vec![Vec2::new(f32::INFINITY, 0.0); 3]
+            }),
             ("not finite", |g| g.positions[1].x = f32::NAN),
             ("2 normals for 3 vertices", |g| g.normals.truncate(2)),
             ("neither zero nor unit", |g| g.normals[0] = Vec3::splat(2.0)),

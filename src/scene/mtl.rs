@@ -156,7 +156,7 @@ pub fn to_material(path: &Path, name: &str, m: &MtlEntry) -> Result<Material, Sc
         ));
     }
     let emission = if ke.max_element() > 0.0 { ke } else { Vec3::ZERO };
-    Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false })
+    Ok(Material { name: name.to_string(), bsdf, emission, two_sided: false, textures: None })
 }
 
 #[cfg(test)]

@@ -90,6 +90,7 @@ pub fn closed_cube_facing(
     };
     let geometry = Geometry {
         normals: vec![Vec3::ZERO; positions.len()],
+        uvs: vec![],
         positions,
         indices,
         tri_material,
@@ -105,6 +106,7 @@ pub fn diffuse(albedo: f32, emission: f32) -> Material {
         bsdf: Bsdf::Diffuse { albedo: Vec3::splat(albedo) },
         emission: Vec3::splat(emission),
         two_sided: false,
+        textures: None,
     }
 }
 

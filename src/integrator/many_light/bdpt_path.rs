@@ -106,8 +106,7 @@ impl Estimator for Bidirectional<'_> {
         if connect.at(depth) {
             let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
             let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, depth, counts, count_in };
-            let weighing =
-                Weighing { technique: Technique::Bidirectional { end, scene: ctx.scene }, bound: self.bound };
+            let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
             let max_vpl_depth = ctx.max_depth - depth - 1;
             *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
         }

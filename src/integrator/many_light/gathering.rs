@@ -75,8 +75,7 @@ impl Estimator for WeighedGathering<'_> {
         light_sample(ctx, v, beta, radiance, sampler, counters);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-        let weighing =
-            Weighing { technique: Technique::Connect { fx: &fx, scene: ctx.scene }, bound: self.bound };
+        let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: self.bound };
         *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
     }
 

@@ -159,7 +159,7 @@ impl Integrator for InstantRadiosity {
             }
             VirtualLights::Spheres { radius, alpha } => {
                 let diagonal = ctx.scene.bounds().diagonal();
-                let bsdf = |v: &Vpl| ctx.scene.material(v.material).bsdf;
+                let bsdf = |v: &Vpl| v.bsdf(ctx.scene);
                 let spheres = SphereLights::new(vpls, bsdf, radius, alpha, iteration, diagonal);
                 IterationLights::Spheres(LightSet::new(ctx, spheres, gather))
             }

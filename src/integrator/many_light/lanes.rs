@@ -495,7 +495,15 @@ mod tests {
                 .collect();
             let lanes = VplLanes::new(&vpls, &emitting, &vec![1.0; vpls.len()]);
             let (ng, frame) = normals(&mut s);
-            let sp = SurfacePoint { p: Vec3::ZERO, ng, frame, prim: 0, material: 0, back: false };
+            let sp = SurfacePoint {
+                p: Vec3::ZERO,
+                ng,
+                frame,
+                prim: 0,
+                material: 0,
+                uv: glam::Vec2::ZERO,
+                back: false,
+            };
             let gx = LocalGeometry { ng, frame };
             let fx = PreparedBsdf::new(Bsdf::Diffuse { albedo }, gx, unit(&mut s), TransportMode::Radiance);
             let Some(x) = DiffuseReceiver::new(&sp, &fx) else { continue };

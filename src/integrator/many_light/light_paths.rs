@@ -23,7 +23,7 @@
 //! seed, i)` (with Sobol points, point k of the iteration's own scrambled sequence), and paths are traced in parallel but collected in path order, so the VPL set is a function
 //! of the seed alone.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::subpath::{Counts, MisState, Scatter};
@@ -43,6 +43,8 @@ pub struct Vpl {
     /// Unit direction towards the previous vertex of the light path (where light came from).
     pub w_in: Vec3,
     pub material: u32,
+    /// Texture coordinates of the point ([`Vpl::bsdf`] resolves its material's textures there).
+    pub uv: Vec2,
     /// Incident flux Φ / N (already divided by the number of paths).
     pub flux: Vec3,
     /// Segments from the emitter to this vertex (1 for a vertex lit directly by an emitter).
@@ -81,6 +83,7 @@ impl Vpl {
             frame,
             w_in,
             material: 0,
+            uv: Vec2::ZERO,
             flux,
             depth,
             arrival: 1.0,
@@ -93,6 +96,13 @@ impl Vpl {
 
     pub fn geometry(&self) -> LocalGeometry {
         LocalGeometry { ng: self.ng, frame: self.frame }
+    }
+
+    /// The BSDF at the VPL: its material's, textures evaluated at its texture coordinates
+    /// ([`crate::material::Material::bsdf_at`]).
+    #[inline(always)]
+    pub fn bsdf(&self, scene: &crate::scene::Scene) -> Bsdf {
+        scene.material(self.material).bsdf_at(self.uv)
     }
 }
 
@@ -163,14 +173,14 @@ fn trace_path(
     let emitter_point = (es.point.p, es.pdf_area, local.z);
     let mut mis = MisState::light(es.pdf_area, local.z, counts.paths);
     // The BSDF of the light path's previous vertex (none at the emitter).
-    let mut previous: Option<&Bsdf> = None;
+    let mut previous: Option<Bsdf> = None;
     let mut rays = 0;
     for depth in 1..=max_depth {
         rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         let w_in = -ray.dir.normalize();
-        let bsdf = &ctx.scene.material(sp.material).bsdf;
+        let bsdf = &ctx.scene.bsdf_at(&sp);
         let dist2 = (sp.p - from).length_squared();
         mis.arrive(dist2, sp.ng.dot(w_in).abs());
         // Survival by the flux arriving here relative to the path's start (importance
@@ -183,7 +193,7 @@ fn trace_path(
             _ => 1.0,
         };
         // The count of the connection from here to the previous vertex's VPL.
-        let count = counts.between(previous, bsdf);
+        let count = counts.between(previous.as_ref(), bsdf);
         // Only where light can be reflected: a vertex on the back of a surface (light paths
         // that miss an opening and strike the wall around it from outside) or on a black
         // material would add nothing to any receiver, yet take a place in every gather's
@@ -195,6 +205,7 @@ fn trace_path(
                 frame: sp.frame,
                 w_in,
                 material: sp.material,
+                uv: sp.uv,
                 flux: beta,
                 depth,
                 arrival: density / dist2,
@@ -215,7 +226,7 @@ fn trace_path(
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
         mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count));
-        previous = Some(bsdf);
+        previous = Some(*bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;
         }

@@ -56,20 +56,19 @@ use super::virtual_light::Weigh;
 use crate::integrator::direct::LightSample;
 use crate::integrator::walker::Vertex;
 use crate::material::PreparedBsdf;
-use crate::scene::Scene;
 
 /// Which technique a weighed gather of point lights is, with what its weights need (the
 /// thesis' methods take every connection in full: [`super::virtual_light::Plain`]).
 #[derive(Clone, Copy)]
 pub enum Technique<'a> {
-    /// A at the gathering vertex x, whose BSDF for its `wo` is `fx`, in `scene` (the VPLs'
-    /// materials).
-    Connect { fx: &'a PreparedBsdf, scene: &'a Scene },
+    /// A at the gathering vertex x, whose BSDF for its `wo` is `fx` (a VPL's BSDF is its
+    /// `emitting` one's, textures evaluated at its point).
+    Connect { fx: &'a PreparedBsdf },
     /// B at y, reached from the gathering vertex with density `bounce` = p_x / ‖y − x‖².
     Bounce { bounce: f32 },
     /// A connection of `pir-bdpt`, weighed against every other technique of the path
-    /// ([`super::bidirectional`]), in `scene` (the VPLs' materials).
-    Bidirectional { end: CameraEnd<'a>, scene: &'a Scene },
+    /// ([`super::bidirectional`]).
+    Bidirectional { end: CameraEnd<'a> },
 }
 
 /// How a gather of point lights weighs its connections: the technique's MIS weight, and the
@@ -87,22 +86,22 @@ impl Weighing<'_> {
     pub fn apply(&self, x: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, c: Vec3) -> Vec3 {
         let w = match self.technique {
             Technique::Connect { .. } if vpl.arrival.is_infinite() => 1.0,
-            Technique::Connect { fx, scene } => {
+            Technique::Connect { fx } => {
                 let d = vpl.p - x;
                 let dist2 = d.length_squared();
                 let to_vpl = d / dist2.sqrt();
                 let b = fx.pdf(to_vpl) / dist2;
                 if vpl.nee_pdf > 0.0 {
                     // Lit directly: C, BSDF sampling from y towards the emitter, competes too.
-                    let bsdf = scene.material(vpl.material).bsdf;
-                    let p_y = bsdf.pdf(&vpl.geometry(), -to_vpl, vpl.w_in);
+                    // `emitting` holds the VPL's BSDF, its textures evaluated.
+                    let p_y = emitting.bsdf().pdf(&vpl.geometry(), -to_vpl, vpl.w_in);
                     share(vpl.arrival, vpl.arrival + b + b * p_y / vpl.nee_pdf)
                 } else {
                     balance(vpl.arrival, b)
                 }
             }
-            Technique::Bidirectional { ref end, scene } => {
-                connection_weight(end, x, vpl, &scene.material(vpl.material).bsdf, emitting)
+            Technique::Bidirectional { ref end, .. } => {
+                connection_weight(end, x, vpl, emitting.bsdf(), emitting)
             }
             Technique::Bounce { bounce } => {
                 let d = x - vpl.p;

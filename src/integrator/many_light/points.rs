@@ -37,14 +37,14 @@ impl PointLights {
         let emitting: Vec<PreparedBsdf> = vpls
             .iter()
             .map(|v| {
-                let bsdf = ctx.scene.material(v.material).bsdf;
+                let bsdf = v.bsdf(ctx.scene);
                 PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance)
             })
             .collect();
         let power: Vec<f32> = vpls
             .iter()
             .zip(&emitting)
-            .map(|(v, e)| tree_light(v, &ctx.scene.material(v.material).bsdf, e.is_active(), 0.0).intensity)
+            .map(|(v, e)| tree_light(v, &v.bsdf(ctx.scene), e.is_active(), 0.0).intensity)
             .collect();
         let lanes = VplLanes::new(&vpls, &emitting, &power);
         PointLights { vpls, emitting, lanes, bound: clamping.bound(iteration) }
@@ -141,7 +141,7 @@ impl Lights for PointLights {
         self.vpls
             .par_iter()
             .zip(&self.emitting)
-            .map(|(v, e)| tree_light(v, &ctx.scene.material(v.material).bsdf, e.is_active(), 0.0))
+            .map(|(v, e)| tree_light(v, &v.bsdf(ctx.scene), e.is_active(), 0.0))
             .collect()
     }
 }

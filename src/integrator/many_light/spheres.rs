@@ -575,7 +575,7 @@ impl Lights for SphereLights {
             .par_iter()
             .enumerate()
             .map(|(j, v)| {
-                let bsdf = ctx.scene.material(v.material).bsdf;
+                let bsdf = v.bsdf(ctx.scene);
                 tree_light(v, &bsdf, self.emitting[j].is_active(), self.radii[j])
             })
             .collect()

@@ -27,8 +27,10 @@ pub(super) fn complex_ior(e: &Element, p: &Params) -> Result<ComplexIor, SceneEr
         );
     }
     let ior = ComplexIor { eta: eta.unwrap_or(Vec3::ZERO), k: k.unwrap_or(Vec3::ONE) };
-    if !(ior.eta.is_finite() && ior.k.is_finite()) || ior.k.min_element() < 0.0 {
-        return Err(e.error(format!("eta {} and k {}: must be finite, k not negative", ior.eta, ior.k)));
+    // Mitsuba reads them unbounded: RGB conversions of measured spectra can dip below zero,
+    // and the Fresnel term depends on their squares only.
+    if !(ior.eta.is_finite() && ior.k.is_finite()) {
+        return Err(e.error(format!("eta {} and k {}: must be finite", ior.eta, ior.k)));
     }
     Ok(ior)
 }
@@ -93,10 +95,10 @@ fn relative_ior(e: &Element, p: &Params, int_default: f32) -> Result<f32, SceneE
     Ok(int / ext)
 }
 
-/// `plastic` and `roughplastic` (Mitsuba's polypropylene, 1.49, inside).
-pub(super) fn plastic(e: &Element, p: &Params, rough: bool) -> Result<Bsdf, SceneError> {
+/// `plastic` and `roughplastic` (Mitsuba's polypropylene, 1.49, inside) of the (checked)
+/// `diffuse` reflectance the caller read, which may be a texture's mean.
+pub(super) fn plastic(e: &Element, p: &Params, diffuse: Vec3, rough: bool) -> Result<Bsdf, SceneError> {
     let eta = relative_ior(e, p, 1.49)?;
-    let diffuse = checked(p, "diffuse_reflectance", Vec3::splat(0.5))?;
     let specular = p.colour("specular_reflectance")?;
     if let Some(s) = specular {
         reflectance(e, "specular_reflectance", s)?;

@@ -8,9 +8,12 @@
 //! - shapes ([`shapes`]): `obj`, `ply`, `serialized` ([`super::ply`], [`super::serialized`]),
 //!   `rectangle`, `cube`, `disk`, `sphere`, with `to_world`,
 //!   `flip_normals`, `face_normals` and Mitsuba's vertex normals for meshes without them;
-//! - BSDFs: `diffuse` (its `reflectance` a colour) and `twosided` around it
+//! - textures ([`textures`]): `bitmap` (PNG, JPEG, OpenEXR, Radiance HDR) and `checkerboard`,
+//!   for a `diffuse` BSDF's `reflectance`; shapes' texture coordinates as Mitsuba's
+//!   ([`shapes`]);
+//! - BSDFs: `diffuse` (its `reflectance` a colour or a texture) and `twosided` around it
 //!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
-//!   a one-sided diffuse of reflectance 0.5;
+//!   a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
 //! - emitters: `area` with a constant `radiance`;
 //! - the sensor: `perspective` (`fov`, `fov_axis`, `to_world`; `near_clip`, `far_clip` and
 //!   `focus_distance` are accepted and change nothing in front of the near plane), its
@@ -23,6 +26,7 @@
 
 mod bsdfs;
 mod shapes;
+mod textures;
 mod transform;
 mod write;
 mod xml;
@@ -37,7 +41,11 @@ use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
 use super::{Camera, Geometry, RenderDefaults, Scene, SceneError};
-use crate::material::{Bsdf, Material};
+use crate::material::{Bsdf, Material, Slot, Textured};
+use crate::texture::Texture;
+
+/// A BSDF's textured slots.
+type Slots = Vec<(Slot, Texture)>;
 use shapes::{Normals, WorldMesh};
 use transform::{numbers, parse_number};
 use xml::Element;
@@ -60,6 +68,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         late_warnings: Default::default(),
         materials: Vec::new(),
         geometry: Geometry::default(),
+        images: textures::ImageCache::default(),
     };
     let mut camera = None;
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
@@ -101,6 +110,11 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         let (mesh, material) = shape?;
         let material = b.material(material);
         b.add(mesh, material);
+    }
+    // Texture coordinates of the vertices after the last textured shape's.
+    if !b.geometry.uvs.is_empty() {
+        let n = b.geometry.positions.len();
+        b.geometry.uvs.resize(n, glam::Vec2::NAN);
     }
     let camera = camera.ok_or_else(|| SceneError::Value {
         path: path.to_path_buf(),
@@ -145,6 +159,7 @@ struct Builder<'a> {
     late_warnings: std::sync::Mutex<Vec<String>>,
     materials: Vec<Material>,
     geometry: Geometry,
+    images: textures::ImageCache,
 }
 
 /// Property tags: the children of a plugin that are its parameters.
@@ -268,7 +283,8 @@ impl<'a> Params<'a> {
                 }
             }
             "texture" => Err(p.error(format!(
-                "texture type \"{}\" is not supported yet: pir reads constant colours (<rgb>)",
+                "{name}: a texture (type \"{}\") is not supported here yet: pir reads textures on a diffuse \
+                 BSDF's reflectance; give a colour (<rgb>)",
                 p.type_name()
             ))),
             other => Err(p.error(format!("{name}: expected a colour (<rgb>), not <{other}>"))),
@@ -496,10 +512,11 @@ impl<'a> Builder<'a> {
         let bsdfs = p.plugins(self, "bsdf")?;
         let emitters = p.plugins(self, "emitter")?;
         p.finish(self)?;
-        let (bsdf, two_sided) = match bsdfs.as_slice() {
-            // Mitsuba's default: diffuse 0.5, black on an emitter (`Shape::Shape`).
-            [] if emitters.is_empty() => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false),
-            [] => (Bsdf::Diffuse { albedo: Vec3::ZERO }, false),
+        let (bsdf, two_sided, textures) = match bsdfs.as_slice() {
+            // Mitsuba's default (`Shape`'s constructor): a one-sided diffuse of 0.5, black on
+            // an emitter.
+            [] if !emitters.is_empty() => (Bsdf::Diffuse { albedo: Vec3::ZERO }, false, None),
+            [] => (Bsdf::Diffuse { albedo: Vec3::splat(0.5) }, false, None),
             [b] => self.bsdf(b)?,
             _ => return Err(e.error("more than one bsdf")),
         };
@@ -510,12 +527,27 @@ impl<'a> Builder<'a> {
         };
         let name =
             e.attr("id").or_else(|| bsdfs.first().and_then(|b| b.attr("id"))).unwrap_or("shape").to_string();
-        Ok((shapes::to_world(mesh, to_world, flip, kind), Material { name, bsdf, emission, two_sided }))
+        let mut mesh = shapes::to_world(mesh, to_world, flip, kind);
+        // Texture coordinates are kept only where a texture reads them; a textured mesh
+        // without them gets Mitsuba's barycentric ones (meshes are never analytic shapes, so
+        // only `flip_normals` swaps their winding).
+        if textures.is_none() {
+            mesh.uvs = Vec::new();
+        } else if mesh.uvs.is_empty() {
+            mesh = shapes::barycentric_uvs(mesh, flip);
+        }
+        let textures = textures.map(|slots| std::sync::Arc::new(Textured::new(slots)));
+        Ok((mesh, Material { name, bsdf, emission, two_sided, textures }))
     }
 
     /// The index of `m` among the scene's materials (equal ones are stored once).
     fn material(&mut self, m: Material) -> u32 {
-        let same = |a: &Material| a.bsdf == m.bsdf && a.emission == m.emission && a.two_sided == m.two_sided;
+        let same = |a: &Material| {
+            a.bsdf == m.bsdf
+                && a.emission == m.emission
+                && a.two_sided == m.two_sided
+                && a.textures == m.textures
+        };
         match self.materials.iter().position(same) {
             Some(i) => i as u32,
             None => {
@@ -537,19 +569,26 @@ impl<'a> Builder<'a> {
                 g.degenerate_dropped += 1;
             }
         }
+        if !m.uvs.is_empty() {
+            g.uvs.resize(g.positions.len(), glam::Vec2::NAN);
+            g.uvs.extend(m.uvs);
+        }
         g.positions.extend(m.positions);
         g.normals.extend(m.normals);
     }
 
-    /// A BSDF and whether it is two-sided.
-    fn bsdf(&self, e: &'a Element) -> Result<(Bsdf, bool), SceneError> {
+    /// A BSDF, whether it is two-sided, and its textured slots (`None` where it has none).
+    fn bsdf(&self, e: &'a Element) -> Result<(Bsdf, bool, Option<Slots>), SceneError> {
         let p = Params::new(e);
         let out = match e.type_name() {
             "twosided" => {
                 let inner = p.plugins(self, "bsdf")?;
                 match inner.as_slice() {
                     [b] if b.type_name() == "twosided" => return Err(b.error("a twosided inside a twosided")),
-                    [b] => (self.bsdf(b)?.0, true),
+                    [b] => {
+                        let (bsdf, _, textures) = self.bsdf(b)?;
+                        (bsdf, true, textures)
+                    }
                     [_, _] => {
                         return Err(
                             e.error("a twosided with two BSDFs (front, back) is not supported: give one")
@@ -558,22 +597,29 @@ impl<'a> Builder<'a> {
                     _ => return Err(e.error("needs one nested bsdf")),
                 }
             }
-            "diffuse" => (Bsdf::Diffuse { albedo: diffuse_albedo(&p)? }, false),
-            "dielectric" => (bsdfs::dielectric(e, &p)?, false),
-            "thindielectric" => (bsdfs::thin_dielectric(e, &p)?, false),
+            "diffuse" => {
+                let (albedo, slots) = self.reflectance_texture(e, &p, "reflectance")?;
+                (Bsdf::Diffuse { albedo }, false, slots)
+            }
+            "dielectric" => (bsdfs::dielectric(e, &p)?, false, None),
+            "thindielectric" => (bsdfs::thin_dielectric(e, &p)?, false, None),
             "roughdielectric" => {
                 let (bsdf, warning) = bsdfs::rough_dielectric(e, &p)?;
                 self.late_warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
-                (bsdf, false)
+                (bsdf, false, None)
             }
-            "conductor" => (bsdfs::conductor(e, &p)?, false),
-            "roughconductor" => (bsdfs::rough_conductor(e, &p)?, false),
-            "plastic" => (bsdfs::plastic(e, &p, false)?, false),
-            "roughplastic" => (bsdfs::plastic(e, &p, true)?, false),
+            "conductor" => (bsdfs::conductor(e, &p)?, false, None),
+            "roughconductor" => (bsdfs::rough_conductor(e, &p)?, false, None),
+            "plastic" | "roughplastic" => {
+                let (diffuse, slots) = self.reflectance_texture(e, &p, "diffuse_reflectance")?;
+                (bsdfs::plastic(e, &p, diffuse, e.type_name() == "roughplastic")?, false, slots)
+            }
             "mask" => {
                 let inner = p.plugins(self, "bsdf")?;
                 let [b] = inner.as_slice() else { return Err(e.error("needs one nested bsdf")) };
-                bsdfs::mask(e, &p, self.bsdf(b)?)?
+                let (inner, two_sided, slots) = self.bsdf(b)?;
+                let (bsdf, two_sided) = bsdfs::mask(e, &p, (inner, two_sided))?;
+                (bsdf, two_sided, slots)
             }
             "blendbsdf" => {
                 let w = p
@@ -603,7 +649,7 @@ impl<'a> Builder<'a> {
                         ));
                     }
                 };
-                (bsdf, false)
+                (bsdf, false, None)
             }
             other => {
                 return Err(e.error(format!(
@@ -615,6 +661,34 @@ impl<'a> Builder<'a> {
         };
         p.finish(self)?;
         Ok(out)
+    }
+
+    /// A reflectance that may be a texture (default 0.5): its value for the BSDF (a texture's
+    /// mean, which also steers a plastic's lobe choice, as Mitsuba's `mean()`), and the texture
+    /// for the material's reflectance slot; every value must lie in [0, 1].
+    fn reflectance_texture(
+        &self,
+        e: &'a Element,
+        p: &Params<'a>,
+        name: &str,
+    ) -> Result<(Vec3, Option<Slots>), SceneError> {
+        match p.texture(self, name)? {
+            Some(Texture::Constant(v)) => {
+                reflectance(e, name, v)?;
+                Ok((v, None))
+            }
+            Some(t) => {
+                let (lo, hi) = t.range();
+                if lo < 0.0 || hi > 1.0 {
+                    return Err(e.error(format!(
+                        "{name}: the texture's values span {lo} to {hi}; they must lie between 0 and 1 \
+                         (above 1 the material creates energy; Mitsuba refuses it too)"
+                    )));
+                }
+                Ok((t.mean(), Some(vec![(Slot::Reflectance, t)])))
+            }
+            None => Ok((Vec3::splat(0.5), None)),
+        }
     }
 
     /// An area emitter's radiance.

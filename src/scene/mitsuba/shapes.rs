@@ -8,6 +8,15 @@
 //!   its vertices on the sphere and its shading normals the sphere's own, normals outwards;
 //! - `obj` ([`obj`]), `ply` and `serialized` ([`from_data`]): meshes read from files.
 //!
+//! Texture coordinates are Mitsuba 3's (checked against its ray intersections): the rectangle's
+//! ((x + 1) / 2, (y + 1) / 2), the cube's per face as Mitsuba's cube mesh has them, the disk's
+//! (r, φ / 2π), the sphere's (φ / 2π, θ / π) with θ from +z, interpolated over the triangles
+//! (vertices are split at the seam φ = 0 and at the poles, where each triangle's pole vertex
+//! takes the φ of its other two); an OBJ file's `vt` with v flipped (1 − v, as Mitsuba's OBJ
+//! reader), a PLY or `.serialized` file's as stored (checked: Mitsuba flips neither). A
+//! textured mesh without any gets Mitsuba's rule, a point's barycentrics in the file's corner
+//! order, whatever `flip_normals` does to the winding ([`barycentric_uvs`]).
+//!
 //! Each is moved by its `to_world`; `flip_normals` turns it inside out. Mitsuba's analytic
 //! shapes (rectangle, disk, sphere) take their normal from `to_world` applied to the normal
 //! (its inverse transpose), even where `to_world` mirrors; their triangles are wound to agree.
@@ -20,7 +29,7 @@
 use std::f32::consts::PI;
 use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 
 use super::transform::parse_number;
 use super::xml::Element;
@@ -39,6 +48,8 @@ pub struct Mesh {
     /// Empty, or one per position.
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Empty, or one per position (`Vec2::NAN` for a vertex without).
+    pub uvs: Vec<Vec2>,
     /// Flat shading asked for.
     pub face_normals: bool,
 }
@@ -49,6 +60,8 @@ pub struct WorldMesh {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Empty, or one per position.
+    pub uvs: Vec<Vec2>,
 }
 
 /// Whether the shape's normal comes from its `to_world` (Mitsuba's analytic shapes) rather
@@ -70,48 +83,57 @@ pub fn rectangle() -> Mesh {
         ],
         normals: vec![Vec3::Z; 4],
         triangles: vec![[0, 1, 2], [0, 2, 3]],
+        uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
         face_normals: false,
     }
 }
 
-/// The cube [−1, 1]³, each face with its own four vertices and flat normal, facing out.
+/// The cube [−1, 1]³ as Mitsuba 3's cube mesh: each face with its own four vertices, texture
+/// coordinates and flat normal, facing out, in Mitsuba's order.
 pub fn cube() -> Mesh {
+    // Per face: its normal and its four corners with their texture coordinates.
+    const FACES: [([f32; 3], [[f32; 3]; 4]); 6] = [
+        ([0.0, -1.0, 0.0], [[1.0, -1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, -1.0, 1.0], [-1.0, -1.0, -1.0]]),
+        ([0.0, 1.0, 0.0], [[1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]),
+        ([1.0, 0.0, 0.0], [[1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [1.0, -1.0, 1.0]]),
+        ([0.0, 0.0, 1.0], [[1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, -1.0, 1.0]]),
+        ([-1.0, 0.0, 0.0], [[-1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, -1.0]]),
+        ([0.0, 0.0, -1.0], [[1.0, 1.0, -1.0], [1.0, -1.0, -1.0], [-1.0, -1.0, -1.0], [-1.0, 1.0, -1.0]]),
+    ];
+    const UV: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
     let mut m = Mesh::default();
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let n = Vec3::from({
-                let mut a = [0.0; 3];
-                a[axis] = sign;
-                a
-            });
-            // Two tangents whose cross product is n.
-            let u = Vec3::from({
-                let mut a = [0.0; 3];
-                a[(axis + 1) % 3] = 1.0;
-                a
-            });
-            let v = n.cross(u);
-            let base = m.positions.len() as u32;
-            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                m.positions.push(n + u * a + v * b);
-                m.normals.push(n);
-            }
-            m.triangles.push([base, base + 1, base + 2]);
-            m.triangles.push([base, base + 2, base + 3]);
+    for (n, corners) in FACES {
+        let base = m.positions.len() as u32;
+        for (p, uv) in corners.iter().zip(UV) {
+            m.positions.push(Vec3::from(*p));
+            m.normals.push(Vec3::from(n));
+            m.uvs.push(Vec2::from(uv));
         }
+        m.triangles.push([base, base + 1, base + 2]);
+        m.triangles.push([base + 3, base, base + 2]);
     }
     m.face_normals = true;
     m
 }
 
 /// The unit disk at z = 0, facing +z.
+/// Its rim vertices are numbered 0 to [`DISK_SEGMENTS`] (the last at φ = 2π, v = 1, where the
+/// first is at v = 0), each triangle with its own centre vertex (r = 0, v of its middle).
 pub fn disk() -> Mesh {
-    let mut m = Mesh { positions: vec![Vec3::ZERO], normals: vec![Vec3::Z], ..Mesh::default() };
-    for i in 0..DISK_SEGMENTS {
-        let phi = 2.0 * PI * i as f32 / DISK_SEGMENTS as f32;
+    let mut m = Mesh::default();
+    let n = DISK_SEGMENTS;
+    for i in 0..=n {
+        let phi = 2.0 * PI * (i % n) as f32 / n as f32;
         m.positions.push(Vec3::new(phi.cos(), phi.sin(), 0.0));
         m.normals.push(Vec3::Z);
-        m.triangles.push([0, 1 + i, 1 + (i + 1) % DISK_SEGMENTS]);
+        m.uvs.push(Vec2::new(1.0, i as f32 / n as f32));
+    }
+    for i in 0..n {
+        let centre = m.positions.len() as u32;
+        m.positions.push(Vec3::ZERO);
+        m.normals.push(Vec3::Z);
+        m.uvs.push(Vec2::new(0.0, (i as f32 + 0.5) / n as f32));
+        m.triangles.push([centre, i, i + 1]);
     }
     m
 }
@@ -174,8 +196,46 @@ pub fn sphere() -> Mesh {
         }
         triangles = next;
     }
-    let normals = positions.clone();
-    Mesh { positions, normals, triangles, face_normals: false }
+    // Texture coordinates (φ / 2π, θ / π) per corner: a triangle across the seam φ = 0 takes
+    // its small u one turn up, a pole vertex the mean u of the triangle's other two; a vertex
+    // is split wherever its corners' coordinates differ.
+    let sphere_uv = |p: Vec3| {
+        let phi = p.y.atan2(p.x);
+        let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
+        Vec2::new(phi / (2.0 * PI), p.z.clamp(-1.0, 1.0).acos() / PI)
+    };
+    let mut out = Mesh::default();
+    let mut split: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+    for t in &triangles {
+        let mut uv = t.map(|i| sphere_uv(positions[i as usize]));
+        let pole = t.map(|i| positions[i as usize].truncate().length() < 1e-6);
+        let others: Vec<usize> = (0..3).filter(|&k| !pole[k]).collect();
+        let (lo, hi) = others.iter().fold((1f32, 0f32), |(lo, hi), &k| (lo.min(uv[k].x), hi.max(uv[k].x)));
+        if hi - lo > 0.5 {
+            for &k in &others {
+                if uv[k].x < 0.5 {
+                    uv[k].x += 1.0;
+                }
+            }
+        }
+        for k in 0..3 {
+            if pole[k] {
+                uv[k].x = others.iter().map(|&j| uv[j].x).sum::<f32>() / others.len().max(1) as f32;
+            }
+        }
+        let mut tri = [0u32; 3];
+        for k in 0..3 {
+            let i = t[k];
+            tri[k] = *split.entry((i, uv[k].x.to_bits())).or_insert_with(|| {
+                out.positions.push(positions[i as usize]);
+                out.uvs.push(uv[k]);
+                out.positions.len() as u32 - 1
+            });
+        }
+        out.triangles.push(tri);
+    }
+    out.normals = out.positions.clone();
+    out
 }
 
 /// A Wavefront OBJ file as Mitsuba reads it: `v`, `vt`, `vn` and `f` (polygons as fans, a
@@ -184,7 +244,7 @@ pub fn sphere() -> Mesh {
 pub fn obj(path: &Path) -> Result<Mesh, SceneError> {
     let text = read_text(path)?;
     let err = |line: usize, p: String| SceneError::syntax(path, Some(line), p);
-    let (mut v, mut vt, mut vn) = (Vec::new(), 0usize, Vec::new());
+    let (mut v, mut vt, mut vn) = (Vec::new(), Vec::new(), Vec::new());
     let mut map: std::collections::HashMap<(usize, usize, usize), u32> = std::collections::HashMap::new();
     let mut m = Mesh::default();
     for (i, raw) in text.lines().enumerate() {
@@ -200,7 +260,15 @@ pub fn obj(path: &Path) -> Result<Mesh, SceneError> {
                 let p = Vec3::new(xyz[0], xyz[1], xyz[2]);
                 if key == "v" { v.push(p) } else { vn.push(p) }
             }
-            "vt" => vt += 1,
+            "vt" => {
+                let uv: Vec<f32> = toks.by_ref().take(2).map_while(parse_number).collect();
+                match uv.as_slice() {
+                    // Mitsuba's OBJ reader flips v (an image's first row is at v = 0).
+                    [u, v] => vt.push(Vec2::new(*u, 1.0 - *v)),
+                    [u] => vt.push(Vec2::new(*u, 1.0)),
+                    _ => return Err(err(line, "vt: expected one or two finite numbers".into())),
+                }
+            }
             "f" => {
                 let mut corners = Vec::new();
                 for c in toks {
@@ -232,12 +300,13 @@ pub fn obj(path: &Path) -> Result<Mesh, SceneError> {
                     if p == 0 {
                         return Err(err(line, format!("face corner {c:?}: no vertex index")));
                     }
-                    let t = idx(parts.next(), vt, "texture")?;
+                    let t = idx(parts.next(), vt.len(), "texture")?;
                     let n = idx(parts.next(), vn.len(), "normal")?;
                     let next = m.positions.len() as u32;
                     let id = *map.entry((p, t, n)).or_insert_with(|| {
                         m.positions.push(v[p - 1]);
                         m.normals.push(if n > 0 { vn[n - 1] } else { Vec3::ZERO });
+                        m.uvs.push(if t > 0 { vt[t - 1] } else { Vec2::NAN });
                         next
                     });
                     corners.push(id);
@@ -260,11 +329,14 @@ pub fn obj(path: &Path) -> Result<Mesh, SceneError> {
     if vn.is_empty() {
         m.normals.clear();
     }
+    if vt.is_empty() {
+        m.uvs.clear();
+    }
     Ok(m)
 }
 
-/// A mesh read from a PLY or `.serialized` file: its faces and normals as the file stores
-/// them (texture coordinates are not used yet).
+/// A mesh read from a PLY or `.serialized` file: its faces, normals and texture coordinates
+/// as the file stores them.
 pub fn from_data(data: crate::scene::mesh_data::MeshData, path: &Path) -> Result<Mesh, SceneError> {
     if data.triangles.is_empty() {
         return Err(SceneError::syntax(path, None, "no faces"));
@@ -273,6 +345,7 @@ pub fn from_data(data: crate::scene::mesh_data::MeshData, path: &Path) -> Result
         positions: data.positions,
         normals: data.normals,
         triangles: data.triangles,
+        uvs: data.uvs,
         face_normals: data.face_normals,
     })
 }
@@ -302,7 +375,30 @@ pub fn to_world(mesh: Mesh, to_world: Mat4, flip: bool, normals: Normals) -> Wor
             t.swap(1, 2);
         }
     }
-    WorldMesh { positions, normals: world_normals, triangles }
+    WorldMesh { positions, normals: world_normals, triangles, uvs: mesh.uvs }
+}
+
+/// Texture coordinates for a textured mesh without any: Mitsuba's rule, each point's
+/// barycentrics (b1, b2) in the file's corner order, as per-corner coordinates (0, 0), (1, 0),
+/// (0, 1) of vertices of its own (so that the rule holds where `to_world` swapped the winding,
+/// `swapped`, which the scene's own barycentric rule would not see).
+pub fn barycentric_uvs(mesh: WorldMesh, swapped: bool) -> WorldMesh {
+    let mut corners = [Vec2::ZERO, Vec2::X, Vec2::Y];
+    if swapped {
+        corners.swap(1, 2);
+    }
+    let mut out =
+        WorldMesh { positions: Vec::new(), normals: Vec::new(), triangles: Vec::new(), uvs: Vec::new() };
+    for t in &mesh.triangles {
+        let base = out.positions.len() as u32;
+        for (k, &i) in t.iter().enumerate() {
+            out.positions.push(mesh.positions[i as usize]);
+            out.normals.push(mesh.normals[i as usize]);
+            out.uvs.push(corners[k]);
+        }
+        out.triangles.push([base, base + 1, base + 2]);
+    }
+    out
 }
 
 /// Mitsuba's vertex normals: each face's unit normal weighted by its angle at the vertex.

@@ -27,6 +27,13 @@ use crate::scene::Scene;
 /// Writes `scene` as the Mitsuba scene `out` (an `.xml`) and its meshes beside it
 /// (`OUT-mesh-K.ply`); returns every file written.
 pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
+    if let Some(m) = scene.materials().iter().find(|m| m.textures.is_some()) {
+        anyhow::bail!(
+            "{}: material \"{}\" is textured: pir convert writes constant materials only",
+            scene.path().display(),
+            m.name
+        );
+    }
     let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
     let dir = out.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut files = Vec::new();
