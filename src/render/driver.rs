@@ -18,9 +18,11 @@ use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 use super::Film;
+use super::splat::Splat;
 use super::state::Shard;
 use crate::integrator::{Counters, Integrator, RenderContext};
 use crate::sampling::Streams;
+use crate::scene::Filter;
 
 /// When to stop: after `iterations` (in the film, counting any it started with), after `time`
 /// (of this run), or whichever comes first.
@@ -124,6 +126,8 @@ pub fn render_from(
     assert_eq!((film.width, film.height), (w, h), "the film must have the render's size");
     let camera = ctx.scene.camera().with_resolution(w as u32, h as u32).rays();
     let tiles = tiles(w, h, TILE_SIZE);
+    // A filter wider than the box spreads every sample over the pixels around it.
+    let mut splat = (ctx.scene.filter() != Filter::Box).then(|| Splat::new(ctx.scene.filter(), w, h));
     let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
     let start = Instant::now();
     // (A no-op for an integrator the caller prepared already.)
@@ -144,37 +148,50 @@ pub fn render_from(
         let t1 = Instant::now();
         let integ: &dyn Integrator = integrator;
         let streams = Streams::camera(ctx.sampler, ctx.seed, iteration);
-        let results: Vec<(Vec<glam::Vec3>, Counters)> = tiles
+        let results: Vec<(Vec<glam::Vec3>, Vec<Vec2>, Counters)> = tiles
             .par_iter()
             .map(|t| {
                 let mut counters = Counters::default();
-                let mut out = Vec::with_capacity((t.x1 - t.x0) * (t.y1 - t.y0));
+                let n = (t.x1 - t.x0) * (t.y1 - t.y0);
+                let mut out = Vec::with_capacity(n);
+                let mut offsets = Vec::with_capacity(if splat.is_some() { n } else { 0 });
                 for y in t.y0..t.y1 {
                     for x in t.x0..t.x1 {
                         let mut sampler = streams.sampler((y * w + x) as u64);
-                        let film_pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                        let ray = camera.generate_ray(film_pos);
+                        let offset = sampler.next_2d();
+                        let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + offset);
                         out.push(integ.radiance(ctx, ray, &mut sampler, &mut counters));
+                        if splat.is_some() {
+                            offsets.push(offset);
+                        }
                     }
                 }
-                (out, counters)
+                (out, offsets, counters)
             })
             .collect();
-        for (tile, (values, counters)) in tiles.iter().zip(results) {
+        if let Some(splat) = &mut splat {
+            splat.clear();
+        }
+        for (tile, (values, offsets, counters)) in tiles.iter().zip(results) {
             stats.counters += counters;
             let mut k = 0;
             for y in tile.y0..tile.y1 {
                 for x in tile.x0..tile.x1 {
                     let v = values[k];
-                    k += 1;
-                    if v.is_finite() {
-                        film.add(y * w + x, v);
-                    } else {
+                    if !v.is_finite() {
                         stats.dropped += 1;
                         stats.first_dropped.get_or_insert((x, y, iteration));
+                    } else if let Some(splat) = &mut splat {
+                        splat.put(x, y, offsets[k], v);
+                    } else {
+                        film.add(y * w + x, v);
                     }
+                    k += 1;
                 }
             }
+        }
+        if let Some(splat) = &splat {
+            splat.develop(&mut film);
         }
         film.end_iteration();
         stats.iterations = film.iterations();

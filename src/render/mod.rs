@@ -8,6 +8,7 @@ mod film;
 pub mod memory;
 mod options;
 mod renderer;
+mod splat;
 pub mod state;
 
 pub use driver::{Budget, Control, RenderSettings, RenderStats, TILE_SIZE, render, render_from};

@@ -43,6 +43,10 @@ impl Scene {
                 h.f32s(&uv.to_array());
             }
         }
+        // The reconstruction filter, only where it is not the box.
+        if self.filter != super::Filter::Box {
+            h.bytes(format!("{:?}", self.filter).as_bytes());
+        }
         let c = &self.camera;
         h.f32s(&[
             c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,

@@ -4,6 +4,7 @@
 
 mod camera;
 mod error;
+mod filter;
 mod fingerprint;
 mod format;
 mod load;
@@ -16,6 +17,7 @@ pub mod serialized;
 mod transform;
 
 pub use camera::{Camera, CameraRays};
+pub use filter::Filter;
 pub use load::{SceneError, load, load_with};
 
 use glam::{Vec2, Vec3};
@@ -62,6 +64,8 @@ pub struct Scene {
     materials: Vec<Material>,
     bounds: Aabb,
     degenerate_dropped: usize,
+    /// The film's reconstruction filter (box unless a Mitsuba file names another).
+    filter: Filter,
 }
 
 /// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, the
@@ -188,6 +192,7 @@ impl Scene {
             materials,
             bounds,
             degenerate_dropped,
+            filter: Filter::Box,
         })
     }
 
@@ -244,6 +249,16 @@ impl Scene {
         self.bounds
     }
     /// Zero-area triangles dropped while loading.
+    /// The film's reconstruction filter.
+    pub fn filter(&self) -> Filter {
+        self.filter
+    }
+
+    /// Sets the film's reconstruction filter (a Mitsuba file's `rfilter`).
+    pub fn set_filter(&mut self, filter: Filter) {
+        self.filter = filter;
+    }
+
     pub fn degenerate_dropped(&self) -> usize {
         self.degenerate_dropped
     }

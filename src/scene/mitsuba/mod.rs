@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
-use super::{Camera, Geometry, RenderDefaults, Scene, SceneError};
+use super::{Camera, Filter, Geometry, RenderDefaults, Scene, SceneError};
 use crate::material::{Bsdf, Material, Slot, Textured};
 use crate::texture::Texture;
 
@@ -69,6 +69,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         materials: Vec::new(),
         geometry: Geometry::default(),
         images: textures::ImageCache::default(),
+        filter: Filter::Gaussian { stddev: 0.5 },
     };
     let mut camera = None;
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
@@ -125,7 +126,8 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     if !b.materials.iter().any(|m| m.is_emitter()) {
         return Err(SceneError::NoEmitter { path: path.to_path_buf() });
     }
-    let scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?;
+    let mut scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?;
+    scene.set_filter(b.filter);
     let mut warnings = b.warnings;
     let mut late = b.late_warnings.into_inner().unwrap_or_else(|e| e.into_inner());
     late.sort();
@@ -160,6 +162,9 @@ struct Builder<'a> {
     materials: Vec<Material>,
     geometry: Geometry,
     images: textures::ImageCache,
+    /// The film's reconstruction filter: Mitsuba's default, a Gaussian of σ = 0.5, unless the
+    /// film names one.
+    filter: Filter,
 }
 
 /// Property tags: the children of a plugin that are its parameters.
@@ -446,15 +451,24 @@ impl<'a> Builder<'a> {
         let height = side(p.integer("height")?, 576, "height")?;
         p.ignore(&["file_format", "pixel_format", "component_format", "banner", "sample_border"]);
         for r in p.plugins(self, "rfilter")? {
-            match r.type_name() {
-                "box" => {}
-                other => self.warnings.push(format!(
-                    "{}: line {}: reconstruction filter \"{other}\": pir renders with a box filter of one pixel \
-                     (the image is sharper than Mitsuba's at edges; means are the same)",
-                    r.file.display(),
-                    r.line
-                )),
-            }
+            let q = Params::new(r);
+            self.filter = match r.type_name() {
+                "box" => Filter::Box,
+                "tent" => match q.float("radius")?.unwrap_or(1.0) {
+                    radius if radius > 0.0 && radius <= 8.0 => Filter::Tent { radius },
+                    radius => return Err(r.error(format!("radius {radius}: must lie in (0, 8] pixels"))),
+                },
+                "gaussian" => match q.float("stddev")?.unwrap_or(0.5) {
+                    stddev if stddev > 0.0 && stddev <= 2.0 => Filter::Gaussian { stddev },
+                    stddev => return Err(r.error(format!("stddev {stddev}: must lie in (0, 2] pixels"))),
+                },
+                other => {
+                    return Err(r.error(format!(
+                        "reconstruction filter \"{other}\" is not supported: pir reads box, tent and gaussian"
+                    )));
+                }
+            };
+            q.finish(self)?;
         }
         p.finish(self)?;
         Ok((width, height))

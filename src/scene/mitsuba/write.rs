@@ -22,7 +22,7 @@ use glam::Vec3;
 
 use crate::image::write_atomically;
 use crate::material::{Bsdf, Material};
-use crate::scene::Scene;
+use crate::scene::{Filter, Scene};
 
 /// Writes `scene` as the Mitsuba scene `out` (an `.xml`) and its meshes beside it
 /// (`OUT-mesh-K.ply`); returns every file written.
@@ -72,7 +72,19 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
     let _ = writeln!(xml, "            <integer name=\"width\" value=\"$resx\"/>");
     let _ = writeln!(xml, "            <integer name=\"height\" value=\"$resy\"/>");
     let _ = writeln!(xml, "            <string name=\"pixel_format\" value=\"rgb\"/>");
-    let _ = writeln!(xml, "            <rfilter type=\"box\"/>");
+    let _ = match scene.filter() {
+        Filter::Box => writeln!(xml, "            <rfilter type=\"box\"/>"),
+        Filter::Tent { radius } => {
+            writeln!(
+                xml,
+                "            <rfilter type=\"tent\"><float name=\"radius\" value=\"{radius:?}\"/></rfilter>"
+            )
+        }
+        Filter::Gaussian { stddev } => writeln!(
+            xml,
+            "            <rfilter type=\"gaussian\"><float name=\"stddev\" value=\"{stddev:?}\"/></rfilter>"
+        ),
+    };
     let _ = writeln!(xml, "        </film>");
     let _ = writeln!(xml, "    </sensor>");
     let (positions, normals, indices) = (scene.positions(), scene.normals(), scene.indices());
