@@ -331,6 +331,23 @@ impl MethodConfig {
         self.params.validate()
     }
 
+    /// Whether the method renders `scene`'s lights: every method renders emitting triangles,
+    /// only `pt` the other kinds so far (the VPL methods' light paths and weights do not
+    /// handle them yet), so the others refuse such a scene rather than render it wrong.
+    pub fn check_scene(&self, scene: &crate::scene::Scene) -> Result<()> {
+        if self.method.name() != "pt"
+            && let Some(light) = scene.lights().first()
+        {
+            anyhow::bail!(
+                "{}: --method {} does not render {} lights yet (pt does)",
+                scene.path().display(),
+                self.method,
+                light.kind()
+            );
+        }
+        Ok(())
+    }
+
     /// The parameters given that the method does not use (which change nothing).
     pub fn unused(&self) -> Vec<Parameter> {
         self.params.given().into_iter().filter(|&p| !self.method.uses(p)).collect()

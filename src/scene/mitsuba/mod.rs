@@ -11,7 +11,8 @@
 //! - BSDFs: `diffuse` (its `reflectance` a colour) and `twosided` around it
 //!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
 //!   a one-sided diffuse of reflectance 0.5;
-//! - emitters: `area` with a constant `radiance`;
+//! - emitters ([`emitters`]): `area` with a constant `radiance` on shapes; `point`, `spot`,
+//!   `directional`, `constant` and `envmap` (OpenEXR);
 //! - the sensor: `perspective` (`fov`, `fov_axis`, `to_world`; `near_clip`, `far_clip` and
 //!   `focus_distance` are accepted and change nothing in front of the near plane), its
 //!   `hdrfilm` (`width`, `height`; a `box` filter is pir's own, a `tent` or `gaussian` one is
@@ -21,6 +22,7 @@
 //!
 //! A reflectance above 1 creates energy: refused, as Mitsuba does.
 
+mod emitters;
 mod shapes;
 mod transform;
 mod write;
@@ -58,6 +60,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
     let mut integrator_seen = false;
     let mut shape_elements = Vec::new();
+    let mut lights = Vec::new();
     for e in &doc.elements {
         match e.tag.as_str() {
             "integrator" => {
@@ -75,12 +78,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
             "shape" => shape_elements.push(e),
             // Definitions, instantiated where a shape refers to them.
             "bsdf" | "texture" if e.attr("id").is_some() => {}
-            "emitter" => {
-                return Err(e.error(format!(
-                    "emitter type \"{}\" is not supported yet: pir renders area emitters on shapes",
-                    e.type_name()
-                )));
-            }
+            "emitter" => lights.push(b.light(e)?),
             other => return Err(e.error(format!("<{other}> is not supported at the top of a scene"))),
         }
     }
@@ -101,10 +99,10 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         key: "<sensor>".into(),
         problem: "the scene has no sensor".into(),
     })?;
-    if !b.materials.iter().any(|m| m.is_emitter()) {
+    if !b.materials.iter().any(|m| m.is_emitter()) && lights.is_empty() {
         return Err(SceneError::NoEmitter { path: path.to_path_buf() });
     }
-    let scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?;
+    let scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?.with_lights(lights);
     Ok((scene, b.warnings))
 }
 
