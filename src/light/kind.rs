@@ -39,6 +39,26 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// A light path's start at a light ([`Light::emit`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Emission {
+    /// Where the ray starts: the light's position, or a point of the disk that covers the
+    /// scene's bounding sphere, outside it, for lights at infinity.
+    pub origin: Vec3,
+    /// Unit direction of the ray.
+    pub dir: Vec3,
+    /// What the ray carries: emitted intensity (or radiance times the disk's area) divided by
+    /// the densities of the origin and direction (the light's choice excluded).
+    pub weight: Vec3,
+    /// The density of where the ray lands, per unit area of the receiving surface and without
+    /// its cosine, excluding 1/distance² for lights at a position (per unit solid angle
+    /// there): pdf_dir for a point or spot light, pdf_disk · pdf_dir for an environment,
+    /// pdf_disk for a directional light.
+    pub density: f32,
+    /// Whether `density` is per unit area already (lights at infinity).
+    pub at_infinity: bool,
+}
+
 impl Light {
     /// Mitsuba's name of the kind, as errors name it.
     pub fn kind(&self) -> &'static str {
@@ -106,6 +126,66 @@ impl Light {
             return None;
         }
         Some(LightSample { wi, position, weight, pdf })
+    }
+
+    /// A ray leaving the light, from two pairs of numbers: for a point light a uniform
+    /// direction (Mitsuba's), for a spot light a uniform direction within its cutoff cone
+    /// (Mitsuba's), for lights at infinity a direction (against the directional light's, or
+    /// drawn as next-event estimation draws it) and a uniform point on the disk of the
+    /// scene's bounding sphere (`center`, `radius`) perpendicular to it, one radius outside
+    /// the centre (pbrt's). `None` when nothing is sent.
+    pub fn emit(&self, (center, radius): (Vec3, f32), u_a: Vec2, u_b: Vec2) -> Option<Emission> {
+        let disk_area = std::f32::consts::PI * radius * radius;
+        let on_disk = |dir: Vec3| {
+            let d = crate::sampling::concentric_disk(u_a) * radius;
+            let f = crate::geometry::Frame::from_normal(dir);
+            center - dir * radius + f.s * d.x + f.t * d.y
+        };
+        let e = match self {
+            Light::Point(l) => {
+                let dir = uniform_sphere(u_b);
+                Emission {
+                    origin: l.position,
+                    dir,
+                    weight: l.intensity_towards(dir) / UNIFORM_SPHERE_PDF,
+                    density: UNIFORM_SPHERE_PDF,
+                    at_infinity: false,
+                }
+            }
+            Light::Spot(l) => {
+                let cos_max = l.cos_cutoff();
+                let dir = crate::geometry::Frame::from_normal(l.axis)
+                    .to_world(crate::sampling::uniform_cone(u_b, cos_max))
+                    .normalize();
+                let pdf = crate::sampling::uniform_cone_pdf(cos_max);
+                Emission {
+                    origin: l.position,
+                    dir,
+                    weight: l.intensity_towards(dir) / pdf,
+                    density: pdf,
+                    at_infinity: false,
+                }
+            }
+            Light::Directional(l) => Emission {
+                origin: on_disk(l.direction),
+                dir: l.direction,
+                weight: l.irradiance * disk_area,
+                density: 1.0 / disk_area,
+                at_infinity: true,
+            },
+            Light::Constant(_) | Light::Envmap(_) => {
+                let s = self.sample(center, u_b)?;
+                let dir = -s.wi;
+                Emission {
+                    origin: on_disk(dir),
+                    dir,
+                    weight: s.weight * disk_area,
+                    density: s.pdf / disk_area,
+                    at_infinity: true,
+                }
+            }
+        };
+        (e.dir.is_finite() && e.weight.cmpgt(Vec3::ZERO).any()).then_some(e)
     }
 
     /// Radiance arriving from the environment along the unit direction `w` (pointing away from
@@ -191,5 +271,45 @@ mod tests {
         }
         // Uniform over the sphere: the directions average to zero.
         assert!((mean / 4096.0).length() < 1e-3, "{mean}");
+    }
+
+    /// A light path's start carries the light's power on average: the mean of
+    /// [`Light::emit`]'s weights over its numbers is [`Light::power`] (per channel, here the
+    /// same in all), for every kind.
+    #[test]
+    fn emitted_rays_carry_the_power() {
+        use crate::light::envmap::Envmap;
+        let px: Vec<Vec3> = (0..8 * 5).map(|i| Vec3::splat(0.1 + (i % 7) as f32 * 0.3)).collect();
+        let lights = [
+            Light::Point(PointLight { position: Vec3::ONE, intensity: Vec3::splat(2.0) }),
+            Light::Spot(SpotLight::new(glam::Mat4::from_rotation_x(0.3), Vec3::splat(3.0), 30.0, 10.0)),
+            Light::Directional(DirectionalLight {
+                direction: Vec3::new(0.0, -0.6, -0.8),
+                irradiance: Vec3::ONE,
+            }),
+            Light::Constant(ConstantLight { radiance: Vec3::splat(0.5) }),
+            Light::Envmap(Box::new(Envmap::new(8, 5, &px, 2.0, glam::Mat4::from_rotation_y(1.0)).unwrap())),
+        ];
+        let sphere = (Vec3::new(1.0, 2.0, 3.0), 2.5);
+        for light in &lights {
+            let n = 256;
+            let mut sum = 0.0f64;
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    if let Some(e) = light.emit(sphere, Vec2::splat(0.3), u) {
+                        assert!((e.dir.length() - 1.0).abs() < 1e-4);
+                        if e.at_infinity {
+                            // Outside the sphere, heading into it.
+                            assert!((e.origin - sphere.0).length() >= sphere.1 * 0.999);
+                            assert!(e.dir.dot(sphere.0 - e.origin) > 0.0);
+                        }
+                        sum += e.weight.x as f64;
+                    }
+                }
+            }
+            let (got, want) = (sum / (n * n) as f64, light.power(sphere.1));
+            assert!((got - want).abs() < 1e-2 * want, "{}: {got} against {want}", light.kind());
+        }
     }
 }

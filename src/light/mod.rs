@@ -19,7 +19,7 @@ pub mod kind;
 pub mod point;
 pub mod spot;
 
-pub use kind::{Light, LightSample};
+pub use kind::{Emission, Light, LightSample};
 
 use glam::{Vec2, Vec3};
 

@@ -332,14 +332,15 @@ impl MethodConfig {
     }
 
     /// Whether the method renders `scene`'s lights: every method renders emitting triangles,
-    /// only `pt` the other kinds so far (the VPL methods' light paths and weights do not
-    /// handle them yet), so the others refuse such a scene rather than render it wrong.
+    /// and all but `pir-mis` and `pir-bdpt` the other kinds (whose multiple importance
+    /// sampling weights do not handle delta and infinite lights yet), which refuse such a
+    /// scene rather than render it wrong.
     pub fn check_scene(&self, scene: &crate::scene::Scene) -> Result<()> {
-        if self.method.name() != "pt"
+        if matches!(self.method.name(), "pir-mis" | "pir-bdpt")
             && let Some(light) = scene.lights().first()
         {
             anyhow::bail!(
-                "{}: --method {} does not render {} lights yet (pt does)",
+                "{}: --method {} does not render {} lights yet (pt and the other VPL methods do)",
                 scene.path().display(),
                 self.method,
                 light.kind()

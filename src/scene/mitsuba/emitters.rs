@@ -43,7 +43,7 @@ impl<'a> Builder<'a> {
                     )));
                 }
                 let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-                invertible(e, to_world)?;
+                rigid(e, "a spot light's", to_world)?;
                 Light::Spot(SpotLight::new(to_world, intensity, cutoff, beam))
             }
             "directional" => {
@@ -67,12 +67,7 @@ impl<'a> Builder<'a> {
                 let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
                 // Changes how Mitsuba samples the map, not the image.
                 p.ignore(&["mis_compensation"]);
-                let l = Mat3::from_mat4(to_world);
-                if !(l.transpose() * l).abs_diff_eq(Mat3::IDENTITY, 1e-3) {
-                    return Err(e.error(
-                        "to_world: an environment map's transform must be a rotation (no scale or shear)",
-                    ));
-                }
+                rigid(e, "an environment map's", to_world)?;
                 let extension = path.extension().and_then(|x| x.to_str()).unwrap_or("").to_ascii_lowercase();
                 if extension != "exr" {
                     return Err(e.error(format!(
@@ -107,9 +102,14 @@ fn colour(e: &Element, p: &Params, name: &str) -> Result<Vec3, SceneError> {
     Ok(v)
 }
 
-fn invertible(e: &Element, m: Mat4) -> Result<(), SceneError> {
-    if Mat3::from_mat4(m).determinant().abs() < 1e-12 {
-        return Err(e.error("to_world is singular"));
+/// A transform whose linear part is a rotation: what pir's sampling of a spot light's cone
+/// and an environment map's directions assume.
+fn rigid(e: &Element, whose: &str, m: Mat4) -> Result<(), SceneError> {
+    let l = Mat3::from_mat4(m);
+    if !(l.transpose() * l).abs_diff_eq(Mat3::IDENTITY, 1e-3) || l.determinant() < 0.0 {
+        return Err(e.error(format!(
+            "to_world: {whose} transform must be a rotation and translation (no scale, shear or mirror)"
+        )));
     }
     Ok(())
 }
