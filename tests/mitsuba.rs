@@ -202,8 +202,8 @@ fn what_pir_cannot_render_is_refused_with_file_line_and_plugin() {
         ),
         (
             "hdr.xml",
-            scene(r#"<emitter type="envmap"><string name="filename" value="sky.hdr"/></emitter>"#),
-            vec!["hdr.xml", "line 20", "sky.hdr", "OpenEXR"],
+            scene(r#"<emitter type="envmap"><string name="filename" value="sky.png"/></emitter>"#),
+            vec!["hdr.xml", "line 20", "sky.png", "OpenEXR"],
         ),
         (
             "scaled.xml",

@@ -1,13 +1,16 @@
-//! Images in and out: linear RGB float images, EXR files with pir's metadata, sRGB PNG
+//! Images in and out: linear RGB float images, EXR files with pir's metadata, Radiance HDR
+//! files in, sRGB PNG
 //! previews, error metrics against a reference, all written atomically.
 
 mod atomic;
 mod exr_io;
+mod hdr_io;
 mod metrics;
 mod png_io;
 
 pub use atomic::write_atomically;
 pub use exr_io::{ReadExr, read_exr, read_exr_with_channels, write_exr, write_exr_with_channels};
+pub use hdr_io::read_hdr;
 pub use metrics::{Metrics, error_map, metrics};
 pub use png_io::{write_png, write_preview};
 

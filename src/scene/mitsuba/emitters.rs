@@ -1,5 +1,5 @@
 //! Mitsuba 3's emitters that are not attached to shapes: `point`, `spot`, `directional`,
-//! `constant` and `envmap` (OpenEXR images), into pir's lights ([`crate::light::Light`]) with
+//! `constant` and `envmap` (OpenEXR or Radiance HDR images), into pir's lights ([`crate::light::Light`]) with
 //! Mitsuba's parameters, defaults and units (intensity W/sr, irradiance W/m², radiance).
 
 use std::path::Path;
@@ -69,13 +69,17 @@ impl<'a> Builder<'a> {
                 p.ignore(&["mis_compensation"]);
                 rigid(e, "an environment map's", to_world)?;
                 let extension = path.extension().and_then(|x| x.to_str()).unwrap_or("").to_ascii_lowercase();
-                if extension != "exr" {
-                    return Err(e.error(format!(
-                        "{}: pir reads environment maps in OpenEXR (.exr) only so far",
-                        path.display()
-                    )));
+                let image = match extension.as_str() {
+                    "exr" => crate::image::read_exr(&path).map(|(image, _)| image),
+                    "hdr" => crate::image::read_hdr(&path),
+                    _ => {
+                        return Err(e.error(format!(
+                            "{}: pir reads environment maps in OpenEXR (.exr) and Radiance HDR (.hdr)",
+                            path.display()
+                        )));
+                    }
                 }
-                let (image, _) = crate::image::read_exr(&path).map_err(|err| e.error(format!("{err:#}")))?;
+                .map_err(|err| e.error(format!("{err:#}")))?;
                 let map = Envmap::new(image.width, image.height, &image.pixels, scale, to_world)
                     .map_err(|problem| e.error(format!("{}: {problem}", path.display())))?;
                 Light::Envmap(Box::new(map))
