@@ -162,3 +162,16 @@ fn pt_matches_mitsuba_on_the_material_preview_envmap() {
     let rel = (got - want) / want;
     assert!(rel.abs().max_element() < 0.01, "means {got} against Mitsuba's {want} ({rel})");
 }
+
+/// `pir convert` does not write these lights yet: it refuses, naming the scene and the kind,
+/// rather than write a scene without them.
+#[test]
+fn convert_refuses_such_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = data("spot.xml");
+    let out = dir.path().join("out.xml");
+    let o =
+        common::binary::pir(&["convert", scene.to_str().unwrap(), "--to", out.to_str().unwrap()], dir.path());
+    common::binary::assert_clean_failure(&o, &["spot.xml", "spot lights"]);
+    assert!(!out.exists());
+}

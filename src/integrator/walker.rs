@@ -30,6 +30,12 @@
 //! applies to full walks only: a walk whose estimator covers surfaces ends at its next
 //! non-delta vertex, so only delta chains, bounded by `max_depth`, continue it.
 //!
+//! A ray that leaves the scene finds the environments (Mitsuba's `constant` and `envmap`)
+//! where there are any ([`Estimator::on_escape`]: by default the path tracer's MIS weight
+//! against light sampling, full from the camera or a delta lobe); a covered walk's ray too,
+//! as its emission is the BSDF-sampled half of the direct light the estimate at the vertex it
+//! left did not cover.
+//!
 //! Every term is added to the path's radiance as it is found, in the walker's order (emission,
 //! then the vertex's terms, vertex by vertex), so that the image is a function of the
 //! estimator's terms alone.
