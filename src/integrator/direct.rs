@@ -75,6 +75,11 @@ pub struct LightSample {
     pub dist2: f32,
     /// The unit direction from the receiver towards the emitter point.
     pub wi: Vec3,
+    /// For a light that is not a triangle ([`crate::light::Light::emission_density`]): the
+    /// density with which a light path leaving it reaches the receiver, per unit area there
+    /// and without its cosine, beyond what next-event estimation picks of the same light;
+    /// `None` for a triangle, whose is N-free cos θ_e / π / dist2.
+    pub emission: Option<f32>,
 }
 
 /// [`sample_emitters`] with the MIS weight given by `weight` instead of the power heuristic
@@ -136,7 +141,8 @@ pub fn sample_emitters_at(
         return Vec3::ZERO;
     }
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    f * es.radiance * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi }) / pdf_light)
+    f * es.radiance
+        * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission: None }) / pdf_light)
 }
 
 /// [`sample_emitters_at`] for a light other than a triangle, chosen with probability `pmf`.
@@ -173,7 +179,8 @@ fn sample_light(
         return Vec3::ZERO;
     }
     let pdf_light = ls.pdf * pmf;
-    let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light: 1.0, dist2, wi: ls.wi });
+    let emission = Some(light.emission_density(dist2, ctx.scene.bounding_sphere().1));
+    let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light: 1.0, dist2, wi: ls.wi, emission });
     f * ls.weight * (w / pmf)
 }
 
@@ -252,5 +259,5 @@ pub fn emission_weighted(
     }
     let dist2 = (sp.p - how.from).length_squared();
     let pdf_light = ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light;
-    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo })
+    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo, emission: None })
 }

@@ -50,10 +50,12 @@ pub struct Emission {
     /// What the ray carries: emitted intensity (or radiance times the disk's area) divided by
     /// the densities of the origin and direction (the light's choice excluded).
     pub weight: Vec3,
-    /// The density of where the ray lands, per unit area of the receiving surface and without
-    /// its cosine, excluding 1/distance² for lights at a position (per unit solid angle
-    /// there): pdf_dir for a point or spot light, pdf_disk · pdf_dir for an environment,
-    /// pdf_disk for a directional light.
+    /// The density of what the ray's start picks beyond what next-event estimation picks of
+    /// the same light (the point of a point or spot light, the direction of a light at
+    /// infinity), per unit area of the receiving surface and without its cosine, excluding
+    /// 1/distance² for lights at a position (per unit solid angle there): pdf_dir for a point
+    /// or spot light, the disk's 1 / π r² for lights at infinity
+    /// ([`Light::emission_density`] at the receiver).
     pub density: f32,
     /// Whether `density` is per unit area already (lights at infinity).
     pub at_infinity: bool,
@@ -180,12 +182,25 @@ impl Light {
                     origin: on_disk(dir),
                     dir,
                     weight: s.weight * disk_area,
-                    density: s.pdf / disk_area,
+                    density: 1.0 / disk_area,
                     at_infinity: true,
                 }
             }
         };
         (e.dir.is_finite() && e.weight.cmpgt(Vec3::ZERO).any()).then_some(e)
+    }
+
+    /// [`Emission::density`] at a receiver `dist2` (squared) from the light (ignored at
+    /// infinity), for a scene of bounding-sphere `radius`: what a light path adds to next-event
+    /// estimation's pick of the light, per unit area at the receiver without its cosine.
+    pub fn emission_density(&self, dist2: f32, radius: f32) -> f32 {
+        match self {
+            Light::Point(_) => UNIFORM_SPHERE_PDF / dist2,
+            Light::Spot(l) => crate::sampling::uniform_cone_pdf(l.cos_cutoff()) / dist2,
+            Light::Directional(_) | Light::Constant(_) | Light::Envmap(_) => {
+                1.0 / (std::f32::consts::PI * radius * radius)
+            }
+        }
     }
 
     /// Radiance arriving from the environment along the unit direction `w` (pointing away from

@@ -58,8 +58,9 @@ pub struct Vpl {
     /// (which picks the emitter point exactly as light tracing does, but once, not N times);
     /// infinite after a delta vertex. For a vertex lit directly by a light that is not a
     /// triangle: N · [`crate::light::Emission::density`] (divided by d² for a point or spot
-    /// light). What the multiple importance sampling of [`super::mis`] weighs a connection
-    /// with (`pir-mis` and `pir-bdpt` refuse scenes with such lights so far).
+    /// light), likewise relative to next-event estimation. What the multiple importance
+    /// sampling of [`super::mis`] weighs a connection with (`pir-bdpt`, whose running sums
+    /// `mis` do not handle such lights yet, refuses them).
     pub arrival: f32,
     /// The probability that the light path continues from here (Russian roulette; 0 at the
     /// last vertex traced).

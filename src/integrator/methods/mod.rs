@@ -332,15 +332,14 @@ impl MethodConfig {
     }
 
     /// Whether the method renders `scene`'s lights: every method renders emitting triangles,
-    /// and all but `pir-mis` and `pir-bdpt` the other kinds (whose multiple importance
-    /// sampling weights do not handle delta and infinite lights yet), which refuse such a
-    /// scene rather than render it wrong.
+    /// and all but `pir-bdpt` the other kinds (its bidirectional weights do not handle delta
+    /// and infinite lights yet), which refuses such a scene rather than render it wrong.
     pub fn check_scene(&self, scene: &crate::scene::Scene) -> Result<()> {
-        if matches!(self.method.name(), "pir-mis" | "pir-bdpt")
+        if self.method.name() == "pir-bdpt"
             && let Some(light) = scene.lights().first()
         {
             anyhow::bail!(
-                "{}: --method {} does not render {} lights yet (pt and the other VPL methods do)",
+                "{}: --method {} does not render {} lights yet (pt and the other methods do)",
                 scene.path().display(),
                 self.method,
                 light.kind()
