@@ -181,9 +181,42 @@ fn what_pir_cannot_render_is_refused_with_file_line_and_plugin() {
             vec!["mirror.xml", "line 4", "mirrors the image"],
         ),
         (
+            "sky.xml",
+            scene(r#"<emitter type="sunsky"/>"#),
+            vec!["sky.xml", "line 20", "emitter type \"sunsky\"", "not supported"],
+        ),
+        (
+            "spot.xml",
+            scene(r#"<emitter type="spot"><float name="beam_width" value="30"/></emitter>"#),
+            vec!["spot.xml", "line 20", "beam_width 30", "cutoff_angle 20"],
+        ),
+        (
+            "point.xml",
+            scene(r#"<emitter type="point"><rgb name="intensity" value="-1"/></emitter>"#),
+            vec!["point.xml", "line 20", "intensity", "negative"],
+        ),
+        (
             "envmap.xml",
-            scene(r#"<emitter type="constant"/>"#),
-            vec!["envmap.xml", "line 20", "emitter type \"constant\"", "not supported yet"],
+            scene(r#"<emitter type="envmap"><string name="filename" value="missing.exr"/></emitter>"#),
+            vec!["envmap.xml", "line 20", "missing.exr"],
+        ),
+        (
+            "hdr.xml",
+            scene(r#"<emitter type="envmap"><string name="filename" value="sky.png"/></emitter>"#),
+            vec!["hdr.xml", "line 20", "sky.png", "OpenEXR"],
+        ),
+        (
+            "scaled.xml",
+            scene(
+                r#"<emitter type="envmap"><string name="filename" value="sky.exr"/>
+                <transform name="to_world"><scale value="2"/></transform></emitter>"#,
+            ),
+            vec!["scaled.xml", "line 20", "rotation"],
+        ),
+        (
+            "texture.xml",
+            scene(r#"<emitter type="spot"><float name="texture" value="1"/></emitter>"#),
+            vec!["texture.xml", "line 20", "texture", "not supported"],
         ),
         (
             "self.xml",

@@ -27,6 +27,18 @@ pub struct Texels {
 }
 
 impl Texels {
+    /// The texels as a linear RGB image (one channel repeated to three); call
+    /// [`Texels::linearize`] first for sRGB-encoded ones.
+    pub fn to_rgb(&self) -> super::RgbImage {
+        let c = self.channels as usize;
+        let pixels = self
+            .data
+            .chunks_exact(c)
+            .map(|t| if c == 1 { glam::Vec3::splat(t[0]) } else { glam::Vec3::new(t[0], t[1], t[2]) })
+            .collect();
+        super::RgbImage { width: self.width as usize, height: self.height as usize, pixels }
+    }
+
     /// Converts sRGB-encoded values to linear ones (the exact sRGB curve, as Mitsuba's
     /// `Bitmap::convert`); linear images are left as they are.
     pub fn linearize(&mut self) {

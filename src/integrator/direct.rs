@@ -1,10 +1,13 @@
 //! Direct lighting from the real emitters: next-event estimation with multiple importance
-//! sampling against BSDF sampling (power heuristic), shared by every method.
+//! sampling against BSDF sampling (power heuristic), shared by every method; for scenes with
+//! lights other than triangles ([`crate::light::Light`]) their samples, and the environment
+//! a ray that leaves the scene sees.
 
 use glam::{Vec2, Vec3};
 
 use super::{Counters, RenderContext};
 use crate::geometry::{OffsetPoint, Ray, offset_origin};
+use crate::light::{Choice, Light};
 use crate::material::{Bsdf, LocalGeometry, Material, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
@@ -72,6 +75,11 @@ pub struct LightSample {
     pub dist2: f32,
     /// The unit direction from the receiver towards the emitter point.
     pub wi: Vec3,
+    /// For a light that is not a triangle ([`crate::light::Light::emission_density`]): the
+    /// density with which a light path leaving it reaches the receiver, per unit area there
+    /// and without its cosine, beyond what next-event estimation picks of the same light;
+    /// `None` for a triangle, whose is N-free cos θ_e / π / dist2.
+    pub emission: Option<f32>,
 }
 
 /// [`sample_emitters`] with the MIS weight given by `weight` instead of the power heuristic
@@ -103,7 +111,17 @@ pub fn sample_emitters_at(
     counters: &mut Counters,
     weight: impl FnOnce(LightSample) -> f32,
 ) -> Vec3 {
-    let es = ctx.emitters.sample(ctx.scene, u_select, u);
+    let es = if ctx.emitters.has_lights() {
+        match ctx.emitters.choose(ctx.scene, u_select, u) {
+            Choice::Area(es) => es,
+            Choice::Light { index, pmf, u } => {
+                let light = &ctx.emitters.lights()[index];
+                return sample_light(ctx, sp, bsdf, wo, light, pmf, u, counters, weight);
+            }
+        }
+    } else {
+        ctx.emitters.sample(ctx.scene, u_select, u)
+    };
     let d = es.point.p - sp.p;
     let dist2 = d.length_squared();
     if dist2 <= 0.0 || !dist2.is_finite() {
@@ -123,7 +141,66 @@ pub fn sample_emitters_at(
         return Vec3::ZERO;
     }
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    f * es.radiance * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi }) / pdf_light)
+    f * es.radiance
+        * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission: None }) / pdf_light)
+}
+
+/// [`sample_emitters_at`] for a light other than a triangle, chosen with probability `pmf`.
+/// A delta light's sample has an infinite density (`pdf_light`: the power heuristic gives it
+/// full weight, as no BSDF sample finds it); an infinite light's its solid-angle density,
+/// with `cos_light` 1 and `dist2` infinite.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn sample_light(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    light: &Light,
+    pmf: f32,
+    u: Vec2,
+    counters: &mut Counters,
+    weight: impl FnOnce(LightSample) -> f32,
+) -> Vec3 {
+    let Some(ls) = light.sample(sp.p, u) else { return Vec3::ZERO };
+    let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
+    let (f, pdf_bsdf) = PreparedBsdf::new(*bsdf, g, wo, TransportMode::Radiance).eval_pdf(ls.wi);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    counters.shadow_rays += 1;
+    let origin = offset_origin(sp.p, sp.ng, ls.wi);
+    let (shadow, dist2) = match ls.position {
+        // Up to the light, which no surface around it occludes.
+        Some(q) => (Ray { origin, dir: q - origin, tmin: 0.0, tmax: 1.0 }, (q - sp.p).length_squared()),
+        None => (Ray::new(origin, ls.wi), f32::INFINITY),
+    };
+    if ctx.accel.occluded(&shadow) {
+        return Vec3::ZERO;
+    }
+    let pdf_light = ls.pdf * pmf;
+    let emission = Some(light.emission_density(dist2, ctx.scene.bounding_sphere().1));
+    let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light: 1.0, dist2, wi: ls.wi, emission });
+    f * ls.weight * (w / pmf)
+}
+
+/// Radiance of the environments arriving along the unit direction `dir` of a ray that left
+/// the scene, weighted by MIS against light sampling (power heuristic, each environment by its
+/// own density) unless the ray came from the camera or a delta lobe.
+#[inline(never)]
+pub fn environment(ctx: &RenderContext, dir: Vec3, how: &Sampled) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    for &k in ctx.emitters.environments() {
+        let light = &ctx.emitters.lights()[k];
+        let le = light.environment(dir);
+        if how.delta {
+            l += le;
+        } else if le != Vec3::ZERO {
+            let pdf_light = ctx.emitters.light_pmf(k) * light.environment_pdf(dir);
+            l += le * power_heuristic(how.pdf, pdf_light);
+        }
+    }
+    l
 }
 
 /// How the ray that reached a surface was sampled: what the MIS weight of the emission it
@@ -182,5 +259,5 @@ pub fn emission_weighted(
     }
     let dist2 = (sp.p - how.from).length_squared();
     let pdf_light = ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light;
-    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo })
+    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo, emission: None })
 }

@@ -30,13 +30,19 @@
 //! applies to full walks only: a walk whose estimator covers surfaces ends at its next
 //! non-delta vertex, so only delta chains, bounded by `max_depth`, continue it.
 //!
+//! A ray that leaves the scene finds the environments (Mitsuba's `constant` and `envmap`)
+//! where there are any ([`Estimator::on_escape`]: by default the path tracer's MIS weight
+//! against light sampling, full from the camera or a delta lobe); a covered walk's ray too,
+//! as its emission is the BSDF-sampled half of the direct light the estimate at the vertex it
+//! left did not cover.
+//!
 //! Every term is added to the path's radiance as it is found, in the walker's order (emission,
 //! then the vertex's terms, vertex by vertex), so that the image is a function of the
 //! estimator's terms alone.
 
 use glam::Vec3;
 
-use super::direct::{Sampled, emission};
+use super::direct::{Sampled, emission, environment};
 use super::scatter::{scatter, survives_roulette};
 use super::{Counters, RenderContext};
 use crate::geometry::{Ray, offset_origin};
@@ -105,6 +111,22 @@ pub trait Estimator {
         *radiance += beta * emission(ctx, at.material, at.sp, at.wo, at.how);
     }
 
+    /// Where the ray `ray` leaves the scene (only in scenes with an environment), sampled as
+    /// `how` says: the environment's radiance along it. By default the path tracer's: weighed
+    /// against light sampling by the power heuristic, in full from the camera or a delta lobe.
+    #[inline]
+    fn on_escape(
+        &self,
+        _state: &mut Self::State,
+        ctx: &RenderContext,
+        ray: &Ray,
+        how: &Sampled,
+        beta: Vec3,
+        radiance: &mut Vec3,
+    ) {
+        *radiance += beta * environment(ctx, ray.dir.normalize(), how);
+    }
+
     /// At a non-delta vertex below `max_depth`, after [`Estimator::on_hit`] and before BSDF
     /// sampling, with the vertex's sampler: light sampling and the method's own techniques.
     #[allow(clippy::too_many_arguments)]
@@ -168,7 +190,12 @@ pub fn walk<E: Estimator>(
     let mut depth = 0u32;
     loop {
         counters.rays += 1;
-        let Some(hit) = ctx.accel.intersect(&ray) else { break };
+        let Some(hit) = ctx.accel.intersect(&ray) else {
+            if !ctx.emitters.environments().is_empty() {
+                estimator.on_escape(&mut state, ctx, &ray, &how, beta, &mut radiance);
+            }
+            break;
+        };
         if E::COVERS_SURFACES && covered {
             let material = ctx.scene.material_of(hit.prim);
             if !material.bsdf.is_delta() {

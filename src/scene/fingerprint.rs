@@ -1,6 +1,6 @@
 //! A fingerprint of a loaded scene's contents, so that a render is only resumed or merged
 //! with renders of the same scene. It hashes what the image depends on (geometry, normals,
-//! materials, camera placement), not the file names or the resolution (which is part of the
+//! materials, camera placement, lights), not the file names or the resolution (which is part of the
 //! render job and checked separately).
 
 use super::Scene;
@@ -51,6 +51,10 @@ impl Scene {
         h.f32s(&[
             c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,
         ]);
+        // Only scenes with other lights hash them, so that the others keep their fingerprints.
+        for light in &self.lights {
+            light.fingerprint(&mut h);
+        }
         format!("{:016x}", h.finish())
     }
 }

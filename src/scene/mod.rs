@@ -66,6 +66,8 @@ pub struct Scene {
     degenerate_dropped: usize,
     /// The film's reconstruction filter (box unless a Mitsuba file names another).
     filter: Filter,
+    /// Lights other than emitting triangles (point, spot, directional, environments).
+    lights: Vec<crate::light::Light>,
 }
 
 /// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, the
@@ -193,7 +195,26 @@ impl Scene {
             bounds,
             degenerate_dropped,
             filter: Filter::Box,
+            lights: Vec::new(),
         })
+    }
+
+    /// The scene with `lights` besides its emitting triangles.
+    pub fn with_lights(mut self, lights: Vec<crate::light::Light>) -> Scene {
+        self.lights = lights;
+        self
+    }
+
+    /// Lights other than emitting triangles.
+    pub fn lights(&self) -> &[crate::light::Light] {
+        &self.lights
+    }
+
+    /// The sphere around the triangles' bounding box, as Mitsuba computes it: centre and
+    /// radius (infinite lights' power and light paths start from it).
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let c = (self.bounds.min + self.bounds.max) * 0.5;
+        (c, (self.bounds.max - c).length())
     }
 
     /// The scene file it was read from.

@@ -330,6 +330,7 @@ mod tests {
                     cos_light: e.cos(x),
                     dist2: d2,
                     wi: x.dir(e),
+                    emission: None,
                 };
                 let previous = if connect.at(t as u32 - 1) { count_in } else { 0.0 };
                 let n = samples_at(t);

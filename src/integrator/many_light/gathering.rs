@@ -10,7 +10,7 @@ use super::mis::{EmitterPath, Technique, Weighing};
 use super::points::PointLights;
 use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
-use crate::integrator::direct::{Sampled, emission_weighted, sample_emitters_weighted};
+use crate::integrator::direct::{LightSample, Sampled, emission_weighted, sample_emitters_weighted};
 use crate::integrator::path::light_sample;
 use crate::integrator::scatter::scatter;
 use crate::integrator::walker::{Estimator, Vertex};
@@ -113,7 +113,8 @@ impl Estimator for WeighedGathering<'_> {
         counters.rays += 1;
         let ray = Ray::new(offset_origin(v.sp.p, v.sp.ng, s.wi), s.wi);
         let mut found = Vec3::ZERO;
-        if let Some(hit) = ctx.accel.intersect(&ray)
+        let hit = ctx.accel.intersect(&ray);
+        if let Some(hit) = hit
             && let material = ctx.scene.material_of(hit.prim)
             && material.is_emitter()
         {
@@ -121,6 +122,37 @@ impl Estimator for WeighedGathering<'_> {
             let how = Sampled { from: v.sp.p, pdf: s.pdf, delta: s.delta };
             found = beta * emission_weighted(ctx, material, &e, -s.wi, &how, |l| path(l).bsdf_weight());
         }
+        if hit.is_none() && !ctx.emitters.environments().is_empty() {
+            found = beta * escaped(ctx, s.wi, &Sampled { from: v.sp.p, pdf: s.pdf, delta: s.delta }, path);
+        }
         Some(direct + gathered + found)
     }
+}
+
+/// C where y's BSDF-sampled ray (unit direction `dir`, sampled as `how`) leaves the scene: the
+/// environments' radiance, each weighed by `path`'s C weight with its own next-event density.
+fn escaped(ctx: &RenderContext, dir: Vec3, how: &Sampled, path: impl Fn(LightSample) -> EmitterPath) -> Vec3 {
+    let radius = ctx.scene.bounding_sphere().1;
+    let mut l = Vec3::ZERO;
+    for &k in ctx.emitters.environments() {
+        let light = &ctx.emitters.lights()[k];
+        let le = light.environment(dir);
+        if le == Vec3::ZERO {
+            continue;
+        }
+        if how.delta {
+            l += le;
+            continue;
+        }
+        let sample = LightSample {
+            pdf_light: ctx.emitters.light_pmf(k) * light.environment_pdf(dir),
+            pdf_bsdf: how.pdf,
+            cos_light: 1.0,
+            dist2: f32::INFINITY,
+            wi: dir,
+            emission: Some(light.emission_density(f32::INFINITY, radius)),
+        };
+        l += le * path(sample).bsdf_weight();
+    }
+    l
 }

@@ -1,7 +1,10 @@
 //! Virtual point lights: light tracing (the first phase of instant radiosity, Keller 1997).
 //!
 //! Each iteration traces N light paths. A path starts on an emitter triangle chosen by power
-//! at a uniform point, leaves in a cosine-distributed direction, and at every hit samples the
+//! at a uniform point, leaving in a cosine-distributed direction, or at another light chosen by
+//! power ([`crate::light::Light::emit`]: a point light's uniform direction, a spot light's
+//! uniform direction in its cone, lights at infinity from the disk covering the scene's
+//! bounding sphere, as pbrt does), and at every hit samples the
 //! BSDF in importance mode (with the adjoint shading-normal correction), continuing under
 //! Russian roulette (the continuation of [`crate::integrator::scatter`], shared with the
 //! camera walker). Every non-delta vertex that can reflect the light it receives gets a VPL
@@ -30,6 +33,7 @@ use super::subpath::{Counts, MisState, Scatter};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::RenderContext;
 use crate::integrator::scatter::{scatter, survives_roulette};
+use crate::light::Choice;
 use crate::material::{Bsdf, LocalGeometry, TransportMode};
 use crate::sampling::{Sampler, Streams, cosine_hemisphere};
 
@@ -54,14 +58,19 @@ pub struct Vpl {
     /// probability q, its BSDF's solid-angle density p of the direction, the distance d);
     /// for a vertex lit directly, N · (cos θ_e / π) / d² relative to next-event estimation
     /// (which picks the emitter point exactly as light tracing does, but once, not N times);
-    /// infinite after a delta vertex. What the multiple importance sampling of
-    /// [`super::mis`] weighs a connection with.
+    /// infinite after a delta vertex. For a vertex lit directly by a light that is not a
+    /// triangle: N · [`crate::light::Emission::density`] (divided by d² for a point or spot
+    /// light), likewise relative to next-event estimation. What the multiple importance
+    /// sampling of [`super::mis`] weighs a connection with (`pir-bdpt`, whose running sums
+    /// `mis` do not handle such lights yet, refuses them).
     pub arrival: f32,
     /// The probability that the light path continues from here (Russian roulette; 0 at the
     /// last vertex traced).
     pub survival: f32,
     /// For a vertex lit directly: the solid-angle density with which next-event estimation
-    /// from here picks the emitter point that lit it; 0 otherwise.
+    /// from here picks the emitter point that lit it (infinite for a delta light, which it
+    /// picks with certainty once chosen; for an environment its selection probability times
+    /// its density of the direction back along the path); 0 otherwise.
     pub nee_pdf: f32,
     /// The light subpath's running sums for the bidirectional weights of `pir-bdpt`
     /// ([`super::bidirectional`]), at this vertex.
@@ -154,7 +163,29 @@ fn trace_path(
     }
     let u_select = sampler.next_f32();
     let u_point = sampler.next_2d();
-    let es = ctx.emitters.sample(ctx.scene, u_select, u_point);
+    let es = if ctx.emitters.has_lights() {
+        match ctx.emitters.choose(ctx.scene, u_select, u_point) {
+            Choice::Area(es) => es,
+            Choice::Light { index, pmf, u } => {
+                let light = &ctx.emitters.lights()[index];
+                let Some(e) = light.emit(ctx.scene.bounding_sphere(), u, sampler.next_2d()) else { return 0 };
+                let beta = e.weight / (pmf * n_paths);
+                let start = Start {
+                    ray: Ray::new(e.origin, e.dir),
+                    beta,
+                    from: e.origin,
+                    density: n_paths * e.density,
+                    at_infinity: e.at_infinity,
+                    nee: if light.is_delta() { NeeAt::Delta } else { NeeAt::Environment(index, pmf) },
+                    // (pir-bdpt, which reads them, refuses these lights.)
+                    mis: MisState::light(1.0, 1.0, counts.paths),
+                };
+                return follow(ctx, sampler, start, counts, max_depth, out);
+            }
+        }
+    } else {
+        ctx.emitters.sample(ctx.scene, u_select, u_point)
+    };
     let u_dir = sampler.next_2d();
     // Cosine-distributed direction about the emitter's front (geometric) normal:
     // throughput Le · cos / (p_A · cos / π) = Le · π / p_A.
@@ -163,15 +194,57 @@ fn trace_path(
         return 0;
     }
     let dir = Frame::from_normal(es.point.ng).to_world(local);
-    let mut beta = es.radiance * (std::f32::consts::PI / es.pdf_area) / n_paths;
-    let mut ray = Ray::new(offset_origin(es.point.p, es.point.ng, dir), dir);
+    let beta = es.radiance * (std::f32::consts::PI / es.pdf_area) / n_paths;
+    let start = Start {
+        ray: Ray::new(offset_origin(es.point.p, es.point.ng, dir), dir),
+        beta,
+        from: es.point.p,
+        density: n_paths * local.z * std::f32::consts::FRAC_1_PI,
+        at_infinity: false,
+        nee: NeeAt::Area { p: es.point.p, pdf_area: es.pdf_area, cos_e: local.z },
+        mis: MisState::light(es.pdf_area, local.z, counts.paths),
+    };
+    follow(ctx, sampler, start, counts, max_depth, out)
+}
+
+/// How next-event estimation from a vertex lit directly finds the light that lit it.
+#[derive(Clone, Copy, Debug)]
+enum NeeAt {
+    /// The emitter point, with its area density and the cosine of the path's direction there.
+    Area { p: Vec3, pdf_area: f32, cos_e: f32 },
+    /// A delta light: the same point or direction, with a delta density.
+    Delta,
+    /// An environment (its index among the lights, its selection probability): by its own
+    /// solid-angle density of the direction back along the path.
+    Environment(usize, f32),
+}
+
+/// Where a light path starts: its first ray and throughput, and what the VPL at its first
+/// hit records of how it got there.
+struct Start {
+    ray: Ray,
+    beta: Vec3,
+    /// Where the first segment starts.
+    from: Vec3,
+    /// The density of the first direction, per unit solid angle, times the paths (for lights
+    /// at infinity, per unit area of the receiver: [`crate::light::Emission::density`]).
+    density: f32,
+    at_infinity: bool,
+    nee: NeeAt,
+    mis: MisState,
+}
+
+/// Follows a light path from its start, appending its VPLs; returns the number of rays traced.
+fn follow(
+    ctx: &RenderContext,
+    sampler: &mut Sampler,
+    start: Start,
+    counts: Counts,
+    max_depth: u32,
+    out: &mut Vec<Vpl>,
+) -> u64 {
+    let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis } = start;
     let beta0 = beta.max_element();
-    // Where the current segment started and the density of its direction there, per unit
-    // solid angle, times the survival probability there (infinite after a delta vertex).
-    let mut from = es.point.p;
-    let mut density = n_paths * local.z * std::f32::consts::FRAC_1_PI;
-    let emitter_point = (es.point.p, es.pdf_area, local.z);
-    let mut mis = MisState::light(es.pdf_area, local.z, counts.paths);
     // The BSDF of the light path's previous vertex (none at the emitter).
     let mut previous: Option<Bsdf> = None;
     let mut rays = 0;
@@ -208,11 +281,18 @@ fn trace_path(
                 uv: sp.uv,
                 flux: beta,
                 depth,
-                arrival: density / dist2,
+                arrival: if depth == 1 && at_infinity { density } else { density / dist2 },
                 survival,
                 nee_pdf: if depth == 1 {
-                    let (e, pdf_area, cos_e) = emitter_point;
-                    pdf_area * (sp.p - e).length_squared() / cos_e
+                    match nee {
+                        NeeAt::Area { p: e, pdf_area, cos_e } => {
+                            pdf_area * (sp.p - e).length_squared() / cos_e
+                        }
+                        NeeAt::Delta => f32::INFINITY,
+                        NeeAt::Environment(k, pmf) => {
+                            pmf * ctx.emitters.lights()[k].environment_pdf(-ray.dir)
+                        }
+                    }
                 } else {
                     0.0
                 },

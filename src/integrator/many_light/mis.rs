@@ -41,6 +41,14 @@
 //! VPL lit directly stores the density of next-event estimation for its emitter point
 //! ([`Vpl::nee_pdf`]) so that A can weigh against C.
 //!
+//! **Lights that are not triangles** fit the same scheme, with what light tracing picks
+//! beyond next-event estimation's pick of the same light ([`crate::light::Light::emit`]): a
+//! point or spot light's direction (a = N p_dir / ‖y − l‖²; C cannot hit a delta light, and
+//! next-event estimation picks it with an infinite density, [`Vpl::nee_pdf`]), and for lights
+//! at infinity the point on the disk the path starts from (a = N / π r²; for an environment C
+//! is y's BSDF sample leaving the scene, against next-event estimation's density of the
+//! direction).
+//!
 //! Costs: B adds, per gathering vertex, one ray (the walker traces it anyway for the
 //! emission that MIS-weights direct light) and a second gather and emitter sample at y; C
 //! one more ray from y.
@@ -150,11 +158,15 @@ pub struct EmitterPath {
 }
 
 impl EmitterPath {
-    /// (A, B, C): the connection (N light paths, each leaving y with density cos θ_e / π),
-    /// next-event estimation from y, BSDF sampling from y.
+    /// (A, B, C): the connection (N light paths, each leaving y with density cos θ_e / π, or
+    /// for a light that is not a triangle [`LightSample::emission`]), next-event estimation
+    /// from y, BSDF sampling from y (zero for a delta light, whose density is infinite).
     fn densities(&self) -> (f32, f32, f32) {
         let l = &self.light;
-        let a = self.paths * l.cos_light * FRAC_1_PI / l.dist2;
+        let a = match l.emission {
+            None => self.paths * l.cos_light * FRAC_1_PI / l.dist2,
+            Some(e) => self.paths * e,
+        };
         let c = if l.pdf_light > 0.0 { self.bounce * l.pdf_bsdf / l.pdf_light } else { 0.0 };
         (a, self.bounce, c)
     }

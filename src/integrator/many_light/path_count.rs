@@ -35,6 +35,7 @@ use super::light_paths::trace_vpls;
 use super::subpath::Counts;
 use crate::integrator::direct::occluded;
 use crate::integrator::{Counters, RenderContext};
+use crate::light::Choice;
 use crate::sampling::Streams;
 
 /// Light paths of the pilot that measures the yield of VPLs per path (no more than the most
@@ -115,7 +116,17 @@ impl Pilot {
             let mut sampler = streams.sampler(j as u64);
             for _ in 0..PILOT_LIGHT_SAMPLES {
                 let u_select = sampler.next_f32();
-                let es = ctx.emitters.sample(ctx.scene, u_select, sampler.next_2d());
+                let u = sampler.next_2d();
+                // Only emitting triangles are counted (the methods that weigh connections by
+                // the visibility, pir-bdpt's, refuse scenes with other lights).
+                let es = if ctx.emitters.has_lights() {
+                    match ctx.emitters.choose(ctx.scene, u_select, u) {
+                        Choice::Area(es) => es,
+                        Choice::Light { .. } => continue,
+                    }
+                } else {
+                    ctx.emitters.sample(ctx.scene, u_select, u)
+                };
                 let d = es.point.p - vpl.p;
                 if es.point.ng.dot(d) >= 0.0 || vpl.ng.dot(d) <= 0.0 {
                     continue;

@@ -14,7 +14,8 @@
 //! - BSDFs: `diffuse` (its `reflectance` a colour or a texture) and `twosided` around it
 //!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
 //!   a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
-//! - emitters: `area` with a constant `radiance`;
+//! - emitters ([`emitters`]): `area` with a constant `radiance` on shapes; `point`, `spot`,
+//!   `directional`, `constant` and `envmap` (any image pir reads as a texture);
 //! - the sensor: `perspective` (`fov`, `fov_axis`, `to_world`; `near_clip`, `far_clip` and
 //!   `focus_distance` are accepted and change nothing in front of the near plane), its
 //!   `hdrfilm` (`width`, `height`; a `box` filter is pir's own, a `tent` or `gaussian` one is
@@ -25,6 +26,7 @@
 //! A reflectance above 1 creates energy: refused, as Mitsuba does.
 
 mod bsdfs;
+mod emitters;
 mod shapes;
 mod textures;
 mod transform;
@@ -75,6 +77,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
     let mut integrator_seen = false;
     let mut shape_elements = Vec::new();
+    let mut lights = Vec::new();
     for e in &doc.elements {
         match e.tag.as_str() {
             "integrator" => {
@@ -92,12 +95,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
             "shape" => shape_elements.push(e),
             // Definitions, instantiated where a shape refers to them.
             "bsdf" | "texture" if e.attr("id").is_some() => {}
-            "emitter" => {
-                return Err(e.error(format!(
-                    "emitter type \"{}\" is not supported yet: pir renders area emitters on shapes",
-                    e.type_name()
-                )));
-            }
+            "emitter" => lights.push(b.light(e)?),
             other => return Err(e.error(format!("<{other}> is not supported at the top of a scene"))),
         }
     }
@@ -123,10 +121,11 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         key: "<sensor>".into(),
         problem: "the scene has no sensor".into(),
     })?;
-    if !b.materials.iter().any(|m| m.is_emitter()) {
+    if !b.materials.iter().any(|m| m.is_emitter()) && lights.is_empty() {
         return Err(SceneError::NoEmitter { path: path.to_path_buf() });
     }
-    let mut scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?;
+    let mut scene =
+        Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?.with_lights(lights);
     scene.set_filter(b.filter);
     let mut warnings = b.warnings;
     let mut late = b.late_warnings.into_inner().unwrap_or_else(|e| e.into_inner());

@@ -36,6 +36,9 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
     }
     let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
     let dir = out.parent().map(Path::to_path_buf).unwrap_or_default();
+    if let Some(light) = scene.lights().first() {
+        anyhow::bail!("{}: pir convert does not write {} lights yet", scene.path().display(), light.kind());
+    }
     let mut files = Vec::new();
     let c = scene.camera();
     let mut xml = String::new();

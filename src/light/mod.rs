@@ -1,11 +1,25 @@
 //! The scene's emitters: every triangle whose material has non-zero emission is a diffuse
-//! area light on its front face (the side of its geometric normal).
+//! area light on its front face (the side of its geometric normal); the scene's other lights
+//! (point, spot, directional, constant, envmap: [`Light`]) join them.
 //!
-//! Sampling picks a triangle with probability proportional to its power (mean emitted
-//! radiance over the channels × area × π), in constant time from an alias table, and a
-//! uniform point on it. The same distribution
-//! serves next-event estimation, MIS weights of BSDF-sampled hits, and the start of light
-//! paths.
+//! Sampling picks a triangle or light with probability proportional to its power (for a
+//! triangle: mean emitted radiance over the channels × area × π; for the others
+//! [`Light::power`], infinite lights' from the scene's bounding sphere), in constant time from
+//! one alias table, and a uniform point on the triangle or a sample of the light. The same
+//! distribution serves next-event estimation, MIS weights of BSDF-sampled hits, and the start
+//! of light paths. A scene without other lights builds exactly the table it always did.
+//!
+//! One file per kind: [`point`], [`spot`], [`directional`], [`constant`], [`envmap`], and
+//! their one interface in [`kind`].
+
+pub mod constant;
+pub mod directional;
+pub mod envmap;
+pub mod kind;
+pub mod point;
+pub mod spot;
+
+pub use kind::{Emission, Light, LightSample};
 
 use glam::{Vec2, Vec3};
 
@@ -20,6 +34,21 @@ pub struct Emitters {
     /// For every triangle of the scene: the area density of sampling a point on it
     /// (selection probability / area); zero for non-emitters.
     pdf_area: Vec<f32>,
+    /// The scene's other lights (entries `prims.len()..` of `dist`).
+    lights: Vec<Light>,
+    /// Their selection probabilities.
+    light_pmf: Vec<f32>,
+    /// The indices (into `lights`) of the environments, which escaping rays see.
+    environments: Vec<usize>,
+}
+
+/// What [`Emitters::choose`] picked.
+#[derive(Clone, Copy, Debug)]
+pub enum Choice {
+    /// A point on an emitting triangle, as [`Emitters::sample`] gives it.
+    Area(EmitterSample),
+    /// Another light, its selection probability, and the two numbers left for its sample.
+    Light { index: usize, pmf: f32, u: Vec2 },
 }
 
 /// Where a sampled point lies: what connecting to it needs.
@@ -42,7 +71,7 @@ pub struct EmitterSample {
 }
 
 impl Emitters {
-    /// `None` when the scene has no emitter with positive power.
+    /// `None` when the scene has no emitter or light with positive power.
     pub fn new(scene: &Scene) -> Option<Self> {
         let mut prims = Vec::new();
         let mut weights = Vec::new();
@@ -57,12 +86,48 @@ impl Emitters {
                 }
             }
         }
+        let radius = scene.bounding_sphere().1;
+        let mut lights = Vec::new();
+        for light in scene.lights() {
+            let power = light.power(radius);
+            if power > 0.0 && power.is_finite() {
+                lights.push(light.clone());
+                weights.push(power);
+            }
+        }
         let dist = AliasTable::new(&weights)?;
         let mut pdf_area = vec![0.0f32; scene.indices().len()];
         for (i, &prim) in prims.iter().enumerate() {
             pdf_area[prim as usize] = dist.pmf(i) / scene.area(prim);
         }
-        Some(Emitters { prims, dist, pdf_area })
+        let light_pmf = (0..lights.len()).map(|k| dist.pmf(prims.len() + k)).collect();
+        let environments = (0..lights.len()).filter(|&k| lights[k].is_environment()).collect();
+        Some(Emitters { prims, dist, pdf_area, lights, light_pmf, environments })
+    }
+
+    /// The lights other than triangles.
+    #[inline]
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// Whether there are lights other than triangles (then [`Emitters::choose`] samples, not
+    /// [`Emitters::sample`]).
+    #[inline]
+    pub fn has_lights(&self) -> bool {
+        !self.lights.is_empty()
+    }
+
+    /// The probability of choosing light `k` of [`Emitters::lights`].
+    #[inline]
+    pub fn light_pmf(&self, k: usize) -> f32 {
+        self.light_pmf[k]
+    }
+
+    /// The indices of the environments (constant, envmap) among [`Emitters::lights`].
+    #[inline]
+    pub fn environments(&self) -> &[usize] {
+        &self.environments
     }
 
     pub fn len(&self) -> usize {
@@ -85,6 +150,8 @@ impl Emitters {
     /// that the rest keeps full precision. Why: a stratified `u` then stays stratified over
     /// every triangle of a light, where a separate number for the choice made each
     /// triangle's points a random subset of the stratified set.
+    ///
+    /// Triangles only: with other lights ([`Emitters::has_lights`]) use [`Emitters::choose`].
     #[inline(always)]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
         let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
@@ -94,6 +161,30 @@ impl Emitters {
             point: EmitterPoint { p, ng, prim },
             radiance: scene.material_of(prim).emission,
             pdf_area: self.pdf_area[prim as usize],
+        }
+    }
+}
+
+impl Emitters {
+    /// [`Emitters::sample`] over the triangles and the other lights: the same numbers pick
+    /// the same way, and a light gets what is left of the first number and the second.
+    #[inline]
+    pub fn choose(&self, scene: &Scene, u_select: f32, u: Vec2) -> Choice {
+        let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
+        let rest = to_unit_f32(rest);
+        match self.prims.get(i) {
+            Some(&prim) => {
+                let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(rest, u.y)));
+                Choice::Area(EmitterSample {
+                    point: EmitterPoint { p, ng, prim },
+                    radiance: scene.material_of(prim).emission,
+                    pdf_area: self.pdf_area[prim as usize],
+                })
+            }
+            None => {
+                let index = i - self.prims.len();
+                Choice::Light { index, pmf: self.light_pmf[index], u: Vec2::new(rest, u.y) }
+            }
         }
     }
 }
