@@ -201,9 +201,9 @@ fn what_pir_cannot_render_is_refused_with_file_line_and_plugin() {
             vec!["envmap.xml", "line 20", "missing.exr"],
         ),
         (
-            "hdr.xml",
+            "nosky.xml",
             scene(r#"<emitter type="envmap"><string name="filename" value="sky.png"/></emitter>"#),
-            vec!["hdr.xml", "line 20", "sky.png", "OpenEXR"],
+            vec!["nosky.xml", "line 20", "sky.png", "cannot read"],
         ),
         (
             "scaled.xml",
@@ -253,11 +253,10 @@ fn obj_meshes_get_mitsubas_normals() {
     }
 }
 
-/// The shared scenes: the Cornell box loads whole; the others name the first thing they need
-/// that pir does not read yet.
+/// The shared scenes load whole.
 #[test]
-fn shared_scenes_load_or_name_what_they_need() {
-    let Some(shared) = common::shared_dir("shared_scenes_load_or_name_what_they_need") else { return };
+fn shared_scenes_load() {
+    let Some(shared) = common::shared_dir("shared_scenes_load") else { return };
     let dir = shared.join("scenes/mitsuba");
     let (s, warnings) = load(&dir.join("cornell-box/scene.xml"), &[]).unwrap();
     assert_eq!(s.triangle_count(), 36);
@@ -271,11 +270,14 @@ fn shared_scenes_load_or_name_what_they_need() {
     let (s, warnings) = load(&dir.join("veach-mis/scene.xml"), &[]).unwrap();
     assert!(s.materials().iter().any(|m| matches!(m.bsdf, pir::material::Bsdf::RoughConductor { .. })));
     assert!(warnings.iter().all(|w| w.contains("filter")), "{warnings:?}");
-    for scene in ["living-room/scene.xml", "matpreview/matpreview.xml"] {
-        if let Err(e) = load(&dir.join(scene), &[]) {
-            assert!(e.contains("line") && e.contains("not supported"), "{scene}: {e}");
-        }
-    }
+    // The White Room (JPEG textures, plastics, metals, glass, masks) and the material preview
+    // (a .serialized mesh, a checkerboard, an environment map) load whole.
+    let (s, _) = load(&dir.join("living-room/scene.xml"), &[]).unwrap();
+    assert!(s.materials().iter().any(|m| m.textures.is_some()));
+    assert!(s.materials().iter().any(|m| matches!(m.bsdf, pir::material::Bsdf::Mask { .. })));
+    let (s, _) = load(&dir.join("matpreview/matpreview.xml"), &[]).unwrap();
+    assert!(!s.lights().is_empty());
+    assert_eq!(s.filter(), pir::scene::Filter::Gaussian { stddev: 0.5 });
 }
 
 /// Every consistent method renders the shared Cornell box (Bitterli's, in Mitsuba's format)
