@@ -13,8 +13,7 @@ fn data(name: &str) -> PathBuf {
 }
 
 fn mean(path: &Path) -> glam::DVec3 {
-    let (img, _) = pir::image::read_exr(path).unwrap();
-    img.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3()) / img.pixels.len() as f64
+    glam::DVec3::from(pir::image::read_exr(path).unwrap().0.mean())
 }
 
 const KINDS: [&str; 5] = ["point", "spot", "directional", "constant", "envmap"];
@@ -31,24 +30,15 @@ fn consistent_methods_match_mitsuba_for_every_emitter_kind() {
         [("pt", "256"), ("pir-clamp", "1024"), ("pir-vsl", "1024"), ("pir-mis", "256")].map(|m| (*k, m))
     }) {
         let out = dir.path().join(format!("{kind}-{method}.exr"));
-        let scene = data(&format!("{kind}.xml"));
-        let o = common::binary::pir(
-            &[
-                "render",
-                scene.to_str().unwrap(),
-                "--spp",
-                spp,
-                "--method",
-                method,
-                "-q",
-                "--no-preview",
-                "--out",
-                out.to_str().unwrap(),
-            ],
+        let what = format!("{kind}, {method}");
+        let img = common::binary::render(
+            &data(&format!("{kind}.xml")),
+            &["--spp", spp, "--method", method],
+            &out,
             dir.path(),
+            &what,
         );
-        assert!(o.status.success(), "{kind}, {method}: {}", common::binary::stderr(&o));
-        let (got, want) = (mean(&out), mean(&data(&format!("{kind}-64x36.exr"))));
+        let (got, want) = (glam::DVec3::from(img.mean()), mean(&data(&format!("{kind}-64x36.exr"))));
         let rel = (got - want) / want;
         assert!(
             rel.abs().max_element() < 0.01,
@@ -97,24 +87,15 @@ fn the_biased_vpl_methods_render_such_lights() {
     for method in ["ir", "ir-clamp", "vsl"] {
         for kind in KINDS {
             let out = dir.path().join(format!("{kind}-{method}.exr"));
-            let scene = data(&format!("{kind}.xml"));
-            let o = common::binary::pir(
-                &[
-                    "render",
-                    scene.to_str().unwrap(),
-                    "--spp",
-                    "4",
-                    "--method",
-                    method,
-                    "-q",
-                    "--no-preview",
-                    "--out",
-                    out.to_str().unwrap(),
-                ],
+            let what = format!("{kind}, {method}");
+            let img = common::binary::render(
+                &data(&format!("{kind}.xml")),
+                &["--spp", "4", "--method", method],
+                &out,
                 dir.path(),
+                &what,
             );
-            assert!(o.status.success(), "{kind}, {method}: {}", common::binary::stderr(&o));
-            let m = mean(&out);
+            let m = glam::DVec3::from(img.mean());
             assert!(m.is_finite() && m.min_element() > 0.0, "{kind}, {method}: {m}");
         }
     }

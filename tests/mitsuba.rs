@@ -291,38 +291,15 @@ fn consistent_methods_match_mitsubas_cornell_box() {
     let reference =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba-cornell-box-64x36.exr");
     let (r, _) = pir::image::read_exr(&reference).unwrap();
-    let mean = |img: &pir::image::RgbImage| {
-        let s = img.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3());
-        s / img.pixels.len() as f64
-    };
+    let mean = |img: &pir::image::RgbImage| glam::DVec3::from(img.mean());
     let want = mean(&r);
     let dir = tempfile::tempdir().unwrap();
     for (method, spp) in
         [("pt", "256"), ("pir-bdpt", "256"), ("pir-mis", "256"), ("pir-clamp", "1024"), ("pir-vsl", "1024")]
     {
         let out = dir.path().join(format!("{method}.exr"));
-        let s = scene.to_str().unwrap();
-        let o = common::binary::pir(
-            &[
-                "render",
-                s,
-                "-D",
-                "resx=64",
-                "-D",
-                "resy=36",
-                "--spp",
-                spp,
-                "--method",
-                method,
-                "-q",
-                "--no-preview",
-                "--out",
-                out.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{method}: {}", common::binary::stderr(&o));
-        let (img, _) = pir::image::read_exr(&out).unwrap();
+        let args = ["-D", "resx=64", "-D", "resy=36", "--spp", spp, "--method", method];
+        let img = common::binary::render(&scene, &args, &out, dir.path(), method);
         let got = mean(&img);
         let rel = (got - want) / want;
         assert!(rel.abs().max_element() < 0.01, "{method}: means {got} against Mitsuba's {want} ({rel})");
@@ -341,10 +318,7 @@ fn consistent_methods_match_mitsubas_materials() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let scene = root.join("tests/data/mitsuba-materials.xml");
     let (r, _) = pir::image::read_exr(&root.join("tests/data/mitsuba-materials-64x36.exr")).unwrap();
-    let mean = |img: &pir::image::RgbImage| {
-        let s = img.pixels.iter().fold(glam::DVec3::ZERO, |a, p| a + p.as_dvec3());
-        s / img.pixels.len() as f64
-    };
+    let mean = |img: &pir::image::RgbImage| glam::DVec3::from(img.mean());
     let want = mean(&r);
     let dir = tempfile::tempdir().unwrap();
     for (method, spp, tolerance) in [
@@ -355,23 +329,8 @@ fn consistent_methods_match_mitsubas_materials() {
         ("pir-vsl", "512", 0.02),
     ] {
         let out = dir.path().join(format!("{method}.exr"));
-        let o = common::binary::pir(
-            &[
-                "render",
-                scene.to_str().unwrap(),
-                "--spp",
-                spp,
-                "--method",
-                method,
-                "-q",
-                "--no-preview",
-                "--out",
-                out.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{method}: {}", common::binary::stderr(&o));
-        let (img, _) = pir::image::read_exr(&out).unwrap();
+        let img =
+            common::binary::render(&scene, &["--spp", spp, "--method", method], &out, dir.path(), method);
         let got = mean(&img);
         let rel = (got - want) / want;
         assert!(
@@ -478,8 +437,20 @@ fn survive_mutations(cases: usize) {
         seeds.push(text);
     }
     // Every BSDF plugin pir reads, and the lights, textures and filters that need no file.
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    seeds.push(std::fs::read(root.join("tests/data/mitsuba-materials.xml")).unwrap());
+    // (Small shapes: a mutated case must load within the time bound below on a busy machine.)
+    seeds.push(
+        scene(
+            r#"<shape type="cube"><bsdf type="plastic"><float name="int_ior" value="1.9"/></bsdf></shape>
+            <shape type="cube"><bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/></bsdf></shape>
+            <shape type="cube"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>
+            <shape type="cube"><bsdf type="roughconductor"><rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.1"/></bsdf></shape>
+            <shape type="cube"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0"/></bsdf></shape>
+            <shape type="cube"><bsdf type="thindielectric"/></shape>
+            <shape type="cube"><bsdf type="roughdielectric"><rgb name="specular_transmittance" value="0"/></bsdf></shape>
+            <shape type="cube"><bsdf type="mask"><float name="opacity" value="0.6"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#,
+        )
+        .into_bytes(),
+    );
     seeds.push(
         scene(
             r#"<emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="3"/></emitter>
@@ -490,7 +461,7 @@ fn survive_mutations(cases: usize) {
             <texture type="checkerboard" id="check"><rgb name="color0" value="0.2"/><rgb name="color1" value="0.7"/>
                 <transform name="to_uv"><scale x="4" y="4"/></transform></texture>
             <shape type="rectangle"><bsdf type="diffuse"><ref name="reflectance" id="check"/></bsdf></shape>
-            <shape type="sphere"><bsdf type="roughplastic"><ref name="diffuse_reflectance" id="check"/></bsdf></shape>"#,
+            <shape type="cube"><bsdf type="roughplastic"><ref name="diffuse_reflectance" id="check"/></bsdf></shape>"#,
         )
         .replace("<film type=\"hdrfilm\">", "<film type=\"hdrfilm\"><rfilter type=\"tent\"><float name=\"radius\" value=\"1.5\"/></rfilter>")
         .into_bytes(),
@@ -914,23 +885,7 @@ fn textured_scene_against_mitsuba(method: &str, spp: &str, mean_tol: f64, block_
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.exr");
     let scene = data.join("textured/scene.xml");
-    let o = common::binary::pir(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "--spp",
-            spp,
-            "--method",
-            method,
-            "-q",
-            "--no-preview",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{method}: {}", common::binary::stderr(&o));
-    let (got, _) = pir::image::read_exr(&out).unwrap();
+    let got = common::binary::render(&scene, &["--spp", spp, "--method", method], &out, dir.path(), method);
     let (mg, mw) = (glam::DVec3::from(got.mean()), glam::DVec3::from(want.mean()));
     let rel = (mg - mw) / mw;
     assert!(rel.abs().max_element() < mean_tol, "{method}: means {mg} against Mitsuba's {mw} ({rel})");

@@ -43,3 +43,14 @@ pub fn assert_clean_failure(o: &Output, expected: &[&str]) {
         assert!(!err.contains(bad), "{bad:?} in: {err}");
     }
 }
+
+/// Runs `pir render SCENE ARGS… -q --no-preview --out OUT` in `cwd`, asserts that it
+/// succeeded (the failure names `what` and pir's stderr), and reads the image it wrote.
+pub fn render(scene: &Path, args: &[&str], out: &Path, cwd: &Path, what: &str) -> pir::image::RgbImage {
+    let mut all = vec!["render", scene.to_str().unwrap()];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["-q", "--no-preview", "--out", out.to_str().unwrap()]);
+    let o = pir(&all, cwd);
+    assert!(o.status.success(), "{what}: {}", stderr(&o));
+    pir::image::read_exr(out).unwrap().0
+}

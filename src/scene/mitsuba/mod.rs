@@ -729,50 +729,16 @@ fn diffuse_albedo(p: &Params) -> Result<Vec3, SceneError> {
     Ok(albedo)
 }
 
-/// A conductor's Fresnel term must be 1 (`material` "none", Mitsuba 3's default): pir's
-/// mirror and glossy lobes have no Fresnel term.
-fn none_material(e: &Element, p: &Params) -> Result<(), SceneError> {
-    let material = p.string("material")?;
-    let (eta, k) = (p.get("eta").is_some(), p.get("k").is_some());
-    if material.is_some_and(|m| m != "none") || eta || k {
-        return Err(e.error(format!(
-            "a conductor's Fresnel term ({}) is not supported yet: pir reads material \"none\" (a perfect \
-             mirror times specular_reflectance)",
-            match material {
-                Some(m) if m != "none" => format!("material \"{m}\""),
-                _ => "eta and k".to_string(),
-            }
-        )));
-    }
-    Ok(())
-}
-
-/// A `roughconductor` of material none and GGX distribution: its specular reflectance and
-/// isotropic alpha (pir's glossy lobe: specular · D G1 G1 / (4 cos cos), no Fresnel term).
+/// A blend's `roughconductor`, read as every `roughconductor` is ([`bsdfs::rough_conductor`]):
+/// of material none and GGX it is pir's glossy lobe without albedo, whose specular reflectance
+/// and alpha the blend weighs; with a Fresnel term or Beckmann normals it is refused.
 fn rough_mirror(e: &Element, p: &Params) -> Result<(Vec3, f32), SceneError> {
-    if e.type_name() != "roughconductor" {
-        return Err(e.error("expected a roughconductor"));
+    match bsdfs::rough_conductor(e, p)? {
+        Bsdf::Glossy { specular, roughness, .. } => Ok((specular, roughness)),
+        _ => Err(e.error(
+            "in a blendbsdf, a roughconductor must be of material none and distribution ggx (pir's glossy lobe)",
+        )),
     }
-    none_material(e, p)?;
-    match p.string("distribution")?.unwrap_or("beckmann") {
-        "ggx" => {}
-        d => return Err(e.error(format!("distribution \"{d}\" is not supported: pir's microfacets are GGX"))),
-    }
-    let alpha = p.float("alpha")?;
-    let (u, v) = (p.float("alpha_u")?, p.float("alpha_v")?);
-    let alpha = match (alpha, u, v) {
-        (Some(a), None, None) => a,
-        (None, Some(u), Some(v)) if u == v => u,
-        (None, None, None) => 0.1,
-        _ => return Err(e.error("an anisotropic alpha is not supported: give one alpha")),
-    };
-    if !(alpha > 0.0 && alpha <= super::format::MAX_ROUGHNESS) {
-        return Err(e.error(format!("alpha {alpha}: must lie in (0, {}]", super::format::MAX_ROUGHNESS)));
-    }
-    p.ignore(&["sample_visible"]);
-    let specular = p.colour("specular_reflectance")?.unwrap_or(Vec3::ONE);
-    reflectance(e, "specular_reflectance", specular)?;
-    Ok((specular, alpha))
 }
 
 /// An index of refraction: a number, or a name of Mitsuba's table.
