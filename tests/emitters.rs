@@ -1,8 +1,7 @@
 //! Emitters other than area lights, end to end: tiny Mitsuba 3 scenes of `tests/data/emitters/`
 //! (a diffuse floor and cube lit by a point, spot, directional, constant or envmap emitter)
-//! rendered by `pt`, `pir-clamp`, `pir-vsl` and `pir-mis` match Mitsuba 3's image means within
-//! 1 % per channel, and `pir-bdpt`, which does not handle these lights yet, refuses them in one
-//! line naming the method and the kind.
+//! rendered by `pt`, `pir-clamp`, `pir-vsl`, `pir-mis` and `pir-bdpt` match Mitsuba 3's image
+//! means within 1 % per channel.
 
 mod common;
 
@@ -27,7 +26,8 @@ const SCENES: [&str; 6] = ["point", "spot", "directional", "constant", "envmap",
 fn consistent_methods_match_mitsuba_for_every_emitter_kind() {
     let dir = tempfile::tempdir().unwrap();
     for (kind, (method, spp)) in KINDS.iter().flat_map(|k| {
-        [("pt", "256"), ("pir-clamp", "1024"), ("pir-vsl", "1024"), ("pir-mis", "256")].map(|m| (*k, m))
+        [("pt", "256"), ("pir-clamp", "1024"), ("pir-vsl", "1024"), ("pir-mis", "256"), ("pir-bdpt", "256")]
+            .map(|m| (*k, m))
     }) {
         let out = dir.path().join(format!("{kind}-{method}.exr"));
         let what = format!("{kind}, {method}");
@@ -44,26 +44,6 @@ fn consistent_methods_match_mitsuba_for_every_emitter_kind() {
             rel.abs().max_element() < 0.01,
             "{kind}, {method}: means {got} against Mitsuba's {want} ({rel})"
         );
-    }
-}
-
-/// `pir-bdpt` does not weigh these lights yet: it refuses, naming itself and the kind; the
-/// other methods render them.
-#[test]
-fn the_other_methods_refuse_such_lights() {
-    let dir = tempfile::tempdir().unwrap();
-    for method in ["pir-bdpt"] {
-        for kind in KINDS {
-            let scene = data(&format!("{kind}.xml"));
-            let o = common::binary::pir(
-                &["render", scene.to_str().unwrap(), "--spp", "1", "--method", method, "-q", "--no-preview"],
-                dir.path(),
-            );
-            common::binary::assert_clean_failure(
-                &o,
-                &[method, &format!("{kind} lights"), "pt and the other methods do"],
-            );
-        }
     }
 }
 

@@ -168,20 +168,33 @@ fn sample_light(
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    counters.shadow_rays += 1;
-    let origin = offset_origin(sp.p, sp.ng, ls.wi);
-    let (shadow, dist2) = match ls.position {
-        // Up to the light, which no surface around it occludes.
-        Some(q) => (Ray { origin, dir: q - origin, tmin: 0.0, tmax: 1.0 }, (q - sp.p).length_squared()),
-        None => (Ray::new(origin, ls.wi), f32::INFINITY),
-    };
-    if ctx.accel.occluded(&shadow) {
+    if light_occluded(ctx, sp.p, sp.ng, &ls, counters) {
         return Vec3::ZERO;
     }
+    let dist2 = ls.position.map_or(f32::INFINITY, |q| (q - sp.p).length_squared());
     let pdf_light = ls.pdf * pmf;
     let emission = Some(light.emission_density(dist2, ctx.scene.bounding_sphere().1));
     let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light: 1.0, dist2, wi: ls.wi, emission });
     f * ls.weight * (w / pmf)
+}
+
+/// Whether something hides the light sample `ls` (of a light that is not a triangle) from
+/// the point `p` of geometric normal `ng`: a shadow ray up to the light's position (which no
+/// surface around it occludes), or out of the scene for a light at infinity. Counts the ray.
+pub fn light_occluded(
+    ctx: &RenderContext,
+    p: Vec3,
+    ng: Vec3,
+    ls: &crate::light::LightSample,
+    counters: &mut Counters,
+) -> bool {
+    counters.shadow_rays += 1;
+    let origin = offset_origin(p, ng, ls.wi);
+    let shadow = match ls.position {
+        Some(q) => Ray { origin, dir: q - origin, tmin: 0.0, tmax: 1.0 },
+        None => Ray::new(origin, ls.wi),
+    };
+    ctx.accel.occluded(&shadow)
 }
 
 /// Radiance of the environments arriving along the unit direction `dir` of a ray that left

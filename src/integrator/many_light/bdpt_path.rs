@@ -3,14 +3,14 @@
 
 use glam::Vec3;
 
-use super::bidirectional::{CameraEnd, hit_weight, light_weight};
+use super::bidirectional::{CameraEnd, escape_weight, hit_weight, light_weight};
 use super::config::Connect;
 use super::light_set::LightSet;
 use super::mis::{Technique, Weighing};
 use super::points::PointLights;
 use super::subpath::{Counts, MisState, Scatter};
 use crate::geometry::Ray;
-use crate::integrator::direct::sample_emitters_at;
+use crate::integrator::direct::{Sampled, sample_emitters_at};
 use crate::integrator::walker::{Arrival, Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
 use crate::material::{Bsdf, BsdfSample, PreparedBsdf, TransportMode};
@@ -37,6 +37,8 @@ pub struct CameraPath {
     from: Vec3,
     /// The BSDF of the vertex the current ray left (none at the camera).
     previous: Option<Bsdf>,
+    /// The segments from the camera to the vertex the current ray left (0 at the camera).
+    depth: u32,
 }
 
 impl Estimator for Bidirectional<'_> {
@@ -45,7 +47,35 @@ impl Estimator for Bidirectional<'_> {
 
     #[inline]
     fn start(&self, ray: &Ray) -> CameraPath {
-        CameraPath { mis: MisState::CAMERA, from: ray.origin, previous: None }
+        CameraPath { mis: MisState::CAMERA, from: ray.origin, previous: None, depth: 0 }
+    }
+
+    /// The environments found by a ray that leaves the scene, each weighed against
+    /// next-event estimation of it at the vertex the ray left and every connection that
+    /// makes the path ([`escape_weight`]).
+    fn on_escape(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        ray: &Ray,
+        _how: &Sampled,
+        beta: Vec3,
+        radiance: &mut Vec3,
+    ) {
+        let dir = ray.dir.normalize();
+        let radius = ctx.scene.bounding_sphere().1;
+        let left_samples = if path.depth == 1 { self.light_samples as f32 } else { 1.0 };
+        for &k in ctx.emitters.environments() {
+            let light = &ctx.emitters.lights()[k];
+            let le = light.environment(dir);
+            if le == Vec3::ZERO {
+                continue;
+            }
+            let nee = ctx.emitters.light_pmf(k) * light.environment_pdf(dir);
+            let emission = light.emission_density(f32::INFINITY, radius);
+            let w = escape_weight(&path.mis, nee, emission, self.counts.paths, left_samples);
+            *radiance += beta * le * w;
+        }
     }
 
     /// The emission found by the camera ray or a BSDF sample, weighed against next-event
@@ -127,5 +157,6 @@ impl Estimator for Bidirectional<'_> {
         path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, self.connect, v.depth, count_in));
         path.previous = Some(*bsdf);
         path.from = sp.p;
+        path.depth = v.depth;
     }
 }

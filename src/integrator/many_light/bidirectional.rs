@@ -141,6 +141,18 @@ pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, l
     emitter_weight(light_samples * pdf_area * state.dvcm, paths * emission_pdf * state.dvc)
 }
 
+/// The weight of an environment found by a BSDF-sampled ray that leaves the scene, in the
+/// direction that next-event estimation picks with density `nee` (the environment's
+/// selection probability times its solid-angle density), with the camera subpath's `state`
+/// as the last scatter left it (no [`MisState::arrive`]: the environment is at no distance,
+/// and a light path leaving it starts from the disk covering the scene, with density
+/// `emission` per unit area, [`crate::light::Light::emission_density`]): as [`hit_weight`]
+/// with the emitter point's densities replaced by the direction's.
+#[inline]
+pub fn escape_weight(state: &MisState, nee: f32, emission: f32, paths: f32, light_samples: f32) -> f32 {
+    emitter_weight(light_samples * nee * state.dvcm, paths * nee * emission * state.dvc)
+}
+
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
 /// the density of the vertex's BSDF sampling back along the camera path from the light's
 /// direction, `cos_receiver` the cosine at the vertex towards the light; `previous` the
@@ -163,7 +175,14 @@ pub fn light_weight(
     }
     // The other techniques' densities relative to all the light samples' (exact for one).
     let hit = light.pdf_bsdf / (light_samples * light.pdf_light);
-    let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
+    // Light tracing's density of the receiver, per unit area: an emitter point's cosine-
+    // distributed direction, or what a light that is not a triangle picks beyond next-event
+    // estimation's pick (a point or spot light's direction, a light at infinity's point on
+    // the disk covering the scene).
+    let extend = match light.emission {
+        None => paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2,
+        Some(emission) => paths * emission * cos_receiver,
+    };
     let dvcm = state.dvcm * previous;
     emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev) / light_samples)
 }
@@ -267,10 +286,31 @@ mod tests {
         counts.between(a.map(bsdf).as_ref(), &bsdf(b))
     }
 
+    /// Where a test path's light comes from: its last vertex z[k].
+    #[derive(Clone, Copy, Debug)]
+    enum Source {
+        /// A point of an emitting triangle, picked with this area density.
+        Area(f32),
+        /// A point light at z[k], emitting in a direction of this density.
+        Point(f32),
+        /// An environment in the direction from z[k − 1] to z[k]: next-event estimation picks
+        /// it with density `nee`, light tracing starts from a disk of density `disk`.
+        Environment { nee: f32, disk: f32 },
+    }
+
     /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
     fn camera_state(z: &[Node], t: usize, connect: Connect, counts: Counts) -> MisState {
+        camera_state_to(z, t, connect, counts, true)
+    }
+
+    /// [`camera_state`], or, with `arrive` false, the sums as the scatter at z[t − 1]
+    /// towards z[t] leaves them (an environment's: no distance to arrive over).
+    fn camera_state_to(z: &[Node], t: usize, connect: Connect, counts: Counts, arrive: bool) -> MisState {
         let mut s = MisState::CAMERA;
         for j in 1..=t {
+            if j == t && !arrive {
+                break;
+            }
             s.arrive(dist2(&z[j - 1], &z[j]), z[j].cos(&z[j - 1]));
             if j < t {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
@@ -284,11 +324,19 @@ mod tests {
     }
 
     /// The light subpath's sums on arriving at z[t] from the emitter z[k].
-    fn light_state(z: &[Node], t: usize, pdf_area: f32, counts: Counts) -> MisState {
+    fn light_state(z: &[Node], t: usize, source: Source, counts: Counts) -> MisState {
         let k = z.len() - 1;
-        let mut s = MisState::light(pdf_area, z[k].cos(&z[k - 1]), counts.paths);
+        let mut s = match source {
+            Source::Area(pdf_area) => MisState::light(pdf_area, z[k].cos(&z[k - 1]), counts.paths),
+            Source::Point(p_dir) => MisState::light_source(f32::INFINITY, p_dir, counts.paths),
+            Source::Environment { nee, disk } => MisState::light_source(nee, disk, counts.paths),
+        };
         for j in (t..k).rev() {
-            s.arrive(dist2(&z[j + 1], &z[j]), z[j].cos(&z[j + 1]));
+            let d2 = match source {
+                Source::Environment { .. } if j + 1 == k => 1.0,
+                _ => dist2(&z[j + 1], &z[j]),
+            };
+            s.arrive(d2, z[j].cos(&z[j + 1]));
             if j > t {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
@@ -309,39 +357,85 @@ mod tests {
         connect: Connect,
         light_samples: u32,
     ) -> Vec<Option<f32>> {
+        weights_from(z, Source::Area(pdf_area), counts, connect, light_samples)
+    }
+
+    /// [`weights`] for light from `source`.
+    fn weights_from(
+        z: &[Node],
+        source: Source,
+        counts: Counts,
+        connect: Connect,
+        light_samples: u32,
+    ) -> Vec<Option<f32>> {
         let k = z.len() - 1;
         let paths = counts.paths;
         let samples_at = |t: usize| if t == 1 { light_samples as f32 } else { 1.0 };
         let mut w = Vec::new();
         for t in 1..=k {
-            let cam = camera_state(z, t, connect, counts);
             let x = &z[t];
             let count_in = factor(counts, (t > 1).then(|| &z[t - 1]), x);
-            w.push(if t == k {
-                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
-            } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
-                None
-            } else if t == k - 1 {
+            if t == k {
+                w.push(match source {
+                    Source::Area(pdf_area) => {
+                        let cam = camera_state(z, t, connect, counts);
+                        Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
+                    }
+                    Source::Point(_) => None,
+                    Source::Environment { nee, disk } => {
+                        let cam = camera_state_to(z, t, connect, counts, false);
+                        Some(escape_weight(&cam, nee, disk, paths, samples_at(t - 1)))
+                    }
+                });
+                continue;
+            }
+            let cam = camera_state(z, t, connect, counts);
+            let possible = t + 1 == k || (z[t + 1].bsdf.is_some() && connect.at(t as u32));
+            let Some(bx) = x.bsdf.filter(|_| possible) else {
+                w.push(None);
+                continue;
+            };
+            w.push(if t == k - 1 {
                 let e = &z[k];
                 let d2 = dist2(x, e);
-                let light = LightSample {
-                    pdf_light: pdf_area * d2 / e.cos(x),
-                    pdf_bsdf: x.pdf(&z[t - 1], e),
-                    cos_light: e.cos(x),
-                    dist2: d2,
-                    wi: x.dir(e),
-                    emission: None,
+                let pdf_bsdf = x.pdf(&z[t - 1], e);
+                let (wi, cos_light) = (x.dir(e), e.cos(x));
+                let light = match source {
+                    Source::Area(pdf_area) => LightSample {
+                        pdf_light: pdf_area * d2 / cos_light,
+                        pdf_bsdf,
+                        cos_light,
+                        dist2: d2,
+                        wi,
+                        emission: None,
+                    },
+                    Source::Point(p_dir) => LightSample {
+                        pdf_light: f32::INFINITY,
+                        pdf_bsdf,
+                        cos_light: 1.0,
+                        dist2: d2,
+                        wi,
+                        emission: Some(p_dir / d2),
+                    },
+                    Source::Environment { nee, disk } => LightSample {
+                        pdf_light: nee,
+                        pdf_bsdf,
+                        cos_light: 1.0,
+                        dist2: f32::INFINITY,
+                        wi,
+                        emission: Some(disk),
+                    },
                 };
                 let previous = if connect.at(t as u32 - 1) { count_in } else { 0.0 };
                 let n = samples_at(t);
                 Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, n))
             } else {
                 let y = &z[t + 1];
-                let (bx, by) = (x.bsdf.unwrap(), y.bsdf.unwrap());
+                let by = y.bsdf.unwrap();
                 let w_in = y.dir(&z[t + 2]);
                 let vpl = Vpl {
                     arrival: 0.0,
-                    mis: light_state(z, t + 1, pdf_area, counts),
+                    mis: light_state(z, t + 1, source, counts),
                     count_out: factor(counts, (t + 2 < k).then(|| &z[t + 2]), y),
                     ..Vpl::for_test(y.p, y.g.ng, y.g.frame, w_in, Vec3::ONE, (k - t - 1) as u32)
                 };
@@ -582,5 +676,48 @@ mod tests {
             }
         }
         assert!(checked > 4500, "only {checked} paths checked");
+    }
+
+    /// The same with light from a point light (which no BSDF sample hits) and from an
+    /// environment (whose light paths start on a disk, and which the camera subpath finds by
+    /// leaving the scene): the weights of every path still sum to one.
+    #[test]
+    fn weights_sum_to_one_with_delta_and_infinite_lights() {
+        let mut s = Sampler::new(7, 0, Domain::LightPath, 0);
+        let mut checked = [0; 2];
+        for trial in 0..400 {
+            let k = 2 + trial % 6;
+            let delta_at = (trial % 3 == 0 && k > 2).then(|| 1 + trial / 3 % (k - 1));
+            let z = random_path(&mut s, k, delta_at);
+            let front = |j: usize, i: usize| z[j].g.ng.dot(z[j].dir(&z[i])) > 0.05;
+            if !(1..k).all(|j| front(j, j - 1) && front(j, j + 1)) {
+                continue;
+            }
+            let sources = [
+                Source::Point(0.2 + 0.1 * (trial % 5) as f32),
+                Source::Environment { nee: 0.05 + 0.3 * (trial % 4) as f32, disk: 0.02 },
+            ];
+            for (i, source) in sources.into_iter().enumerate() {
+                for (connect, light_samples) in
+                    [(Connect::First, 1), (Connect::All, 1), (Connect::FirstTwo, 4)]
+                {
+                    for counts in
+                        [Counts::uniform(32.0), Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 }]
+                    {
+                        let w = weights_from(&z, source, counts, connect, light_samples);
+                        if !w.iter().flatten().all(|w| w.is_finite()) {
+                            continue;
+                        }
+                        let sum: f32 = w.iter().flatten().sum();
+                        assert!(
+                            (sum - 1.0).abs() < 2e-3,
+                            "{source:?}, k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}: weights {w:?} sum to {sum}"
+                        );
+                        checked[i] += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked.iter().all(|&n| n > 800), "checked (point, environment): {checked:?}");
     }
 }

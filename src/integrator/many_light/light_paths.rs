@@ -61,8 +61,7 @@ pub struct Vpl {
     /// infinite after a delta vertex. For a vertex lit directly by a light that is not a
     /// triangle: N · [`crate::light::Emission::density`] (divided by d² for a point or spot
     /// light), likewise relative to next-event estimation. What the multiple importance
-    /// sampling of [`super::mis`] weighs a connection with (`pir-bdpt`, whose running sums
-    /// `mis` do not handle such lights yet, refuses them).
+    /// sampling of [`super::mis`] weighs a connection with.
     pub arrival: f32,
     /// The probability that the light path continues from here (Russian roulette; 0 at the
     /// last vertex traced).
@@ -170,6 +169,9 @@ fn trace_path(
                 let light = &ctx.emitters.lights()[index];
                 let Some(e) = light.emit(ctx.scene.bounding_sphere(), u, sampler.next_2d()) else { return 0 };
                 let beta = e.weight / (pmf * n_paths);
+                // Next-event estimation's density of what the start picks: none to weigh for
+                // a delta light, the direction back to an environment.
+                let nee = if light.is_delta() { f32::INFINITY } else { pmf * light.environment_pdf(-e.dir) };
                 let start = Start {
                     ray: Ray::new(e.origin, e.dir),
                     beta,
@@ -177,8 +179,7 @@ fn trace_path(
                     density: n_paths * e.density,
                     at_infinity: e.at_infinity,
                     nee: if light.is_delta() { NeeAt::Delta } else { NeeAt::Environment(index, pmf) },
-                    // (pir-bdpt, which reads them, refuses these lights.)
-                    mis: MisState::light(1.0, 1.0, counts.paths),
+                    mis: MisState::light_source(nee, e.density, counts.paths),
                 };
                 return follow(ctx, sampler, start, counts, max_depth, out);
             }
@@ -255,7 +256,8 @@ fn follow(
         let w_in = -ray.dir.normalize();
         let bsdf = &ctx.scene.bsdf_at(&sp);
         let dist2 = (sp.p - from).length_squared();
-        mis.arrive(dist2, sp.ng.dot(w_in).abs());
+        // (The first segment from a light at infinity: its density is per unit area already.)
+        mis.arrive(if depth == 1 && at_infinity { 1.0 } else { dist2 }, sp.ng.dot(w_in).abs());
         // Survival by the flux arriving here relative to the path's start (importance
         // transport has no 1/η² radiance scaling to compensate), decided before the
         // direction is sampled so that a connection can be weighed against this

@@ -33,7 +33,7 @@
 
 use super::light_paths::trace_vpls;
 use super::subpath::Counts;
-use crate::integrator::direct::occluded;
+use crate::integrator::direct::{light_occluded, occluded};
 use crate::integrator::{Counters, RenderContext};
 use crate::light::Choice;
 use crate::sampling::Streams;
@@ -117,12 +117,21 @@ impl Pilot {
             for _ in 0..PILOT_LIGHT_SAMPLES {
                 let u_select = sampler.next_f32();
                 let u = sampler.next_2d();
-                // Only emitting triangles are counted (the methods that weigh connections by
-                // the visibility, pir-bdpt's, refuse scenes with other lights).
                 let es = if ctx.emitters.has_lights() {
                     match ctx.emitters.choose(ctx.scene, u_select, u) {
                         Choice::Area(es) => es,
-                        Choice::Light { .. } => continue,
+                        Choice::Light { index, u, .. } => {
+                            // A light that is not a triangle: its own sample from the VPL.
+                            let Some(ls) = ctx.emitters.lights()[index].sample(vpl.p, u) else { continue };
+                            if vpl.ng.dot(ls.wi) <= 0.0 {
+                                continue;
+                            }
+                            tried += 1;
+                            if !light_occluded(ctx, vpl.p, vpl.ng, &ls, &mut samples) {
+                                visible += 1;
+                            }
+                            continue;
+                        }
                     }
                 } else {
                     ctx.emitters.sample(ctx.scene, u_select, u)

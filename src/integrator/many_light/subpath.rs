@@ -140,6 +140,22 @@ impl MisState {
         MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc }
     }
 
+    /// A light subpath of `paths` per iteration, started at a light that is not a triangle
+    /// ([`crate::light::Light::emit`]): its start picks, beyond what next-event estimation
+    /// picks of the same light, with density `emission` (the [`crate::light::Emission`]'s:
+    /// per unit area of the first receiver, without its cosine and without 1 / d² for a
+    /// light at a position); next-event estimation picks the light's point or direction with
+    /// density `nee` (an environment's selection probability times its solid-angle density
+    /// of the direction), infinite for a delta light, which no BSDF sample hits (so the hit
+    /// technique, `dvc`, is zero). As Georgiev's report initialises its light subpaths
+    /// (eqs. 31–33, with the cosine at the light 1 for lights at infinity); the first
+    /// [`MisState::arrive`] of a light at infinity takes no distance, its density already per
+    /// unit area.
+    pub fn light_source(nee: f32, emission: f32, paths: f32) -> MisState {
+        let dvc = if nee.is_infinite() { 0.0 } else { finite(1.0 / (nee * emission * paths)) };
+        MisState { dvcm: finite(1.0 / (emission * paths)), dvc, dvc_emitter: dvc }
+    }
+
     /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
     /// where it came from is `cos`.
     #[inline]

@@ -331,23 +331,6 @@ impl MethodConfig {
         self.params.validate()
     }
 
-    /// Whether the method renders `scene`'s lights: every method renders emitting triangles,
-    /// and all but `pir-bdpt` the other kinds (its bidirectional weights do not handle delta
-    /// and infinite lights yet), which refuses such a scene rather than render it wrong.
-    pub fn check_scene(&self, scene: &crate::scene::Scene) -> Result<()> {
-        if self.method.name() == "pir-bdpt"
-            && let Some(light) = scene.lights().first()
-        {
-            anyhow::bail!(
-                "{}: --method {} does not render {} lights yet (pt and the other methods do)",
-                scene.path().display(),
-                self.method,
-                light.kind()
-            );
-        }
-        Ok(())
-    }
-
     /// The parameters given that the method does not use (which change nothing).
     pub fn unused(&self) -> Vec<Parameter> {
         self.params.given().into_iter().filter(|&p| !self.method.uses(p)).collect()
