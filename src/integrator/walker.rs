@@ -26,7 +26,7 @@
 //!
 //! So every method renders exactly the path space of the path tracer for the same
 //! `max_depth`. Russian roulette (after the BSDF sample of the fifth vertex, as Mitsuba 3's
-//! `rr_depth = 5`; survival min(0.95, max throughput · η²), survivors reweighted: unbiased)
+//! default `rr_depth = 5`, or of the scene's `rr_depth`; survival min(0.95, max throughput · η²), survivors reweighted: unbiased)
 //! applies to full walks only: a walk whose estimator covers surfaces ends at its next
 //! non-delta vertex, so only delta chains, bounded by `max_depth`, continue it.
 //!
@@ -49,11 +49,6 @@ use crate::geometry::{Ray, offset_origin};
 use crate::material::{Bsdf, BsdfSample, Material, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
-
-/// The vertex (counted from 1, the camera ray's hit) from whose continuation on Russian
-/// roulette plays: Mitsuba 3's default `rr_depth` (`docs/integrator-measurements.md`,
-/// "Russian roulette").
-pub(crate) const RR_DEPTH: u32 = 5;
 
 /// A vertex of a camera path, as an estimator sees it.
 pub struct Vertex<'a> {
@@ -272,7 +267,7 @@ pub fn walk<E: Estimator>(
         how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
         covered = !s.delta;
         if !E::COVERS_SURFACES
-            && depth >= RR_DEPTH
+            && depth >= ctx.scene.defaults().rr_depth
             && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler)
         {
             break;

@@ -47,6 +47,10 @@ impl Scene {
         if self.filter != super::Filter::Box {
             h.bytes(format!("{:?}", self.filter).as_bytes());
         }
+        // Where Russian roulette starts, only where a Mitsuba scene moved it.
+        if self.render.rr_depth != super::DEFAULT_RR_DEPTH {
+            h.bytes(format!("rr_depth {}", self.render.rr_depth).as_bytes());
+        }
         let c = &self.camera;
         h.f32s(&[
             c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,

@@ -33,11 +33,19 @@ pub struct RenderDefaults {
     /// Largest number of path segments from the camera to an emitter (Mitsuba's convention).
     pub max_depth: u32,
     pub seed: u64,
+    /// The camera path's vertex (counted from 1, the camera ray's hit) from whose
+    /// continuation on Russian roulette plays (Mitsuba's `rr_depth`; the TOML format's is
+    /// always [`DEFAULT_RR_DEPTH`]). Unbiased at any value: it changes the noise only.
+    pub rr_depth: u32,
 }
+
+/// Where camera paths start Russian roulette unless a Mitsuba scene says otherwise: Mitsuba 3's
+/// default `rr_depth` (`docs/integrator-measurements.md`, "Russian roulette").
+pub const DEFAULT_RR_DEPTH: u32 = 5;
 
 impl Default for RenderDefaults {
     fn default() -> Self {
-        RenderDefaults { max_depth: 8, seed: 0 }
+        RenderDefaults { max_depth: 8, seed: 0, rr_depth: DEFAULT_RR_DEPTH }
     }
 }
 

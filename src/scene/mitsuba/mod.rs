@@ -21,7 +21,7 @@
 //!   `hdrfilm` (`width`, `height`; a `box` filter is pir's own, a `tent` or `gaussian` one is
 //!   rendered with a box filter and a warning) and its sampler (pir's own is used);
 //! - the integrator: `path` or `volpath` (`max_depth`, −1 for unbounded: pir's largest,
-//!   [`MAX_DEPTH`]; `rr_depth` 5, pir's).
+//!   [`MAX_DEPTH`]; `rr_depth`, where the camera paths' Russian roulette starts).
 //!
 //! A reflectance above 1 creates energy: refused, as Mitsuba does.
 
@@ -42,7 +42,7 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
-use super::{Camera, Filter, Geometry, RenderDefaults, Scene, SceneError};
+use super::{Camera, DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
 use crate::material::{Bsdf, Material, Slot, Textured};
 use crate::texture::Texture;
 
@@ -74,7 +74,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         filter: Filter::Gaussian { stddev: 0.5 },
     };
     let mut camera = None;
-    let mut render = RenderDefaults { max_depth: MAX_DEPTH, seed: 0 };
+    let mut render = RenderDefaults { max_depth: MAX_DEPTH, ..RenderDefaults::default() };
     let mut integrator_seen = false;
     let mut shape_elements = Vec::new();
     let mut lights = Vec::new();
@@ -84,7 +84,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
                 if std::mem::replace(&mut integrator_seen, true) {
                     return Err(e.error("a second integrator"));
                 }
-                render.max_depth = b.integrator(e)?;
+                (render.max_depth, render.rr_depth) = b.integrator(e)?;
             }
             "sensor" => {
                 if camera.is_some() {
@@ -336,8 +336,8 @@ impl<'a> Builder<'a> {
         self.ids.get(id).copied().ok_or_else(|| r.error(format!("no element has id \"{id}\"")))
     }
 
-    /// The integrator's `max_depth`.
-    fn integrator(&mut self, e: &'a Element) -> Result<u32, SceneError> {
+    /// The integrator's `max_depth` and `rr_depth`.
+    fn integrator(&mut self, e: &'a Element) -> Result<(u32, u32), SceneError> {
         let p = Params::new(e);
         if !matches!(e.type_name(), "path" | "volpath") {
             return Err(e.error(format!(
@@ -352,18 +352,17 @@ impl<'a> Builder<'a> {
             Some(d) if d > MAX_DEPTH as i64 => MAX_DEPTH,
             Some(d) => return Err(e.error(format!("max_depth {d}: must be -1 (unbounded) or at least 1"))),
         };
-        if let Some(rr) = p.integer("rr_depth")?
-            && rr != 5
-        {
-            return Err(e.error(format!(
-                "rr_depth {rr}: pir's Russian roulette starts at depth 5 (Mitsuba's default); give 5 or leave it out"
-            )));
-        }
+        // Beyond the deepest path, no roulette: the same as the deepest.
+        let rr_depth = match p.integer("rr_depth")? {
+            None => DEFAULT_RR_DEPTH,
+            Some(d) if d >= 1 => d.min(MAX_DEPTH as i64) as u32,
+            Some(d) => return Err(e.error(format!("rr_depth {d}: must be at least 1"))),
+        };
         if p.boolean("hide_emitters")? == Some(true) {
             return Err(e.error("hide_emitters: pir always shows the emitters a camera ray hits"));
         }
         p.finish(self)?;
-        Ok(max_depth)
+        Ok((max_depth, rr_depth))
     }
 
     /// The perspective sensor as pir's camera.
