@@ -35,6 +35,7 @@ pub mod mirror;
 mod mitsuba_values;
 pub mod plastic;
 mod prepared;
+pub mod shading_map;
 mod textured;
 pub mod thin_dielectric;
 

@@ -6,6 +6,8 @@
 use glam::{Vec2, Vec3};
 
 use super::Bsdf;
+use super::microfacet::Microfacet;
+use super::shading_map::ShadingMap;
 use crate::texture::Texture;
 
 /// A field of a [`Bsdf`] that a texture can set.
@@ -13,8 +15,14 @@ use crate::texture::Texture;
 pub enum Slot {
     /// The diffuse albedo (Mitsuba's `reflectance`) of a diffuse or glossy BSDF.
     Reflectance,
-    /// The specular colour (`specular_reflectance`) of a glossy BSDF or a mirror.
+    /// The specular colour (`specular_reflectance`) of a glossy BSDF, a mirror, a conductor,
+    /// a plastic or a dielectric (its reflection's weight).
     Specular,
+    /// A mask's opacity (a number: the texture's [`Texture::eval_1`]).
+    Opacity,
+    /// A rough conductor's α (a number), or the roughness of the glossy lobe pir reads a
+    /// GGX conductor of index "none" as.
+    Alpha,
 }
 
 impl Slot {
@@ -22,35 +30,52 @@ impl Slot {
         match self {
             Slot::Reflectance => "reflectance",
             Slot::Specular => "specular",
+            Slot::Opacity => "opacity",
+            Slot::Alpha => "alpha",
         }
+    }
+
+    /// Whether it holds a number (set from [`Texture::eval_1`]) rather than a colour.
+    fn is_number(self) -> bool {
+        matches!(self, Slot::Opacity | Slot::Alpha)
     }
 }
 
 /// The textures of a material, each with the slot it sets; every value of the material's
-/// untextured [`Bsdf`] that no texture sets stays as it is.
+/// untextured [`Bsdf`] that no texture sets stays as it is. `map`, if any, perturbs the
+/// shading frame ([`crate::scene::Scene::surface_at`] applies it).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Textured {
     pub slots: Vec<(Slot, Texture)>,
+    pub map: Option<ShadingMap>,
 }
 
 impl Textured {
     pub fn new(slots: Vec<(Slot, Texture)>) -> Textured {
-        Textured { slots }
+        Textured { slots, map: None }
     }
 
     /// `bsdf` with every slot set to its texture's value at `uv`.
     #[inline]
     pub fn apply(&self, mut bsdf: Bsdf, uv: Vec2) -> Bsdf {
         for (slot, texture) in &self.slots {
-            bsdf = bsdf.with_slot(*slot, texture.eval(uv));
+            let value = if slot.is_number() { Vec3::splat(texture.eval_1(uv)) } else { texture.eval(uv) };
+            bsdf = bsdf.with_slot(*slot, value);
         }
         bsdf
     }
 
-    /// `bsdf` with every slot set to its texture's mean.
+    /// `bsdf` with every slot set to its texture's mean (a number slot: the mean's luminance,
+    /// which is the mean luminance).
     pub fn apply_mean(&self, mut bsdf: Bsdf) -> Bsdf {
         for (slot, texture) in &self.slots {
-            bsdf = bsdf.with_slot(*slot, texture.mean());
+            let mean = texture.mean();
+            let value = if slot.is_number() && !(mean.x == mean.y && mean.y == mean.z) {
+                Vec3::splat(crate::texture::luminance(mean))
+            } else {
+                mean
+            };
+            bsdf = bsdf.with_slot(*slot, value);
         }
         bsdf
     }
@@ -77,6 +102,29 @@ impl Bsdf {
             (Bsdf::RoughPlastic { specular, specular_weight, nonlinear, table, .. }, Slot::Reflectance) => {
                 Bsdf::RoughPlastic { diffuse: value, specular, specular_weight, nonlinear, table }
             }
+            (Bsdf::Conductor { ior, .. }, Slot::Specular) => Bsdf::Conductor { specular: value, ior },
+            (Bsdf::RoughConductor { ior, microfacet, .. }, Slot::Specular) => {
+                Bsdf::RoughConductor { specular: value, ior, microfacet }
+            }
+            (Bsdf::RoughConductor { specular, ior, microfacet }, Slot::Alpha) => {
+                Bsdf::RoughConductor { specular, ior, microfacet: Microfacet::new(microfacet.kind, value.x) }
+            }
+            (Bsdf::Glossy { albedo, specular, .. }, Slot::Alpha) => {
+                Bsdf::Glossy { albedo, specular, roughness: value.x }
+            }
+            (Bsdf::Plastic { diffuse, eta, specular_weight, nonlinear, .. }, Slot::Specular) => {
+                Bsdf::Plastic { diffuse, specular: value, eta, specular_weight, nonlinear }
+            }
+            (Bsdf::RoughPlastic { diffuse, specular_weight, nonlinear, table, .. }, Slot::Specular) => {
+                Bsdf::RoughPlastic { diffuse, specular: value, specular_weight, nonlinear, table }
+            }
+            (Bsdf::Dielectric { ior, transmittance, .. }, Slot::Specular) => {
+                Bsdf::Dielectric { ior, reflectance: value, transmittance }
+            }
+            (Bsdf::ThinDielectric { ior, transmittance, .. }, Slot::Specular) => {
+                Bsdf::ThinDielectric { ior, reflectance: value, transmittance }
+            }
+            (Bsdf::Mask { albedo, .. }, Slot::Opacity) => Bsdf::Mask { opacity: value.x, albedo },
             (other, _) => other,
         }
     }
@@ -122,5 +170,75 @@ mod tests {
         let d = Bsdf::Diffuse { albedo: Vec3::splat(0.5) };
         assert_eq!(t.apply(d, Vec2::new(0.75, 0.25)), Bsdf::Diffuse { albedo: Vec3::splat(0.2) });
         assert_eq!(t.apply(d, Vec2::new(0.25, 0.25)), Bsdf::Diffuse { albedo: Vec3::splat(0.4) });
+    }
+
+    /// The slots added for Mitsuba's other textured parameters: specular reflectances of
+    /// conductors, plastics and dielectrics, a mask's opacity and a rough conductor's α (number
+    /// slots take [`Texture::eval_1`], a colour's luminance; their means likewise).
+    #[test]
+    fn specular_opacity_and_alpha_slots() {
+        use super::super::conductor::ComplexIor;
+        use super::super::microfacet::Distribution;
+        let v = Vec3::new(0.1, 0.2, 0.3);
+        let ior = ComplexIor { eta: Vec3::ONE, k: Vec3::ONE };
+        let mf = Microfacet::new(Distribution::Beckmann, 0.3);
+        let cases = [
+            (
+                Bsdf::Conductor { specular: Vec3::ONE, ior },
+                Slot::Specular,
+                Bsdf::Conductor { specular: v, ior },
+            ),
+            (
+                Bsdf::RoughConductor { specular: Vec3::ONE, ior, microfacet: mf },
+                Slot::Specular,
+                Bsdf::RoughConductor { specular: v, ior, microfacet: mf },
+            ),
+            (
+                Bsdf::RoughConductor { specular: Vec3::ONE, ior, microfacet: mf },
+                Slot::Alpha,
+                Bsdf::RoughConductor {
+                    specular: Vec3::ONE,
+                    ior,
+                    microfacet: Microfacet::new(Distribution::Beckmann, 0.1),
+                },
+            ),
+            (
+                Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::ONE, roughness: 0.3 },
+                Slot::Alpha,
+                Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::ONE, roughness: 0.1 },
+            ),
+            (
+                Bsdf::Dielectric { ior: 1.5, reflectance: Vec3::ONE, transmittance: Vec3::ONE },
+                Slot::Specular,
+                Bsdf::Dielectric { ior: 1.5, reflectance: v, transmittance: Vec3::ONE },
+            ),
+            (
+                Bsdf::ThinDielectric { ior: 1.5, reflectance: Vec3::ONE, transmittance: Vec3::ONE },
+                Slot::Specular,
+                Bsdf::ThinDielectric { ior: 1.5, reflectance: v, transmittance: Vec3::ONE },
+            ),
+            (
+                Bsdf::Mask { opacity: 0.5, albedo: Vec3::ONE },
+                Slot::Opacity,
+                Bsdf::Mask { opacity: 0.1, albedo: Vec3::ONE },
+            ),
+        ];
+        for (bsdf, slot, want) in cases {
+            let value = if slot.is_number() { Vec3::splat(0.1) } else { v };
+            assert_eq!(bsdf.with_slot(slot, value), want, "{slot:?}");
+        }
+        let p = Bsdf::plastic(Vec3::splat(0.5), Some(Vec3::ONE), 1.5, false);
+        let Bsdf::Plastic { specular, diffuse, .. } = p.with_slot(Slot::Specular, v) else { panic!() };
+        assert_eq!((specular, diffuse), (v, Vec3::splat(0.5)));
+        let rp = Bsdf::rough_plastic(Vec3::splat(0.5), None, 1.5, mf, false);
+        let Bsdf::RoughPlastic { specular, .. } = rp.with_slot(Slot::Specular, v) else { panic!() };
+        assert_eq!(specular, v);
+        // A mask's opacity from an RGB texture: its luminance, at a point and on average.
+        let c = Vec3::new(0.2, 0.6, 0.9);
+        let t = Textured::new(vec![(Slot::Opacity, Texture::Constant(c))]);
+        let m = Bsdf::Mask { opacity: 0.5, albedo: Vec3::ONE };
+        let lum = crate::texture::luminance(c);
+        assert_eq!(t.apply(m, Vec2::ZERO), Bsdf::Mask { opacity: lum, albedo: Vec3::ONE });
+        assert_eq!(t.apply_mean(m), Bsdf::Mask { opacity: lum, albedo: Vec3::ONE });
     }
 }

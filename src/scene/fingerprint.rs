@@ -34,6 +34,15 @@ impl Scene {
                     h.bytes(slot.name().as_bytes());
                     texture.hash_into(&mut |b| h.bytes(b));
                 }
+                if let Some(map) = &t.map {
+                    use crate::material::shading_map::Perturbation;
+                    let scale = match map.perturbation {
+                        Perturbation::Normal(_) => f32::NAN,
+                        Perturbation::Bump { scale, .. } => scale,
+                    };
+                    h.bytes(format!("map {:?} {scale:?}", map.back).as_bytes());
+                    map.texture().hash_into(&mut |b| h.bytes(b));
+                }
             }
         }
         // Texture coordinates only in scenes that have some.

@@ -97,6 +97,8 @@ struct TriangleShading {
     /// All three vertices have texture coordinates; otherwise the point's are its
     /// barycentrics (Mitsuba's rule for meshes without them).
     textured: bool,
+    /// Its material has a normal or bump map ([`crate::material::shading_map`]).
+    mapped: bool,
 }
 
 /// The triangles of a scene, as [`Scene::new`] takes them.
@@ -186,6 +188,7 @@ impl Scene {
                     smooth: tri.iter().all(|&i| normals[i as usize] != Vec3::ZERO),
                     two_sided: materials[material as usize].two_sided,
                     textured: !uvs.is_empty() && tri.iter().all(|&i| uvs[i as usize].is_finite()),
+                    mapped: materials[material as usize].textures.as_ref().is_some_and(|t| t.map.is_some()),
                 }
             })
             .collect();
@@ -352,9 +355,17 @@ impl Scene {
     }
 
     /// The surface point at barycentrics `(u, v)` of triangle `prim`: the one function that
-    /// turns any backend's hit (or a sampled point) into shading data.
+    /// turns any backend's hit (or a sampled point) into shading data. Its frame is the
+    /// perturbed one where the material has a normal or bump map.
     #[inline]
     pub fn surface_at(&self, prim: u32, uv: Vec2) -> SurfacePoint {
+        let sp = self.surface_unmapped(prim, uv);
+        if self.shading[prim as usize].mapped { self.mapped(sp, false) } else { sp }
+    }
+
+    /// [`Scene::surface_at`] with the unperturbed shading frame.
+    #[inline(always)]
+    fn surface_unmapped(&self, prim: u32, uv: Vec2) -> SurfacePoint {
         let t = &self.shading[prim as usize];
         let [a, b, c] = t.corners;
         let w = 1.0 - uv.x - uv.y;
@@ -385,10 +396,41 @@ impl Scene {
     /// front, and the point is marked [`SurfacePoint::back`].
     #[inline(always)]
     pub fn surface_of_hit(&self, hit: &Hit, dir: Vec3) -> SurfacePoint {
-        let mut sp = self.surface_at(hit.prim, Vec2::new(hit.u, hit.v));
-        if self.shading[hit.prim as usize].two_sided && sp.ng.dot(dir) > 0.0 {
+        let mut sp = self.surface_unmapped(hit.prim, Vec2::new(hit.u, hit.v));
+        let t = &self.shading[hit.prim as usize];
+        if t.mapped {
+            return self.mapped(sp, t.two_sided && sp.ng.dot(dir) > 0.0);
+        }
+        if t.two_sided && sp.ng.dot(dir) > 0.0 {
             sp.ng = -sp.ng;
             sp.frame = Frame { s: sp.frame.s, t: -sp.frame.t, n: -sp.frame.n };
+            sp.back = true;
+        }
+        sp
+    }
+}
+
+impl Scene {
+    /// `sp` (of [`Scene::surface_unmapped`], on a triangle whose material has a normal or bump
+    /// map) with the map's perturbed frame, seen from the `back` of its two-sided material or
+    /// from the front.
+    #[inline(never)]
+    fn mapped(&self, mut sp: SurfacePoint, back: bool) -> SurfacePoint {
+        let t = &self.shading[sp.prim as usize];
+        let Some(map) = self.materials[t.material as usize].textures.as_ref().and_then(|t| t.map.as_ref())
+        else {
+            return sp;
+        };
+        let uvs = if t.textured {
+            self.indices[sp.prim as usize].map(|i| self.uvs[i as usize])
+        } else {
+            [Vec2::ZERO, Vec2::X, Vec2::Y]
+        };
+        let g = crate::material::shading_map::Tangents::of_triangle(t.corners, uvs, sp.ng, sp.frame.n);
+        sp.frame = map.frame(&g, sp.uv);
+        if back {
+            sp.frame = map.back_frame(sp.frame, g.n);
+            sp.ng = -sp.ng;
             sp.back = true;
         }
         sp

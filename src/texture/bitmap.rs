@@ -55,6 +55,8 @@ pub struct Image {
     data: Vec<f32>,
     mean: Vec3,
     range: (f32, f32),
+    /// Read without the sRGB-to-linear conversion.
+    raw: bool,
 }
 
 impl Image {
@@ -85,7 +87,7 @@ impl Image {
             }
         }
         let mean = Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32) / n as f32;
-        Image { width, height, channels, data, mean, range }
+        Image { width, height, channels, data, mean, range, raw }
     }
 }
 
@@ -96,6 +98,16 @@ impl Bitmap {
 
     pub fn size(&self) -> (u32, u32) {
         (self.image.width, self.image.height)
+    }
+
+    /// 1 or 3.
+    pub fn channels(&self) -> u32 {
+        self.image.channels
+    }
+
+    /// Whether its values are the file's, not converted from sRGB (Mitsuba's `raw`).
+    pub fn is_raw(&self) -> bool {
+        self.image.raw
     }
 
     /// The mean texel.
@@ -119,6 +131,35 @@ impl Bitmap {
     pub fn eval_1(&self, uv: Vec2) -> f32 {
         let c = self.eval(uv);
         if self.image.channels == 1 { c.x } else { super::luminance(c) }
+    }
+
+    /// The gradient (∂/∂u, ∂/∂v) of [`Bitmap::eval_1`] at `uv`, as Mitsuba 3's `eval_1_grad`
+    /// defines it (what a `bumpmap` reads): zero for `nearest` (piecewise constant); for
+    /// `bilinear` the partials of the interpolation between the four texels around `uv` (their
+    /// values, or luminances), in pixels, taken through `to_uv`'s linear part by its transpose
+    /// and scaled by the resolution per axis, in Mitsuba's order (which is the exact chain rule
+    /// when `to_uv` does not mix u and v or the image is square).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        if self.filter == Filter::Nearest {
+            return Vec2::ZERO;
+        }
+        let st = self.to_uv.transform_point2(uv);
+        let (w, h) = (self.image.width, self.image.height);
+        let res = Vec2::new(w as f32, h as f32);
+        let one = |x: i64, y: i64| {
+            let (x, y) = (wrap(x, w, self.wrap), wrap(y, h, self.wrap));
+            let c = self.texel(y * w as usize + x);
+            if self.image.channels == 1 { c.x } else { super::luminance(c) }
+        };
+        let p = st * res - 0.5;
+        let f = p.floor();
+        let (x, y) = (f.x as i64, f.y as i64);
+        let w1 = p - f;
+        let w0 = 1.0 - w1;
+        let (f00, f10, f01, f11) = (one(x, y), one(x + 1, y), one(x, y + 1), one(x + 1, y + 1));
+        let df = Vec2::new(w0.y * (f10 - f00) + w1.y * (f11 - f01), w0.x * (f01 - f00) + w1.x * (f11 - f10));
+        let m = self.to_uv.matrix2;
+        Vec2::new(m.x_axis.dot(df), m.y_axis.dot(df)) * res
     }
 
     /// The texel at index `i` (of the wrapped coordinates).
@@ -269,6 +310,46 @@ mod tests {
         let row = Texels { width: 2, height: 1, channels: 1, data: vec![1.0, 2.0], srgb: false };
         let b = bitmap(row, true, Filter::Nearest, Wrap::Repeat, Affine2::IDENTITY);
         assert_eq!((b.size(), b.eval(Vec2::new(0.75, 0.9)).x), ((2, 2), 2.0));
+    }
+
+    /// The gradient is the finite difference of the lookup inside a texel cell (where the
+    /// bilinear interpolation is smooth), for one-channel and RGB images, with a `to_uv` scale,
+    /// and zero for `nearest`.
+    #[test]
+    fn gradient_is_the_finite_difference_of_the_lookup() {
+        let rgb = Texels {
+            width: 3,
+            height: 4,
+            channels: 3,
+            data: (0..36).map(|i| ((i * 7 % 11) as f32) / 10.0).collect(),
+            srgb: false,
+        };
+        let scale = Affine2::from_scale(Vec2::new(2.0, 2.0));
+        for (t, to_uv) in [
+            (ramp_texels(), Affine2::IDENTITY),
+            (rgb.clone(), Affine2::IDENTITY),
+            (rgb, scale),
+            (ramp_texels(), Affine2::from_translation(Vec2::new(0.3, -0.1))),
+        ] {
+            for wrap in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp] {
+                let b = bitmap(t.clone(), true, Filter::Bilinear, wrap, to_uv);
+                for uv in [Vec2::new(0.31, 0.22), Vec2::new(0.77, 0.61), Vec2::new(0.52, 0.93)] {
+                    let e = 1e-3;
+                    let fd = Vec2::new(
+                        (b.eval_1(uv + Vec2::X * e) - b.eval_1(uv - Vec2::X * e)) / (2.0 * e),
+                        (b.eval_1(uv + Vec2::Y * e) - b.eval_1(uv - Vec2::Y * e)) / (2.0 * e),
+                    );
+                    let g = b.eval_1_grad(uv);
+                    assert!((g - fd).abs().max_element() < 2e-2 * (1.0 + fd.abs().max_element()), "{g} {fd}");
+                }
+            }
+        }
+        let n = ramp(Filter::Nearest, Wrap::Repeat);
+        assert_eq!(n.eval_1_grad(Vec2::new(0.3, 0.3)), Vec2::ZERO);
+        // On the ramp, one texel to the right adds 1 and one down adds 4: per unit of u and v,
+        // times the width (4) and the height (2), inside a cell.
+        let b = ramp(Filter::Bilinear, Wrap::Clamp);
+        assert!((b.eval_1_grad(Vec2::new(0.4, 0.5)) - Vec2::new(4.0, 8.0)).abs().max_element() < 1e-5);
     }
 
     fn ramp_texels() -> Texels {

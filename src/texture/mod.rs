@@ -3,8 +3,8 @@
 //!
 //! [`Texture::eval`] gives a colour (linear RGB), [`Texture::eval_1`] a number for float
 //! parameters (Mitsuba's `eval_1`: a one-channel image's value, an RGB image's luminance),
-//! [`Texture::mean`] the average over the texture (its texels, or its two colours) for
-//! estimates. Texture coordinates come from [`crate::scene::SurfacePoint::uv`].
+//! [`Texture::eval_1_grad`] its gradient (for bump maps), [`Texture::mean`] the average over
+//! the texture (its texels, or its two colours) for estimates. Texture coordinates come from [`crate::scene::SurfacePoint::uv`].
 
 mod bitmap;
 mod checkerboard;
@@ -44,6 +44,16 @@ impl Texture {
             Texture::Constant(c) => luminance(*c),
             Texture::Bitmap(b) => b.eval_1(uv),
             Texture::Checkerboard(c) => c.eval_1(uv),
+        }
+    }
+
+    /// The gradient (∂/∂u, ∂/∂v) of [`Texture::eval_1`], as Mitsuba's `eval_1_grad` (a bump
+    /// map's slope): a bitmap's ([`Bitmap::eval_1_grad`]); zero for a constant. Mitsuba has
+    /// none for a checkerboard (its scene loader refuses that under a bump map, as pir's).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Constant(_) | Texture::Checkerboard(_) => Vec2::ZERO,
         }
     }
 

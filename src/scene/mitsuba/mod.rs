@@ -9,11 +9,12 @@
 //!   `rectangle`, `cube`, `disk`, `sphere`, with `to_world`,
 //!   `flip_normals`, `face_normals` and Mitsuba's vertex normals for meshes without them;
 //! - textures ([`textures`]): `bitmap` (PNG, JPEG, OpenEXR, Radiance HDR) and `checkerboard`,
-//!   for a `diffuse` BSDF's `reflectance`; shapes' texture coordinates as Mitsuba's
+//!   for the parameters of [`TEXTURED_PARAMETERS`]; shapes' texture coordinates as Mitsuba's
 //!   ([`shapes`]);
-//! - BSDFs: `diffuse` (its `reflectance` a colour or a texture) and `twosided` around it
-//!   ([`crate::material::Material::two_sided`]); a shape without one gets Mitsuba's default,
-//!   a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
+//! - BSDFs: `diffuse` (its `reflectance` a colour or a texture), those of [`bsdfs`], `twosided`
+//!   around them ([`crate::material::Material::two_sided`]), and `normalmap` and `bumpmap`
+//!   around them ([`crate::material::shading_map`]); a shape without one gets Mitsuba's
+//!   default, a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
 //! - emitters ([`emitters`]): `area` with a constant `radiance` on shapes; `point`, `spot`,
 //!   `directional`, `constant` and `envmap` (any image pir reads as a texture);
 //! - the sensor: `perspective` (`fov`, `fov_axis`, `to_world`; `near_clip`, `far_clip` and
@@ -43,11 +44,12 @@ use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
 use super::{Camera, DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
+use crate::material::shading_map::{BackSide, Perturbation, ShadingMap};
 use crate::material::{Bsdf, Material, Slot, Textured};
 use crate::texture::Texture;
 
-/// A BSDF's textured slots.
-type Slots = Vec<(Slot, Texture)>;
+/// A BSDF's textured slots and its normal or bump map.
+type Slots = Textured;
 use shapes::{Normals, WorldMesh};
 use transform::{numbers, parse_number};
 use xml::Element;
@@ -166,6 +168,11 @@ struct Builder<'a> {
     filter: Filter,
 }
 
+/// The parameters pir reads as textures, for the error about any other.
+const TEXTURED_PARAMETERS: &str = "diffuse's reflectance, plastic's and roughplastic's diffuse_reflectance, \
+     the specular_reflectance of conductor, roughconductor, plastic, roughplastic, dielectric and thindielectric, \
+     roughconductor's alpha, mask's opacity, normalmap's normalmap and bumpmap's height texture";
+
 /// Property tags: the children of a plugin that are its parameters.
 const PROPERTY_TAGS: [&str; 10] =
     ["float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector", "transform", "texture"];
@@ -175,11 +182,50 @@ const PROPERTY_TAGS: [&str; 10] =
 struct Params<'a> {
     e: &'a Element,
     used: RefCell<Vec<bool>>,
+    /// The parameters given as textures that the caller took ([`Params::textured`]), with
+    /// their means: what [`Params::colour`] and [`Params::float`] answer for them.
+    means: RefCell<Vec<(String, Vec3)>>,
 }
 
 impl<'a> Params<'a> {
     fn new(e: &'a Element) -> Self {
-        Params { e, used: RefCell::new(vec![false; e.children.len()]) }
+        Params { e, used: RefCell::new(vec![false; e.children.len()]), means: RefCell::default() }
+    }
+
+    /// The mean of a parameter taken as a texture by [`Params::textured`].
+    fn mean(&self, name: &str) -> Option<Vec3> {
+        self.means.borrow().iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
+
+    /// A parameter that may be a texture, for the material's `slot`: `None` when it is absent
+    /// or a colour (read later as a colour), else the texture, whose values must lie in
+    /// `[lo, hi]`; its mean is what [`Params::colour`] and [`Params::float`] give from then on
+    /// (a number parameter's: the mean's luminance).
+    fn textured(
+        &self,
+        b: &Builder<'a>,
+        name: &str,
+        slot: Slot,
+        (lo, hi): (f32, f32),
+    ) -> Result<Option<(Slot, Texture)>, SceneError> {
+        let t = match self.texture(b, name)? {
+            None | Some(Texture::Constant(_)) => return Ok(None),
+            Some(t) => t,
+        };
+        let (min, max) = t.range();
+        if min < lo || max > hi {
+            return Err(self.e.error(format!(
+                "{name}: the texture's values span {min} to {max}; they must lie between {lo} and {hi}"
+            )));
+        }
+        let mean = t.mean();
+        let mean = if matches!(slot, Slot::Opacity | Slot::Alpha) && !(mean.x == mean.y && mean.y == mean.z) {
+            Vec3::splat(crate::texture::luminance(mean))
+        } else {
+            mean
+        };
+        self.means.borrow_mut().push((name.to_string(), mean));
+        Ok(Some((slot, t)))
     }
 
     /// The child property of this name.
@@ -205,7 +251,13 @@ impl<'a> Params<'a> {
     }
 
     fn float(&self, name: &str) -> Result<Option<f32>, SceneError> {
+        if let Some(mean) = self.mean(name) {
+            return Ok(Some(mean.x));
+        }
         let Some(p) = self.get(name) else { return Ok(None) };
+        if p.tag == "texture" {
+            return self.colour(name).map(|c| c.map(|c| c.x));
+        }
         if p.tag != "float" && p.tag != "integer" {
             return Err(p.error(format!("{name}: expected a <float>")));
         }
@@ -264,6 +316,9 @@ impl<'a> Params<'a> {
 
     /// A colour: `<rgb>`, a constant `<spectrum>` or a `<float>`.
     fn colour(&self, name: &str) -> Result<Option<Vec3>, SceneError> {
+        if let Some(mean) = self.mean(name) {
+            return Ok(Some(mean));
+        }
         let Some(p) = self.get(name) else { return Ok(None) };
         match p.tag.as_str() {
             "rgb" | "float" => {
@@ -287,8 +342,9 @@ impl<'a> Params<'a> {
                 }
             }
             "texture" => Err(p.error(format!(
-                "{name}: a texture (type \"{}\") is not supported here yet: pir reads textures on a diffuse \
-                 BSDF's reflectance; give a colour (<rgb>)",
+                "parameter \"{name}\" of {}: a texture (type \"{}\") is not supported here yet: pir reads \
+                 textures on {TEXTURED_PARAMETERS}; give a colour (<rgb>)",
+                self.e.describe(),
                 p.type_name()
             ))),
             other => Err(p.error(format!("{name}: expected a colour (<rgb>), not <{other}>"))),
@@ -548,7 +604,7 @@ impl<'a> Builder<'a> {
         } else if mesh.uvs.is_empty() {
             mesh = shapes::barycentric_uvs(mesh, flip);
         }
-        let textures = textures.map(|slots| std::sync::Arc::new(Textured::new(slots)));
+        let textures = textures.map(std::sync::Arc::new);
         Ok((mesh, Material { name, bsdf, emission, two_sided, textures }))
     }
 
@@ -598,7 +654,11 @@ impl<'a> Builder<'a> {
                 match inner.as_slice() {
                     [b] if b.type_name() == "twosided" => return Err(b.error("a twosided inside a twosided")),
                     [b] => {
-                        let (bsdf, _, textures) = self.bsdf(b)?;
+                        let (bsdf, _, mut textures) = self.bsdf(b)?;
+                        // Mitsuba's twosided mirrors the directions in the unperturbed frame.
+                        if let Some(map) = textures.as_mut().and_then(|t| t.map.as_mut()) {
+                            map.back = BackSide::Mirrored;
+                        }
                         (bsdf, true, textures)
                     }
                     [_, _] => {
@@ -613,25 +673,52 @@ impl<'a> Builder<'a> {
                 let (albedo, slots) = self.reflectance_texture(e, &p, "reflectance")?;
                 (Bsdf::Diffuse { albedo }, false, slots)
             }
-            "dielectric" => (bsdfs::dielectric(e, &p)?, false, None),
-            "thindielectric" => (bsdfs::thin_dielectric(e, &p)?, false, None),
+            "dielectric" => {
+                let slots = self.textured_slots(&p, &[SPECULAR])?;
+                (bsdfs::dielectric(e, &p)?, false, slots)
+            }
+            "thindielectric" => {
+                let slots = self.textured_slots(&p, &[SPECULAR])?;
+                (bsdfs::thin_dielectric(e, &p)?, false, slots)
+            }
             "roughdielectric" => {
                 let (bsdf, warning) = bsdfs::rough_dielectric(e, &p)?;
                 self.late_warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
                 (bsdf, false, None)
             }
-            "conductor" => (bsdfs::conductor(e, &p)?, false, None),
-            "roughconductor" => (bsdfs::rough_conductor(e, &p)?, false, None),
+            "conductor" => {
+                let slots = self.textured_slots(&p, &[SPECULAR])?;
+                (bsdfs::conductor(e, &p)?, false, slots)
+            }
+            "roughconductor" => {
+                let alpha = ("alpha", Slot::Alpha, (0.0, super::format::MAX_ROUGHNESS));
+                let slots = self.textured_slots(&p, &[SPECULAR, alpha])?;
+                (bsdfs::rough_conductor(e, &p)?, false, slots)
+            }
             "plastic" | "roughplastic" => {
                 let (diffuse, slots) = self.reflectance_texture(e, &p, "diffuse_reflectance")?;
+                let slots = merge(slots, self.textured_slots(&p, &[SPECULAR])?);
                 (bsdfs::plastic(e, &p, diffuse, e.type_name() == "roughplastic")?, false, slots)
             }
             "mask" => {
                 let inner = p.plugins(self, "bsdf")?;
                 let [b] = inner.as_slice() else { return Err(e.error("needs one nested bsdf")) };
                 let (inner, two_sided, slots) = self.bsdf(b)?;
+                let opacity = self.textured_slots(&p, &[("opacity", Slot::Opacity, (0.0, 1.0))])?;
                 let (bsdf, two_sided) = bsdfs::mask(e, &p, (inner, two_sided))?;
-                (bsdf, two_sided, slots)
+                (bsdf, two_sided, merge(slots, opacity))
+            }
+            "normalmap" | "bumpmap" => {
+                let inner = p.plugins(self, "bsdf")?;
+                let [b] = inner.as_slice() else { return Err(e.error("needs one nested bsdf")) };
+                let (bsdf, two_sided, slots) = self.bsdf(b)?;
+                if slots.as_ref().is_some_and(|t| t.map.is_some()) {
+                    return Err(b.error("a normalmap or bumpmap inside another is not supported"));
+                }
+                let map = ShadingMap { perturbation: self.perturbation(e, &p)?, back: BackSide::TurnedOver };
+                let mut slots = slots.unwrap_or_else(|| Textured::new(Vec::new()));
+                slots.map = Some(map);
+                (bsdf, two_sided, Some(slots))
             }
             "blendbsdf" => {
                 let w = p
@@ -667,7 +754,8 @@ impl<'a> Builder<'a> {
                 return Err(e.error(format!(
                     "bsdf type \"{other}\" is not supported yet: pir reads diffuse, plastic, roughplastic, conductor, \
                      roughconductor, dielectric, thindielectric, roughdielectric (without transmission), mask (of a \
-                     diffuse), twosided and blendbsdf of diffuse and roughconductor (material none, ggx)"
+                     diffuse), twosided, normalmap, bumpmap and blendbsdf of diffuse and roughconductor (material \
+                     none, ggx)"
                 )));
             }
         };
@@ -684,6 +772,7 @@ impl<'a> Builder<'a> {
         p: &Params<'a>,
         name: &str,
     ) -> Result<(Vec3, Option<Slots>), SceneError> {
+        let slots = |t| Some(Textured::new(vec![(Slot::Reflectance, t)]));
         match p.texture(self, name)? {
             Some(Texture::Constant(v)) => {
                 reflectance(e, name, v)?;
@@ -697,10 +786,71 @@ impl<'a> Builder<'a> {
                          (above 1 the material creates energy; Mitsuba refuses it too)"
                     )));
                 }
-                Ok((t.mean(), Some(vec![(Slot::Reflectance, t)])))
+                Ok((t.mean(), slots(t)))
             }
             None => Ok((Vec3::splat(0.5), None)),
         }
+    }
+
+    /// The parameters `(name, slot, bounds)` of `p` that are textures, as a material's
+    /// textures (`None` when none is); the others are read later as colours or numbers, and
+    /// the textured ones as their means ([`Params::textured`]).
+    fn textured_slots(
+        &self,
+        p: &Params<'a>,
+        parameters: &[(&str, Slot, (f32, f32))],
+    ) -> Result<Option<Slots>, SceneError> {
+        let mut slots = Vec::new();
+        for &(name, slot, bounds) in parameters {
+            slots.extend(p.textured(self, name, slot, bounds)?);
+        }
+        Ok((!slots.is_empty()).then(|| Textured::new(slots)))
+    }
+
+    /// A `normalmap`'s or `bumpmap`'s texture and how it perturbs the frame
+    /// ([`crate::material::shading_map`]), with a warning where Mitsuba's viewer-dependent
+    /// corrections are on (pir renders them off).
+    fn perturbation(&self, e: &'a Element, p: &Params<'a>) -> Result<Perturbation, SceneError> {
+        let perturbation = if e.type_name() == "normalmap" {
+            let t =
+                p.texture(self, "normalmap")?.ok_or_else(|| e.error("needs a texture named normalmap"))?;
+            match &t {
+                Texture::Bitmap(b) if b.channels() == 3 && b.is_raw() => {}
+                Texture::Bitmap(b) if b.channels() == 3 => {
+                    return Err(e.error(
+                        "normalmap: the bitmap must be raw (<boolean name=\"raw\" value=\"true\"/>): it holds \
+                         normals, not sRGB colours",
+                    ));
+                }
+                _ => return Err(e.error("normalmap: must be an RGB bitmap texture (of raw normals)")),
+            }
+            Perturbation::Normal(t)
+        } else {
+            let textures = p.plugins(self, "texture")?;
+            let [t] = textures.as_slice() else {
+                return Err(e.error("needs one nested texture (the height)"));
+            };
+            let height = self.texture(t)?;
+            if !matches!(height, Texture::Bitmap(_)) {
+                return Err(
+                    t.error("a bumpmap's height must be a bitmap (Mitsuba has no gradient of others)")
+                );
+            }
+            let scale = p.float("scale")?.unwrap_or(1.0);
+            Perturbation::Bump { height, scale }
+        };
+        let flip = p.boolean("flip_invalid_normals")?.unwrap_or(true);
+        let shadowing = p.boolean("use_shadowing_function")?.unwrap_or(true);
+        if flip || shadowing {
+            self.late_warnings.lock().unwrap_or_else(|e| e.into_inner()).push(format!(
+                "{}: line {}: {}: rendered with flip_invalid_normals and use_shadowing_function off (Mitsuba's \
+                 defaults are on; set both false to render as Mitsuba does)",
+                e.file.display(),
+                e.line,
+                e.describe()
+            ));
+        }
+        Ok(perturbation)
     }
 
     /// An area emitter's radiance.
@@ -718,6 +868,20 @@ impl<'a> Builder<'a> {
         }
         p.finish(self)?;
         Ok(radiance)
+    }
+}
+
+/// A specular reflectance that may be a texture ([`Builder::textured_slots`]).
+const SPECULAR: (&str, Slot, (f32, f32)) = ("specular_reflectance", Slot::Specular, (0.0, 1.0));
+
+/// Two sets of textured slots as one (the second's map, if any, is dropped: callers give none).
+fn merge(a: Option<Slots>, b: Option<Slots>) -> Option<Slots> {
+    match (a, b) {
+        (Some(mut a), Some(b)) => {
+            a.slots.extend(b.slots);
+            Some(a)
+        }
+        (a, b) => a.or(b),
     }
 }
 
