@@ -131,14 +131,23 @@ fn emitter_weight(emitter: f32, connections: f32) -> f32 {
     if w.is_finite() && emitter >= 0.0 && connections >= 0.0 { w } else { 0.0 }
 }
 
-/// The weight of an emitter hit by BSDF sampling, at an emitter point of area density
-/// `pdf_area` whose cosine towards the path is `cos_light`, with the camera subpath's
-/// `state` (after [`MisState::arrive`]): next-event estimation at the vertex the ray left is
-/// `dvcm`'s technique, with `light_samples` samples there, the connections `dvc`'s.
+/// The weight of an emitter hit by BSDF sampling, at an emitter point whose cosine towards
+/// the path is `cos_light`, with the camera subpath's `state` (after [`MisState::arrive`]):
+/// next-event estimation at the vertex the ray left is `dvcm`'s technique, with
+/// `light_samples` samples there and its density of the point per unit area `pdf_nee`, the
+/// connections `dvc`'s, their light paths starting there with area density `pdf_area` (the
+/// same as `pdf_nee` but where next-event estimation samples a sphere's cone).
 #[inline]
-pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, light_samples: f32) -> f32 {
+pub fn hit_weight(
+    state: &MisState,
+    pdf_nee: f32,
+    pdf_area: f32,
+    cos_light: f32,
+    paths: f32,
+    light_samples: f32,
+) -> f32 {
     let emission_pdf = pdf_area * cos_light * FRAC_1_PI;
-    emitter_weight(light_samples * pdf_area * state.dvcm, paths * emission_pdf * state.dvc)
+    emitter_weight(light_samples * pdf_nee * state.dvcm, paths * emission_pdf * state.dvc)
 }
 
 /// The weight of next-event estimation from a camera vertex: `light` as sampled, `pdf_rev`
@@ -163,7 +172,11 @@ pub fn light_weight(
     }
     // The other techniques' densities relative to all the light samples' (exact for one).
     let hit = light.pdf_bsdf / (light_samples * light.pdf_light);
-    let extend = paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2;
+    let extend = match light.emission {
+        None => paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2,
+        // A sphere sampled by its cone: the light path's density relative to its own.
+        Some(e) => paths * e * cos_receiver,
+    };
     let dvcm = state.dvcm * previous;
     emitter_weight(hit, extend * (dvcm + state.dvc * pdf_rev) / light_samples)
 }
@@ -283,12 +296,18 @@ mod tests {
         s
     }
 
-    /// The light subpath's sums on arriving at z[t] from the emitter z[k].
-    fn light_state(z: &[Node], t: usize, pdf_area: f32, counts: Counts) -> MisState {
+    /// The light subpath's sums on arriving at z[t] from the emitter z[k], which it starts
+    /// from with area density `pdf_area` and next-event estimation from z[k − 1] picks with
+    /// `pdf_nee` (per unit area; another where it samples a sphere's cone), as light tracing
+    /// sets them ([`super::super::light_paths`]).
+    fn light_state(z: &[Node], t: usize, pdf_area: f32, pdf_nee: f32, counts: Counts) -> MisState {
         let k = z.len() - 1;
         let mut s = MisState::light(pdf_area, z[k].cos(&z[k - 1]), counts.paths);
         for j in (t..k).rev() {
             s.arrive(dist2(&z[j + 1], &z[j]), z[j].cos(&z[j + 1]));
+            if j == k - 1 && pdf_nee != pdf_area {
+                s.dvcm *= pdf_nee / pdf_area;
+            }
             if j > t {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
@@ -299,12 +318,25 @@ mod tests {
         s
     }
 
-    /// Every technique's weight for the path z[1..=k] (z[k] on the emitter), in order of t;
-    /// `None` for a technique that cannot make the path. The first vertex takes
-    /// `light_samples` light samples.
+    /// Every technique's weight for the path z[1..=k] (z[k] on the emitter, where light paths
+    /// start with area density `pdf_area`), in order of t; `None` for a technique that cannot
+    /// make the path. The first vertex takes `light_samples` light samples.
     fn weights(
         z: &[Node],
         pdf_area: f32,
+        counts: Counts,
+        connect: Connect,
+        light_samples: u32,
+    ) -> Vec<Option<f32>> {
+        weights_nee(z, pdf_area, pdf_area, counts, connect, light_samples)
+    }
+
+    /// [`weights`] where next-event estimation from z[k − 1] picks z[k] with area density
+    /// `pdf_nee` (a sphere's cone) rather than `pdf_area`.
+    fn weights_nee(
+        z: &[Node],
+        pdf_area: f32,
+        pdf_nee: f32,
         counts: Counts,
         connect: Connect,
         light_samples: u32,
@@ -318,19 +350,21 @@ mod tests {
             let x = &z[t];
             let count_in = factor(counts, (t > 1).then(|| &z[t - 1]), x);
             w.push(if t == k {
-                Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
+                Some(hit_weight(&cam, pdf_nee, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
             } else if x.bsdf.is_none() || (t + 1 < k && (z[t + 1].bsdf.is_none() || !connect.at(t as u32))) {
                 None
             } else if t == k - 1 {
                 let e = &z[k];
                 let d2 = dist2(x, e);
+                let pdf_light = pdf_nee * d2 / e.cos(x);
                 let light = LightSample {
-                    pdf_light: pdf_area * d2 / e.cos(x),
+                    pdf_light,
                     pdf_bsdf: x.pdf(&z[t - 1], e),
                     cos_light: e.cos(x),
                     dist2: d2,
                     wi: x.dir(e),
-                    emission: None,
+                    // As next-event estimation by a cone sets it (`direct::cone_emission`).
+                    emission: (pdf_nee != pdf_area).then(|| pdf_area * FRAC_1_PI / pdf_light),
                 };
                 let previous = if connect.at(t as u32 - 1) { count_in } else { 0.0 };
                 let n = samples_at(t);
@@ -341,7 +375,7 @@ mod tests {
                 let w_in = y.dir(&z[t + 2]);
                 let vpl = Vpl {
                     arrival: 0.0,
-                    mis: light_state(z, t + 1, pdf_area, counts),
+                    mis: light_state(z, t + 1, pdf_area, pdf_nee, counts),
                     count_out: factor(counts, (t + 2 < k).then(|| &z[t + 2]), y),
                     ..Vpl::for_test(y.p, y.g.ng, y.g.frame, w_in, Vec3::ONE, (k - t - 1) as u32)
                 };
@@ -569,18 +603,21 @@ mod tests {
                     Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25 },
                     Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 },
                 ] {
-                    let w = weights(&z, 0.37, counts, connect, light_samples);
-                    let sum: f32 = w.iter().flatten().sum();
-                    if w.iter().flatten().all(|w| w.is_finite()) {
-                        assert!(
-                            (sum - 1.0).abs() < 2e-3,
-                            "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}: weights {w:?} sum to {sum}"
-                        );
-                        checked += 1;
+                    // Next-event estimation by area, and by a cone denser or sparser there.
+                    for pdf_nee in [0.37, 0.05, 4.0] {
+                        let w = weights_nee(&z, 0.37, pdf_nee, counts, connect, light_samples);
+                        let sum: f32 = w.iter().flatten().sum();
+                        if w.iter().flatten().all(|w| w.is_finite()) {
+                            assert!(
+                                (sum - 1.0).abs() < 2e-3,
+                                "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}, next-event density {pdf_nee}: weights {w:?} sum to {sum}"
+                            );
+                            checked += 1;
+                        }
                     }
                 }
             }
         }
-        assert!(checked > 4500, "only {checked} paths checked");
+        assert!(checked > 3 * 4500, "only {checked} paths checked");
     }
 }

@@ -119,7 +119,8 @@ impl Pilot {
                 let u = sampler.next_2d();
                 // Only emitting triangles are counted (the methods that weigh connections by
                 // the visibility, pir-bdpt's, refuse scenes with other lights).
-                let es = if ctx.emitters.has_lights() {
+                // (A sphere's points by area: the pilot measures visibility, not variance.)
+                let es = if !ctx.emitters.is_plain() {
                     match ctx.emitters.choose(ctx.scene, u_select, u) {
                         Choice::Area(es) => es,
                         Choice::Light { .. } => continue,
