@@ -4,10 +4,11 @@
 //! a ray that leaves the scene sees.
 
 use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
 
 use super::{Counters, RenderContext};
 use crate::geometry::{OffsetPoint, Ray, offset_origin};
-use crate::light::{Choice, Light};
+use crate::light::{Choice, ConeSample, Light, NeeChoice};
 use crate::material::{Bsdf, LocalGeometry, Material, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
@@ -78,7 +79,9 @@ pub struct LightSample {
     /// For a light that is not a triangle ([`crate::light::Light::emission_density`]): the
     /// density with which a light path leaving it reaches the receiver, per unit area there
     /// and without its cosine, beyond what next-event estimation picks of the same light;
-    /// `None` for a triangle, whose is N-free cos θ_e / π / dist2.
+    /// `None` for a triangle sampled by area, whose is N-free cos θ_e / π / dist2. For a
+    /// sphere's triangle sampled by its cone, the same density relative to next-event
+    /// estimation's of the point: p_A / (π pdf_light).
     pub emission: Option<f32>,
 }
 
@@ -111,16 +114,17 @@ pub fn sample_emitters_at(
     counters: &mut Counters,
     weight: impl FnOnce(LightSample) -> f32,
 ) -> Vec3 {
-    let es = if ctx.emitters.has_lights() {
-        match ctx.emitters.choose(ctx.scene, u_select, u) {
-            Choice::Area(es) => es,
-            Choice::Light { index, pmf, u } => {
+    let es = if ctx.emitters.is_plain() {
+        ctx.emitters.sample(ctx.scene, u_select, u)
+    } else {
+        match ctx.emitters.choose_from(ctx.scene, sp.p, u_select, u) {
+            NeeChoice::Choice(Choice::Area(es)) => es,
+            NeeChoice::Choice(Choice::Light { index, pmf, u }) => {
                 let light = &ctx.emitters.lights()[index];
                 return sample_light(ctx, sp, bsdf, wo, light, pmf, u, counters, weight);
             }
+            NeeChoice::Cone(cone) => return sample_cone(ctx, sp, bsdf, wo, cone, counters, weight),
         }
-    } else {
-        ctx.emitters.sample(ctx.scene, u_select, u)
     };
     let d = es.point.p - sp.p;
     let dist2 = d.length_squared();
@@ -143,6 +147,57 @@ pub fn sample_emitters_at(
     let pdf_light = es.pdf_area * dist2 / cos_light;
     f * es.radiance
         * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission: None }) / pdf_light)
+}
+
+/// [`sample_emitters_at`] for a direction in the cone of an emitting sphere: the ray along it
+/// counts where its first hit is one of the sphere's triangles, seen from the front, and is
+/// wasted (zero) where it misses them or hits anything else first (another emitter's light is
+/// its own technique's). Its density is the cone's for every direction that reaches the
+/// triangles, as [`Emitters::cone_pdf`](crate::light::Emitters::cone_pdf) gives it to the
+/// emission that BSDF sampling finds there.
+#[inline(never)]
+fn sample_cone(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    cone: ConeSample,
+    counters: &mut Counters,
+    weight: impl FnOnce(LightSample) -> f32,
+) -> Vec3 {
+    let wi = cone.wi;
+    let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
+    let (f, pdf_bsdf) = PreparedBsdf::new(*bsdf, g, wo, TransportMode::Radiance).eval_pdf(wi);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    counters.shadow_rays += 1;
+    let ray = Ray::new(offset_origin(sp.p, sp.ng, wi), wi);
+    let Some(hit) = ctx.accel.intersect(&ray) else { return Vec3::ZERO };
+    if !ctx.emitters.in_group(cone.group, hit.prim) {
+        return Vec3::ZERO;
+    }
+    let e = ctx.scene.surface_of_hit(&hit, ray.dir);
+    let le = e.emitted(ctx.scene.material(e.material).emission, -wi);
+    let cos_light = e.ng.dot(-wi);
+    let dist2 = (e.p - sp.p).length_squared();
+    if le == Vec3::ZERO || cos_light <= 0.0 || dist2.is_nan() || dist2 <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let pdf_light = cone.pdf;
+    let emission = Some(cone_emission(ctx.emitters.pdf_area(hit.prim), pdf_light));
+    let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission });
+    f * le * (w / pdf_light)
+}
+
+/// [`LightSample::emission`] of a point of area density `pdf_area` (where light paths start)
+/// that next-event estimation draws by a cone of solid-angle density `pdf_light`: the density
+/// of a light path leaving it towards the receiver, per unit area there without its cosine,
+/// p_A cos θ_e / (π d²), relative to next-event estimation's density of the point,
+/// pdf_light cos θ_e / d² (for a point sampled by area, the same p_A, this is cos θ_e / π d²).
+#[inline]
+fn cone_emission(pdf_area: f32, pdf_light: f32) -> f32 {
+    pdf_area * FRAC_1_PI / pdf_light
 }
 
 /// [`sample_emitters_at`] for a light other than a triangle, chosen with probability `pmf`.
@@ -271,6 +326,9 @@ pub fn emission_weighted(
         return Vec3::ZERO;
     }
     let dist2 = (sp.p - how.from).length_squared();
-    let pdf_light = ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light;
-    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo, emission: None })
+    let (pdf_light, emission) = match ctx.emitters.cone_pdf(sp.prim, how.from) {
+        None => (ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light, None),
+        Some(pdf) => (pdf, Some(cone_emission(ctx.emitters.pdf_area(sp.prim), pdf))),
+    };
+    le * weight(LightSample { pdf_light, pdf_bsdf: how.pdf, cos_light, dist2, wi: -wo, emission })
 }

@@ -9,17 +9,27 @@
 //! distribution serves next-event estimation, MIS weights of BSDF-sampled hits, and the start
 //! of light paths. A scene without other lights builds exactly the table it always did.
 //!
-//! One file per kind: [`point`], [`spot`], [`directional`], [`constant`], [`envmap`], and
-//! their one interface in [`kind`].
+//! An emitting sphere of a Mitsuba scene ([`SphereLight`]) is one entry of the table, its
+//! power its triangles' (a table of its own picks among them by power, as the scene's table
+//! would). Next-event estimation from outside it samples the cone of the exact sphere instead
+//! of a point ([`Emitters::choose_from`], [`sphere`]); every MIS weight that uses the density
+//! of next-event estimation asks [`Emitters::cone_pdf`] for it. Light paths start on its
+//! triangles by area, as from any others. A scene without spheres builds the table it always
+//! did.
+//!
+//! One file per kind: [`point`], [`spot`], [`directional`], [`constant`], [`envmap`],
+//! [`sphere`], and their one interface in [`kind`].
 
 pub mod constant;
 pub mod directional;
 pub mod envmap;
 pub mod kind;
 pub mod point;
+pub mod sphere;
 pub mod spot;
 
 pub use kind::{Emission, Light, LightSample};
+pub use sphere::SphereLight;
 
 use glam::{Vec2, Vec3};
 
@@ -28,8 +38,10 @@ use crate::sampling::{AliasTable, uniform_triangle};
 use crate::scene::Scene;
 
 pub struct Emitters {
-    /// Emitting triangles, in scene order.
+    /// Emitting triangles outside the spheres, in scene order (the first entries of `dist`).
     prims: Vec<u32>,
+    /// The emitting spheres (the entries `prims.len()..` of `dist`), in scene order.
+    groups: Vec<Group>,
     dist: AliasTable,
     /// For every triangle of the scene: the area density of sampling a point on it
     /// (selection probability / area); zero for non-emitters.
@@ -40,8 +52,39 @@ pub struct Emitters {
     light_pmf: Vec<f32>,
     /// The indices (into `lights`) of the environments, which escaping rays see.
     environments: Vec<usize>,
+    /// Only triangles outside spheres: [`Emitters::sample`] serves.
+    plain: bool,
 }
 
+/// An emitting sphere's entry of the table.
+struct Group {
+    sphere: SphereLight,
+    /// Its triangles, and a table that picks among them by power.
+    prims: Vec<u32>,
+    dist: AliasTable,
+    /// The probability of choosing the sphere.
+    pmf: f32,
+}
+
+/// A direction towards an emitting sphere, drawn by [`Emitters::choose_from`].
+#[derive(Clone, Copy, Debug)]
+pub struct ConeSample {
+    /// Which sphere: its triangles are those [`Emitters::in_group`] names.
+    pub group: usize,
+    /// Unit direction from the receiver.
+    pub wi: Vec3,
+    /// Solid-angle density of the direction: the sphere's probability / the cone's Ω.
+    pub pdf: f32,
+}
+
+/// What [`Emitters::choose_from`] picked for next-event estimation at a receiver.
+#[derive(Clone, Copy, Debug)]
+pub enum NeeChoice {
+    /// What [`Emitters::choose`] would pick.
+    Choice(Choice),
+    /// A direction in the cone of an emitting sphere seen from outside.
+    Cone(ConeSample),
+}
 /// What [`Emitters::choose`] picked.
 #[derive(Clone, Copy, Debug)]
 pub enum Choice {
@@ -73,18 +116,42 @@ pub struct EmitterSample {
 impl Emitters {
     /// `None` when the scene has no emitter or light with positive power.
     pub fn new(scene: &Scene) -> Option<Self> {
+        let power = |prim: u32| {
+            let m = scene.material_of(prim);
+            if !m.is_emitter() {
+                return 0.0;
+            }
+            let area = scene.area(prim);
+            m.emission.element_sum() as f64 / 3.0 * area as f64 * std::f64::consts::PI
+        };
+        // The spheres whose every triangle emits; their triangles leave the scene's list.
+        let spheres: Vec<&SphereLight> =
+            scene.sphere_lights().iter().filter(|s| s.prims.clone().all(|p| power(p) > 0.0)).collect();
+        let mut in_sphere = vec![false; if spheres.is_empty() { 0 } else { scene.indices().len() }];
+        for s in &spheres {
+            for p in s.prims.clone() {
+                in_sphere[p as usize] = true;
+            }
+        }
         let mut prims = Vec::new();
         let mut weights = Vec::new();
         for prim in 0..scene.indices().len() as u32 {
-            let m = scene.material_of(prim);
-            if m.is_emitter() {
-                let area = scene.area(prim);
-                let power = m.emission.element_sum() as f64 / 3.0 * area as f64 * std::f64::consts::PI;
-                if power > 0.0 {
-                    prims.push(prim);
-                    weights.push(power);
-                }
+            if in_sphere.get(prim as usize) == Some(&true) {
+                continue;
             }
+            let power = power(prim);
+            if power > 0.0 {
+                prims.push(prim);
+                weights.push(power);
+            }
+        }
+        let mut groups = Vec::new();
+        for s in spheres {
+            let tris: Vec<u32> = s.prims.clone().collect();
+            let w: Vec<f64> = tris.iter().map(|&p| power(p)).collect();
+            weights.push(w.iter().sum());
+            let dist = AliasTable::new(&w)?;
+            groups.push(Group { sphere: s.clone(), prims: tris, dist, pmf: 0.0 });
         }
         let radius = scene.bounding_sphere().1;
         let mut lights = Vec::new();
@@ -100,9 +167,17 @@ impl Emitters {
         for (i, &prim) in prims.iter().enumerate() {
             pdf_area[prim as usize] = dist.pmf(i) / scene.area(prim);
         }
-        let light_pmf = (0..lights.len()).map(|k| dist.pmf(prims.len() + k)).collect();
+        for (g, group) in groups.iter_mut().enumerate() {
+            group.pmf = dist.pmf(prims.len() + g);
+            for (k, &prim) in group.prims.iter().enumerate() {
+                pdf_area[prim as usize] = group.pmf * group.dist.pmf(k) / scene.area(prim);
+            }
+        }
+        let first_light = prims.len() + groups.len();
+        let light_pmf = (0..lights.len()).map(|k| dist.pmf(first_light + k)).collect();
         let environments = (0..lights.len()).filter(|&k| lights[k].is_environment()).collect();
-        Some(Emitters { prims, dist, pdf_area, lights, light_pmf, environments })
+        let plain = lights.is_empty() && groups.is_empty();
+        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, plain })
     }
 
     /// The lights other than triangles.
@@ -111,11 +186,17 @@ impl Emitters {
         &self.lights
     }
 
-    /// Whether there are lights other than triangles (then [`Emitters::choose`] samples, not
-    /// [`Emitters::sample`]).
+    /// Whether there are lights other than triangles.
     #[inline]
     pub fn has_lights(&self) -> bool {
         !self.lights.is_empty()
+    }
+
+    /// Whether the emitters are triangles outside spheres only: then [`Emitters::sample`]
+    /// serves, else [`Emitters::choose`] (and [`Emitters::choose_from`]) sample.
+    #[inline]
+    pub fn is_plain(&self) -> bool {
+        self.plain
     }
 
     /// The probability of choosing light `k` of [`Emitters::lights`].
@@ -130,12 +211,34 @@ impl Emitters {
         &self.environments
     }
 
+    /// The emitting triangles, the spheres' included.
     pub fn len(&self) -> usize {
-        self.prims.len()
+        self.prims.len() + self.groups.iter().map(|g| g.prims.len()).sum::<usize>()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.prims.is_empty()
+        self.len() == 0
+    }
+
+    /// Whether triangle `prim` is one of sphere `group`'s ([`ConeSample::group`]).
+    #[inline]
+    pub fn in_group(&self, group: usize, prim: u32) -> bool {
+        self.groups[group].sphere.prims.contains(&prim)
+    }
+
+    /// The solid-angle density with which next-event estimation from `from` draws the
+    /// direction towards a point of triangle `prim`, where it samples a sphere's cone (the
+    /// triangle is a sphere's and `from` is outside it); `None` where it picks points by
+    /// area ([`Emitters::pdf_area`]). Every MIS weight that needs the density of next-event
+    /// estimation asks here first.
+    #[inline]
+    pub fn cone_pdf(&self, prim: u32, from: Vec3) -> Option<f32> {
+        if self.groups.is_empty() {
+            return None;
+        }
+        let g = self.groups.partition_point(|g| g.sphere.prims.end <= prim);
+        let group = self.groups.get(g).filter(|g| g.sphere.prims.contains(&prim))?;
+        Some(group.pmf * group.sphere.cone(from)?.pdf)
     }
 
     /// Area density of [`Emitters::sample`] producing a point on triangle `prim`.
@@ -151,7 +254,7 @@ impl Emitters {
     /// every triangle of a light, where a separate number for the choice made each
     /// triangle's points a random subset of the stratified set.
     ///
-    /// Triangles only: with other lights ([`Emitters::has_lights`]) use [`Emitters::choose`].
+    /// Plain emitters only ([`Emitters::is_plain`]): otherwise use [`Emitters::choose`].
     #[inline(always)]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
         let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
@@ -166,24 +269,53 @@ impl Emitters {
 }
 
 impl Emitters {
-    /// [`Emitters::sample`] over the triangles and the other lights: the same numbers pick
-    /// the same way, and a light gets what is left of the first number and the second.
+    /// [`Emitters::sample`] over the triangles, the spheres and the other lights: the same
+    /// numbers pick the same way, a sphere's triangle by a second pick from what is left of the
+    /// first number, and a light gets what is left of the first number and the second.
     #[inline]
     pub fn choose(&self, scene: &Scene, u_select: f32, u: Vec2) -> Choice {
         let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
-        let rest = to_unit_f32(rest);
-        match self.prims.get(i) {
-            Some(&prim) => {
-                let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(rest, u.y)));
-                Choice::Area(EmitterSample {
-                    point: EmitterPoint { p, ng, prim },
-                    radiance: scene.material_of(prim).emission,
-                    pdf_area: self.pdf_area[prim as usize],
-                })
+        self.choice(scene, i, rest, u)
+    }
+
+    /// [`Emitters::choose`] for next-event estimation at `x`: where it picks a sphere that
+    /// `x` is outside of, a direction uniform in the sphere's cone from what is left of the
+    /// first number and the second, instead of a point on its triangles.
+    #[inline]
+    pub fn choose_from(&self, scene: &Scene, x: Vec3, u_select: f32, u: Vec2) -> NeeChoice {
+        let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
+        if let Some(group) = i.checked_sub(self.prims.len()).filter(|&g| g < self.groups.len())
+            && let Some(cone) = self.groups[group].sphere.cone(x)
+        {
+            let wi = cone.sample(Vec2::new(to_unit_f32(rest), u.y));
+            return NeeChoice::Cone(ConeSample { group, wi, pdf: self.groups[group].pmf * cone.pdf });
+        }
+        NeeChoice::Choice(self.choice(scene, i, rest, u))
+    }
+
+    /// Entry `i` of the table, with what is left of the first number, `rest`.
+    #[inline]
+    fn choice(&self, scene: &Scene, i: usize, rest: f64, u: Vec2) -> Choice {
+        let area = |prim: u32, rest: f64| {
+            let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(to_unit_f32(rest), u.y)));
+            Choice::Area(EmitterSample {
+                point: EmitterPoint { p, ng, prim },
+                radiance: scene.material_of(prim).emission,
+                pdf_area: self.pdf_area[prim as usize],
+            })
+        };
+        if let Some(&prim) = self.prims.get(i) {
+            return area(prim, rest);
+        }
+        let i = i - self.prims.len();
+        match self.groups.get(i) {
+            Some(group) => {
+                let (k, rest) = group.dist.sample_reuse(rest);
+                area(group.prims[k], rest)
             }
             None => {
-                let index = i - self.prims.len();
-                Choice::Light { index, pmf: self.light_pmf[index], u: Vec2::new(rest, u.y) }
+                let index = i - self.groups.len();
+                Choice::Light { index, pmf: self.light_pmf[index], u: Vec2::new(to_unit_f32(rest), u.y) }
             }
         }
     }

@@ -68,6 +68,12 @@ impl Scene {
         for light in &self.lights {
             light.fingerprint(&mut h);
         }
+        // Likewise the emitting spheres, which next-event estimation samples by their cones.
+        for s in &self.sphere_lights {
+            h.bytes(b"sphere light");
+            h.f32s(&[s.center.x, s.center.y, s.center.z, s.radius]);
+            h.u32s(&[s.prims.start, s.prims.end]);
+        }
         format!("{:016x}", h.finish())
     }
 }

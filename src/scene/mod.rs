@@ -76,6 +76,9 @@ pub struct Scene {
     filter: Filter,
     /// Lights other than emitting triangles (point, spot, directional, environments).
     lights: Vec<crate::light::Light>,
+    /// The emitting spheres whose triangles next-event estimation samples by the cone of
+    /// the exact sphere (Mitsuba's `sphere` shapes).
+    sphere_lights: Vec<crate::light::SphereLight>,
 }
 
 /// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, the
@@ -207,6 +210,7 @@ impl Scene {
             degenerate_dropped,
             filter: Filter::Box,
             lights: Vec::new(),
+            sphere_lights: Vec::new(),
         })
     }
 
@@ -219,6 +223,35 @@ impl Scene {
     /// Lights other than emitting triangles.
     pub fn lights(&self) -> &[crate::light::Light] {
         &self.lights
+    }
+
+    /// The scene with `spheres`: emitting spheres, each the exact sphere that a consecutive
+    /// range of its triangles tessellates (inscribed, front faces outwards). Spheres whose
+    /// range is out of bounds or not in increasing order are an error.
+    pub fn with_sphere_lights(
+        mut self,
+        spheres: Vec<crate::light::SphereLight>,
+    ) -> Result<Scene, SceneError> {
+        let mut end = 0;
+        for s in &spheres {
+            if s.prims.start < end
+                || s.prims.start >= s.prims.end
+                || s.prims.end as usize > self.indices.len()
+            {
+                return Err(SceneError::Invalid {
+                    path: self.path.clone(),
+                    problem: format!("emitting sphere of triangles {:?}: out of range or order", s.prims),
+                });
+            }
+            end = s.prims.end;
+        }
+        self.sphere_lights = spheres;
+        Ok(self)
+    }
+
+    /// The emitting spheres ([`Scene::with_sphere_lights`]), in triangle order.
+    pub fn sphere_lights(&self) -> &[crate::light::SphereLight] {
+        &self.sphere_lights
     }
 
     /// The sphere around the triangles' bounding box, as Mitsuba computes it: centre and

@@ -91,13 +91,19 @@ impl Estimator for Bidirectional<'_> {
     ) {
         let sp = at.sp;
         let cos_in = sp.ng.dot(at.wo).abs();
-        path.mis.arrive((sp.p - path.from).length_squared(), cos_in);
+        let dist2 = (sp.p - path.from).length_squared();
+        path.mis.arrive(dist2, cos_in);
         let le = sp.emitted(at.material.emission, at.wo);
         if le != Vec3::ZERO {
             let pdf_area = ctx.emitters.pdf_area(sp.prim);
+            // Next-event estimation's density of the point: a sphere's cone's, per unit area.
+            let pdf_nee = match ctx.emitters.cone_pdf(sp.prim, path.from) {
+                Some(pdf) => pdf * cos_in / dist2,
+                None => pdf_area,
+            };
             // Light samples at the vertex the ray left: `light_samples` at the first.
             let left_samples = if at.depth == 2 { self.light_samples as f32 } else { 1.0 };
-            let w = hit_weight(&path.mis, pdf_area, cos_in, self.counts.paths, left_samples);
+            let w = hit_weight(&path.mis, pdf_nee, pdf_area, cos_in, self.counts.paths, left_samples);
             *radiance += beta * le * w;
         }
     }

@@ -131,14 +131,23 @@ fn emitter_weight(emitter: f32, connections: f32) -> f32 {
     if w.is_finite() && emitter >= 0.0 && connections >= 0.0 { w } else { 0.0 }
 }
 
-/// The weight of an emitter hit by BSDF sampling, at an emitter point of area density
-/// `pdf_area` whose cosine towards the path is `cos_light`, with the camera subpath's
-/// `state` (after [`MisState::arrive`]): next-event estimation at the vertex the ray left is
-/// `dvcm`'s technique, with `light_samples` samples there, the connections `dvc`'s.
+/// The weight of an emitter hit by BSDF sampling, at an emitter point whose cosine towards
+/// the path is `cos_light`, with the camera subpath's `state` (after [`MisState::arrive`]):
+/// next-event estimation at the vertex the ray left is `dvcm`'s technique, with
+/// `light_samples` samples there and its density of the point per unit area `pdf_nee`, the
+/// connections `dvc`'s, their light paths starting there with area density `pdf_area` (the
+/// same as `pdf_nee` but where next-event estimation samples a sphere's cone).
 #[inline]
-pub fn hit_weight(state: &MisState, pdf_area: f32, cos_light: f32, paths: f32, light_samples: f32) -> f32 {
+pub fn hit_weight(
+    state: &MisState,
+    pdf_nee: f32,
+    pdf_area: f32,
+    cos_light: f32,
+    paths: f32,
+    light_samples: f32,
+) -> f32 {
     let emission_pdf = pdf_area * cos_light * FRAC_1_PI;
-    emitter_weight(light_samples * pdf_area * state.dvcm, paths * emission_pdf * state.dvc)
+    emitter_weight(light_samples * pdf_nee * state.dvcm, paths * emission_pdf * state.dvc)
 }
 
 /// The weight of an environment found by a BSDF-sampled ray that leaves the scene, in the
@@ -176,9 +185,10 @@ pub fn light_weight(
     // The other techniques' densities relative to all the light samples' (exact for one).
     let hit = light.pdf_bsdf / (light_samples * light.pdf_light);
     // Light tracing's density of the receiver, per unit area: an emitter point's cosine-
-    // distributed direction, or what a light that is not a triangle picks beyond next-event
-    // estimation's pick (a point or spot light's direction, a light at infinity's point on
-    // the disk covering the scene).
+    // distributed direction, or relative to next-event estimation's own pick where that is not
+    // the emitter point by area: a sphere's cone (the light path's density relative to the
+    // cone's), a point or spot light's direction, a light at infinity's point on the disk
+    // covering the scene.
     let extend = match light.emission {
         None => paths * light.cos_light * cos_receiver * FRAC_1_PI / light.dist2,
         Some(emission) => paths * emission * cos_receiver,
@@ -289,8 +299,10 @@ mod tests {
     /// Where a test path's light comes from: its last vertex z[k].
     #[derive(Clone, Copy, Debug)]
     enum Source {
-        /// A point of an emitting triangle, picked with this area density.
-        Area(f32),
+        /// A point of an emitting triangle, where light paths start with area density
+        /// `pdf_area` and next-event estimation from z[k − 1] picks it with `pdf_nee` (per unit
+        /// area; another where it samples a sphere's cone).
+        Area { pdf_area: f32, pdf_nee: f32 },
         /// A point light at z[k], emitting in a direction of this density.
         Point(f32),
         /// An environment in the direction from z[k − 1] to z[k]: next-event estimation picks
@@ -327,7 +339,7 @@ mod tests {
     fn light_state(z: &[Node], t: usize, source: Source, counts: Counts) -> MisState {
         let k = z.len() - 1;
         let mut s = match source {
-            Source::Area(pdf_area) => MisState::light(pdf_area, z[k].cos(&z[k - 1]), counts.paths),
+            Source::Area { pdf_area, .. } => MisState::light(pdf_area, z[k].cos(&z[k - 1]), counts.paths),
             Source::Point(p_dir) => MisState::light_source(f32::INFINITY, p_dir, counts.paths),
             Source::Environment { nee, disk } => MisState::light_source(nee, disk, counts.paths),
         };
@@ -337,6 +349,13 @@ mod tests {
                 _ => dist2(&z[j + 1], &z[j]),
             };
             s.arrive(d2, z[j].cos(&z[j + 1]));
+            // As light tracing rescales it where next-event estimation samples a cone.
+            if let Source::Area { pdf_area, pdf_nee } = source
+                && j == k - 1
+                && pdf_nee != pdf_area
+            {
+                s.dvcm *= pdf_nee / pdf_area;
+            }
             if j > t {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
@@ -357,7 +376,7 @@ mod tests {
         connect: Connect,
         light_samples: u32,
     ) -> Vec<Option<f32>> {
-        weights_from(z, Source::Area(pdf_area), counts, connect, light_samples)
+        weights_from(z, Source::Area { pdf_area, pdf_nee: pdf_area }, counts, connect, light_samples)
     }
 
     /// [`weights`] for light from `source`.
@@ -377,9 +396,9 @@ mod tests {
             let count_in = factor(counts, (t > 1).then(|| &z[t - 1]), x);
             if t == k {
                 w.push(match source {
-                    Source::Area(pdf_area) => {
+                    Source::Area { pdf_area, pdf_nee } => {
                         let cam = camera_state(z, t, connect, counts);
-                        Some(hit_weight(&cam, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
+                        Some(hit_weight(&cam, pdf_nee, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
                     }
                     Source::Point(_) => None,
                     Source::Environment { nee, disk } => {
@@ -401,14 +420,18 @@ mod tests {
                 let pdf_bsdf = x.pdf(&z[t - 1], e);
                 let (wi, cos_light) = (x.dir(e), e.cos(x));
                 let light = match source {
-                    Source::Area(pdf_area) => LightSample {
-                        pdf_light: pdf_area * d2 / cos_light,
-                        pdf_bsdf,
-                        cos_light,
-                        dist2: d2,
-                        wi,
-                        emission: None,
-                    },
+                    Source::Area { pdf_area, pdf_nee } => {
+                        let pdf_light = pdf_nee * d2 / cos_light;
+                        LightSample {
+                            pdf_light,
+                            pdf_bsdf,
+                            cos_light,
+                            dist2: d2,
+                            wi,
+                            // As next-event estimation by a cone sets it (`direct::cone_emission`).
+                            emission: (pdf_nee != pdf_area).then(|| pdf_area * FRAC_1_PI / pdf_light),
+                        }
+                    }
                     Source::Point(p_dir) => LightSample {
                         pdf_light: f32::INFINITY,
                         pdf_bsdf,
@@ -663,19 +686,23 @@ mod tests {
                     Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25 },
                     Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 },
                 ] {
-                    let w = weights(&z, 0.37, counts, connect, light_samples);
-                    let sum: f32 = w.iter().flatten().sum();
-                    if w.iter().flatten().all(|w| w.is_finite()) {
-                        assert!(
-                            (sum - 1.0).abs() < 2e-3,
-                            "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}: weights {w:?} sum to {sum}"
-                        );
-                        checked += 1;
+                    // Next-event estimation by area, and by a cone denser or sparser there.
+                    for pdf_nee in [0.37, 0.05, 4.0] {
+                        let source = Source::Area { pdf_area: 0.37, pdf_nee };
+                        let w = weights_from(&z, source, counts, connect, light_samples);
+                        let sum: f32 = w.iter().flatten().sum();
+                        if w.iter().flatten().all(|w| w.is_finite()) {
+                            assert!(
+                                (sum - 1.0).abs() < 2e-3,
+                                "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}, next-event density {pdf_nee}: weights {w:?} sum to {sum}"
+                            );
+                            checked += 1;
+                        }
                     }
                 }
             }
         }
-        assert!(checked > 4500, "only {checked} paths checked");
+        assert!(checked > 3 * 4500, "only {checked} paths checked");
     }
 
     /// The same with light from a point light (which no BSDF sample hits) and from an

@@ -58,7 +58,10 @@ pub struct Vpl {
     /// probability q, its BSDF's solid-angle density p of the direction, the distance d);
     /// for a vertex lit directly, N · (cos θ_e / π) / d² relative to next-event estimation
     /// (which picks the emitter point exactly as light tracing does, but once, not N times);
-    /// infinite after a delta vertex. For a vertex lit directly by a light that is not a
+    /// infinite after a delta vertex. For a vertex lit directly by a sphere that next-event
+    /// estimation from it samples by its cone: N p_A / (π pdf_cone), light tracing's density
+    /// N p_A cos θ_e / (π d²) relative to the cone's pdf_cone cos θ_e / d² of the same point
+    /// ([`crate::light::Emitters::cone_pdf`]). For a vertex lit directly by a light that is not a
     /// triangle: N · [`crate::light::Emission::density`] (divided by d² for a point or spot
     /// light), likewise relative to next-event estimation. What the multiple importance
     /// sampling of [`super::mis`] weighs a connection with.
@@ -67,7 +70,8 @@ pub struct Vpl {
     /// last vertex traced).
     pub survival: f32,
     /// For a vertex lit directly: the solid-angle density with which next-event estimation
-    /// from here picks the emitter point that lit it (infinite for a delta light, which it
+    /// from here picks the emitter point that lit it (a sphere's cone's density, where it
+    /// samples that; infinite for a delta light, which it
     /// picks with certainty once chosen; for an environment its selection probability times
     /// its density of the direction back along the path); 0 otherwise.
     pub nee_pdf: f32,
@@ -162,7 +166,7 @@ fn trace_path(
     }
     let u_select = sampler.next_f32();
     let u_point = sampler.next_2d();
-    let es = if ctx.emitters.has_lights() {
+    let es = if !ctx.emitters.is_plain() {
         match ctx.emitters.choose(ctx.scene, u_select, u_point) {
             Choice::Area(es) => es,
             Choice::Light { index, pmf, u } => {
@@ -202,7 +206,7 @@ fn trace_path(
         from: es.point.p,
         density: n_paths * local.z * std::f32::consts::FRAC_1_PI,
         at_infinity: false,
-        nee: NeeAt::Area { p: es.point.p, pdf_area: es.pdf_area, cos_e: local.z },
+        nee: NeeAt::Area { p: es.point.p, prim: es.point.prim, pdf_area: es.pdf_area, cos_e: local.z },
         mis: MisState::light(es.pdf_area, local.z, counts.paths),
     };
     follow(ctx, sampler, start, counts, max_depth, out)
@@ -211,8 +215,9 @@ fn trace_path(
 /// How next-event estimation from a vertex lit directly finds the light that lit it.
 #[derive(Clone, Copy, Debug)]
 enum NeeAt {
-    /// The emitter point, with its area density and the cosine of the path's direction there.
-    Area { p: Vec3, pdf_area: f32, cos_e: f32 },
+    /// The emitter point on triangle `prim`, with its area density and the cosine of the
+    /// path's direction there.
+    Area { p: Vec3, prim: u32, pdf_area: f32, cos_e: f32 },
     /// A delta light: the same point or direction, with a delta density.
     Delta,
     /// An environment (its index among the lights, its selection probability): by its own
@@ -258,6 +263,19 @@ fn follow(
         let dist2 = (sp.p - from).length_squared();
         // (The first segment from a light at infinity: its density is per unit area already.)
         mis.arrive(if depth == 1 && at_infinity { 1.0 } else { dist2 }, sp.ng.dot(w_in).abs());
+        // Lit directly by a sphere that next-event estimation from here samples by its cone:
+        // next-event estimation's density of the emitter point is the cone's (per unit area,
+        // pdf_cone cos θ_e / d²), not the area density the light path started with, in what
+        // the VPL and the running sums weigh against it.
+        let cone = match nee {
+            NeeAt::Area { prim, pdf_area, cos_e, .. } if depth == 1 => {
+                ctx.emitters.cone_pdf(prim, sp.p).map(|pdf| (pdf, pdf_area, cos_e))
+            }
+            _ => None,
+        };
+        if let Some((pdf, pdf_area, cos_e)) = cone {
+            mis.dvcm *= pdf * cos_e / (dist2 * pdf_area);
+        }
         // Survival by the flux arriving here relative to the path's start (importance
         // transport has no 1/η² radiance scaling to compensate), decided before the
         // direction is sampled so that a connection can be weighed against this
@@ -283,15 +301,21 @@ fn follow(
                 uv: sp.uv,
                 flux: beta,
                 depth,
-                arrival: if depth == 1 && at_infinity { density } else { density / dist2 },
+                arrival: match cone {
+                    // N p_A cos θ_e / (π d²) over next-event estimation's pdf_cone cos θ_e / d².
+                    Some((pdf, pdf_area, cos_e)) => density * pdf_area / (pdf * cos_e),
+                    None if depth == 1 && at_infinity => density,
+                    None => density / dist2,
+                },
                 survival,
                 nee_pdf: if depth == 1 {
-                    match nee {
-                        NeeAt::Area { p: e, pdf_area, cos_e } => {
+                    match (nee, cone) {
+                        (_, Some((pdf, ..))) => pdf,
+                        (NeeAt::Area { p: e, pdf_area, cos_e, .. }, None) => {
                             pdf_area * (sp.p - e).length_squared() / cos_e
                         }
-                        NeeAt::Delta => f32::INFINITY,
-                        NeeAt::Environment(k, pmf) => {
+                        (NeeAt::Delta, None) => f32::INFINITY,
+                        (NeeAt::Environment(k, pmf), None) => {
                             pmf * ctx.emitters.lights()[k].environment_pdf(-ray.dir)
                         }
                     }

@@ -14,7 +14,9 @@
 //!
 //! The prefix up to z is common to both (the same light paths) except where z is on an
 //! emitter: light tracing picks that point N times, next-event estimation once, with the same
-//! density (both use [`crate::light::Emitters::sample`]). The cosine at y cancels too. So with
+//! density (both use [`crate::light::Emitters::sample`]; where next-event estimation samples
+//! an emitting sphere's cone, [`Vpl::arrival`] holds light tracing's density relative to the
+//! cone's). The cosine at y cancels too. So with
 //! a = [`Vpl::arrival`] (q_z p_z / ‖y − z‖², or N · (cos θ_e / π) / ‖y − e‖² for a VPL lit
 //! directly) and b = p_x / ‖y − x‖², the balance heuristic weighs A by a / (a + b) and B by
 //! b / (a + b). The weights of one path sum to 1, so the pair is unbiased for the iteration

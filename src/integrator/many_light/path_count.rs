@@ -117,7 +117,8 @@ impl Pilot {
             for _ in 0..PILOT_LIGHT_SAMPLES {
                 let u_select = sampler.next_f32();
                 let u = sampler.next_2d();
-                let es = if ctx.emitters.has_lights() {
+                // (A sphere's points by area: the pilot measures visibility, not variance.)
+                let es = if !ctx.emitters.is_plain() {
                     match ctx.emitters.choose(ctx.scene, u_select, u) {
                         Choice::Area(es) => es,
                         Choice::Light { index, u, .. } => {

@@ -44,6 +44,7 @@ use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
 use super::{Camera, DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
+use crate::light::SphereLight;
 use crate::material::shading_map::{BackSide, Perturbation, ShadingMap};
 use crate::material::{Bsdf, Material, Slot, Textured};
 use crate::texture::Texture;
@@ -102,15 +103,24 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         }
     }
     // The shapes' files are read in parallel, and added in the document's order.
-    let shapes: Vec<Result<(WorldMesh, Material), SceneError>> = {
+    let shapes: Vec<Result<Shape, SceneError>> = {
         use rayon::prelude::*;
         let b = &b;
         shape_elements.par_iter().map(|e| b.shape(e)).collect()
     };
+    // The emitting spheres' triangles, for next-event estimation by their cones.
+    let mut spheres = Vec::new();
     for shape in shapes {
-        let (mesh, material) = shape?;
+        let (mesh, material, sphere) = shape?;
         let material = b.material(material);
+        let start = b.geometry.indices.len() as u32;
         b.add(mesh, material);
+        let end = b.geometry.indices.len() as u32;
+        if let Some((center, radius)) = sphere
+            && end > start
+        {
+            spheres.push(SphereLight { center, radius, prims: start..end });
+        }
     }
     // Texture coordinates of the vertices after the last textured shape's.
     if !b.geometry.uvs.is_empty() {
@@ -126,8 +136,9 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     if !b.materials.iter().any(|m| m.is_emitter()) && lights.is_empty() {
         return Err(SceneError::NoEmitter { path: path.to_path_buf() });
     }
-    let mut scene =
-        Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?.with_lights(lights);
+    let mut scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?
+        .with_lights(lights)
+        .with_sphere_lights(spheres)?;
     scene.set_filter(b.filter);
     let mut warnings = b.warnings;
     let mut late = b.late_warnings.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -136,6 +147,10 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     warnings.extend(late);
     Ok((scene, warnings))
 }
+
+/// A shape as [`Builder::shape`] reads it: its triangles, its material, and for an emitting
+/// sphere the centre and radius of the exact sphere.
+type Shape = (WorldMesh, Material, Option<(Vec3, f32)>);
 
 /// Every element with an id, by id (a second element of the same id is an error).
 fn collect_ids<'a>(
@@ -528,8 +543,9 @@ impl<'a> Builder<'a> {
         Ok((width, height))
     }
 
-    /// A shape's world-space triangles and its material (shapes are read in parallel).
-    fn shape(&self, e: &'a Element) -> Result<(WorldMesh, Material), SceneError> {
+    /// A shape's world-space triangles and its material (shapes are read in parallel), and
+    /// for an emitting sphere the exact sphere they are inscribed in.
+    fn shape(&self, e: &'a Element) -> Result<Shape, SceneError> {
         let p = Params::new(e);
         let dir = e.file.parent().unwrap_or(Path::new("")).to_path_buf();
         let file = |p: &Params<'a>| -> Result<PathBuf, SceneError> {
@@ -596,6 +612,11 @@ impl<'a> Builder<'a> {
         let name =
             e.attr("id").or_else(|| bsdfs.first().and_then(|b| b.attr("id"))).unwrap_or("shape").to_string();
         let mut mesh = shapes::to_world(mesh, to_world, flip, kind);
+        let sphere = if e.type_name() == "sphere" && emission.max_element() > 0.0 {
+            shapes::exact_sphere(&mesh, to_world)
+        } else {
+            None
+        };
         // Texture coordinates are kept only where a texture reads them; a textured mesh
         // without them gets Mitsuba's barycentric ones (meshes are never analytic shapes, so
         // only `flip_normals` swaps their winding).
@@ -605,7 +626,7 @@ impl<'a> Builder<'a> {
             mesh = shapes::barycentric_uvs(mesh, flip);
         }
         let textures = textures.map(std::sync::Arc::new);
-        Ok((mesh, Material { name, bsdf, emission, two_sided, textures }))
+        Ok((mesh, Material { name, bsdf, emission, two_sided, textures }, sphere))
     }
 
     /// The index of `m` among the scene's materials (equal ones are stored once).

@@ -429,9 +429,58 @@ pub fn sphere_placement(shape: &Element, center: Vec3, radius: f32) -> Result<Ma
     Ok(Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)))
 }
 
+/// The exact sphere that a `sphere` shape's world-space triangles `mesh` are inscribed in, for
+/// next-event estimation by its cone ([`crate::light::SphereLight`]): centre and radius (the
+/// largest distance of a vertex from the centre, so that every triangle is inside). `None`
+/// where the shape is not a sphere with its front faces outwards: `to_world` (with the
+/// placement) not a similarity (an ellipsoid), or `flip_normals` (its light goes inwards,
+/// where area sampling serves).
+pub fn exact_sphere(mesh: &WorldMesh, to_world: Mat4) -> Option<(Vec3, f32)> {
+    let m = Mat3::from_mat4(to_world);
+    let center = to_world.transform_point3(Vec3::ZERO);
+    let radius = m.x_axis.length();
+    let similar = [m.y_axis, m.z_axis].iter().all(|a| (a.length() - radius).abs() <= 1e-5 * radius)
+        && [m.x_axis.dot(m.y_axis), m.y_axis.dot(m.z_axis), m.z_axis.dot(m.x_axis)]
+            .iter()
+            .all(|d| d.abs() <= 1e-5 * radius * radius);
+    if !(similar && radius > 0.0 && radius.is_finite() && center.is_finite()) {
+        return None;
+    }
+    let mut max_dist = radius;
+    for p in &mesh.positions {
+        let d = (*p - center).length();
+        if (d - radius).abs() > 1e-4 * radius {
+            return None;
+        }
+        max_dist = max_dist.max(d);
+    }
+    let outwards = mesh.triangles.iter().all(|t| {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        (b - a).cross(c - a).dot((a + b + c) / 3.0 - center) > 0.0
+    });
+    outwards.then_some((center, max_dist))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The exact sphere of a placed sphere: its centre and radius (up to the vertices'
+    /// rounding, never less); none for an ellipsoid or a sphere turned inside out.
+    #[test]
+    fn an_emitting_sphere_knows_its_exact_sphere() {
+        let placement =
+            Mat4::from_translation(Vec3::new(1.0, 2.0, -3.0)) * Mat4::from_scale(Vec3::splat(0.5));
+        let rotation = Mat4::from_rotation_y(0.7);
+        let mesh = to_world(sphere(), rotation * placement, false, Normals::Analytic);
+        let (c, r) = exact_sphere(&mesh, rotation * placement).unwrap();
+        assert!((c - rotation.transform_point3(Vec3::new(1.0, 2.0, -3.0))).length() < 1e-6, "{c}");
+        assert!((0.5..0.5 * (1.0 + 1e-6)).contains(&r), "{r}");
+        let flipped = to_world(sphere(), placement, true, Normals::Analytic);
+        assert!(exact_sphere(&flipped, placement).is_none());
+        let ellipsoid = Mat4::from_scale(Vec3::new(1.0, 2.0, 1.0));
+        assert!(exact_sphere(&to_world(sphere(), ellipsoid, false, Normals::Analytic), ellipsoid).is_none());
+    }
 
     fn area(m: &WorldMesh) -> f32 {
         m.triangles
