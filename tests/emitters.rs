@@ -1,5 +1,6 @@
-//! Emitters other than area lights, end to end: tiny Mitsuba 3 scenes of `tests/data/emitters/`
-//! (a diffuse floor and cube lit by a point, spot, directional, constant or envmap emitter)
+//! Emitters other than area lights, and area lights of textured radiance, end to end: tiny
+//! Mitsuba 3 scenes of `tests/data/emitters/` (a diffuse floor and cube lit by a point, spot,
+//! directional, constant or envmap emitter, or by textured area emitters)
 //! rendered by `pt`, `pir-clamp`, `pir-vsl`, `pir-mis` and `pir-bdpt` match Mitsuba 3's image
 //! means within 1 % per channel.
 
@@ -15,10 +16,11 @@ fn mean(path: &Path) -> glam::DVec3 {
     glam::DVec3::from(pir::image::read_exr(path).unwrap().0.mean())
 }
 
-const KINDS: [&str; 5] = ["point", "spot", "directional", "constant", "envmap"];
+/// One scene per kind, and area emitters whose radiance is a texture (`textured-area`).
+const KINDS: [&str; 6] = ["point", "spot", "directional", "constant", "envmap", "textured-area"];
 
 /// The scenes with Mitsuba references: one per kind, and the envmap's map as Radiance HDR.
-const SCENES: [&str; 6] = ["point", "spot", "directional", "constant", "envmap", "envmap-hdr"];
+const SCENES: [&str; 7] = ["point", "spot", "directional", "constant", "envmap", "envmap-hdr", "textured-area"];
 
 /// `pt` at 256 spp and the consistent VPL methods at 1,024 (their bias fades) against
 /// Mitsuba 3's 16,384 spp (`tests/data/emitters/refs.py`).

@@ -178,7 +178,7 @@ fn sample_cone(
         return Vec3::ZERO;
     }
     let e = ctx.scene.surface_of_hit(&hit, ray.dir);
-    let le = e.emitted(ctx.scene.material(e.material).emission, -wi);
+    let le = e.emitted(ctx.scene.material(e.material).emission_at(e.uv), -wi);
     let cos_light = e.ng.dot(-wi);
     let dist2 = (e.p - sp.p).length_squared();
     if le == Vec3::ZERO || cos_light <= 0.0 || dist2.is_nan() || dist2 <= 0.0 {
@@ -317,7 +317,7 @@ pub fn emission_weighted(
     how: &Sampled,
     weight: impl FnOnce(LightSample) -> f32,
 ) -> Vec3 {
-    let le = sp.emitted(material.emission, wo);
+    let le = sp.emitted(material.emission_at(sp.uv), wo);
     if le == Vec3::ZERO || how.delta {
         return le;
     }

@@ -259,10 +259,11 @@ impl Emitters {
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
         let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
         let prim = self.prims[i];
-        let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(to_unit_f32(rest), u.y)));
+        let b = uniform_triangle(Vec2::new(to_unit_f32(rest), u.y));
+        let (p, ng) = scene.point_at(prim, b);
         EmitterSample {
             point: EmitterPoint { p, ng, prim },
-            radiance: scene.material_of(prim).emission,
+            radiance: scene.emission_at(prim, b),
             pdf_area: self.pdf_area[prim as usize],
         }
     }
@@ -297,10 +298,11 @@ impl Emitters {
     #[inline]
     fn choice(&self, scene: &Scene, i: usize, rest: f64, u: Vec2) -> Choice {
         let area = |prim: u32, rest: f64| {
-            let (p, ng) = scene.point_at(prim, uniform_triangle(Vec2::new(to_unit_f32(rest), u.y)));
+            let b = uniform_triangle(Vec2::new(to_unit_f32(rest), u.y));
+            let (p, ng) = scene.point_at(prim, b);
             Choice::Area(EmitterSample {
                 point: EmitterPoint { p, ng, prim },
-                radiance: scene.material_of(prim).emission,
+                radiance: scene.emission_at(prim, b),
                 pdf_area: self.pdf_area[prim as usize],
             })
         };

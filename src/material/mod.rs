@@ -135,6 +135,17 @@ impl Material {
         self.emission.max_element() > 0.0
     }
 
+    /// The radiance the front face emits at texture coordinates `uv`: `emission` itself, or
+    /// where a texture sets it ([`Slot::Emission`], `emission` then holding its mean, which
+    /// chooses among the emitters by power), the texture's value there.
+    #[inline]
+    pub fn emission_at(&self, uv: Vec2) -> Vec3 {
+        match self.textures.as_deref().and_then(|t| t.get(Slot::Emission)) {
+            None => self.emission,
+            Some(texture) => texture.eval(uv),
+        }
+    }
+
     /// The BSDF at texture coordinates `uv` ([`crate::scene::SurfacePoint::uv`]): `bsdf` itself
     /// for an untextured material, else `bsdf` with each textured slot set to its texture's
     /// value there.

@@ -23,6 +23,9 @@ pub enum Slot {
     /// A rough conductor's α (a number), or the roughness of the glossy lobe pir reads a
     /// GGX conductor of index "none" as.
     Alpha,
+    /// The radiance an emitter's front face emits (Mitsuba's area emitter's `radiance`): not a
+    /// field of the BSDF, read by [`super::Material::emission_at`].
+    Emission,
 }
 
 impl Slot {
@@ -32,6 +35,7 @@ impl Slot {
             Slot::Specular => "specular",
             Slot::Opacity => "opacity",
             Slot::Alpha => "alpha",
+            Slot::Emission => "emission",
         }
     }
 
@@ -55,10 +59,16 @@ impl Textured {
         Textured { slots, map: None }
     }
 
+    /// The texture of `slot`, if one sets it.
+    #[inline]
+    pub fn get(&self, slot: Slot) -> Option<&Texture> {
+        self.slots.iter().find(|(s, _)| *s == slot).map(|(_, t)| t)
+    }
+
     /// `bsdf` with every slot set to its texture's value at `uv`.
     #[inline]
     pub fn apply(&self, mut bsdf: Bsdf, uv: Vec2) -> Bsdf {
-        for (slot, texture) in &self.slots {
+        for (slot, texture) in self.slots.iter().filter(|(s, _)| *s != Slot::Emission) {
             let value = if slot.is_number() { Vec3::splat(texture.eval_1(uv)) } else { texture.eval(uv) };
             bsdf = bsdf.with_slot(*slot, value);
         }
@@ -68,7 +78,7 @@ impl Textured {
     /// `bsdf` with every slot set to its texture's mean (a number slot: the mean's luminance,
     /// which is the mean luminance).
     pub fn apply_mean(&self, mut bsdf: Bsdf) -> Bsdf {
-        for (slot, texture) in &self.slots {
+        for (slot, texture) in self.slots.iter().filter(|(s, _)| *s != Slot::Emission) {
             let mean = texture.mean();
             let value = if slot.is_number() && !(mean.x == mean.y && mean.y == mean.z) {
                 Vec3::splat(crate::texture::luminance(mean))

@@ -405,12 +405,7 @@ impl Scene {
         let p = a * w + b * uv.x + c * uv.y;
         let ng = t.flat.n;
         let mut frame = t.flat;
-        let mut tex = uv;
-        if t.textured {
-            let [ia, ib, ic] = self.indices[prim as usize];
-            let (ta, tb, tc) = (self.uvs[ia as usize], self.uvs[ib as usize], self.uvs[ic as usize]);
-            tex = ta * w + tb * uv.x + tc * uv.y;
-        }
+        let tex = self.texture_coordinates(prim, uv);
         if t.smooth {
             let [ia, ib, ic] = self.indices[prim as usize];
             let (na, nb, nc) =
@@ -421,6 +416,29 @@ impl Scene {
             }
         }
         SurfacePoint { p, ng, frame, prim, material: t.material, uv: tex, back: false }
+    }
+
+    /// The texture coordinates at barycentrics `(u, v)` of triangle `prim`: its vertices'
+    /// interpolated where the triangle has some, else the barycentrics themselves.
+    #[inline(always)]
+    fn texture_coordinates(&self, prim: u32, uv: Vec2) -> Vec2 {
+        if !self.shading[prim as usize].textured {
+            return uv;
+        }
+        let [ia, ib, ic] = self.indices[prim as usize];
+        let (ta, tb, tc) = (self.uvs[ia as usize], self.uvs[ib as usize], self.uvs[ic as usize]);
+        ta * (1.0 - uv.x - uv.y) + tb * uv.x + tc * uv.y
+    }
+
+    /// The radiance emitted by the front face of triangle `prim` at barycentrics `(u, v)`
+    /// ([`Material::emission_at`]).
+    #[inline]
+    pub fn emission_at(&self, prim: u32, uv: Vec2) -> Vec3 {
+        let m = self.material_of(prim);
+        match m.textures {
+            None => m.emission,
+            Some(_) => m.emission_at(self.texture_coordinates(prim, uv)),
+        }
     }
 
     /// The surface point of the hit of a ray of direction `dir`; the position is recomputed

@@ -604,9 +604,13 @@ impl<'a> Builder<'a> {
             [b] => self.bsdf(b)?,
             _ => return Err(e.error("more than one bsdf")),
         };
-        let emission = match emitters.as_slice() {
-            [] => Vec3::ZERO,
-            [em] => self.area_emitter(em)?,
+        let (emission, textures) = match emitters.as_slice() {
+            [] => (Vec3::ZERO, textures),
+            [em] => match self.area_emitter(em)? {
+                (radiance, None) => (radiance, textures),
+                // A textured radiance: one more slot, read by `Material::emission_at`.
+                (mean, Some(t)) => (mean, merge(textures, Some(Textured::new(vec![(Slot::Emission, t)])))),
+            },
             _ => return Err(e.error("more than one emitter")),
         };
         let name =
@@ -875,7 +879,8 @@ impl<'a> Builder<'a> {
     }
 
     /// An area emitter's radiance.
-    fn area_emitter(&self, e: &'a Element) -> Result<Vec3, SceneError> {
+    /// (A colour, or a texture's mean with the texture: Mitsuba accepts any texture there.)
+    fn area_emitter(&self, e: &'a Element) -> Result<(Vec3, Option<Texture>), SceneError> {
         let p = Params::new(e);
         if e.type_name() != "area" {
             return Err(e.error(format!(
@@ -883,12 +888,20 @@ impl<'a> Builder<'a> {
                 e.type_name()
             )));
         }
-        let radiance = p.colour("radiance")?.ok_or_else(|| e.error("needs a radiance"))?;
-        if radiance.min_element() < 0.0 {
-            return Err(e.error(format!("radiance {radiance}: must not be negative")));
-        }
+        let texture = p.texture(self, "radiance")?.ok_or_else(|| e.error("needs a radiance"))?;
         p.finish(self)?;
-        Ok(radiance)
+        match texture {
+            Texture::Constant(radiance) if radiance.min_element() < 0.0 => {
+                Err(e.error(format!("radiance {radiance}: must not be negative")))
+            }
+            Texture::Constant(radiance) => Ok((radiance, None)),
+            t => match t.range() {
+                (lo, hi) if lo < 0.0 || !lo.is_finite() || !hi.is_finite() => Err(e.error(format!(
+                    "radiance: the texture's values span {lo} to {hi}; they must be finite and not negative"
+                ))),
+                _ => Ok((t.mean(), Some(t))),
+            },
+        }
     }
 }
 

@@ -11,7 +11,7 @@ import numpy as np
 
 mi.set_variant("llvm_ad_rgb")
 HERE = os.path.dirname(os.path.abspath(__file__))
-NAMES = sys.argv[1:] or ["point", "spot", "directional", "constant", "envmap", "envmap-hdr"]
+NAMES = sys.argv[1:] or ["point", "spot", "directional", "constant", "envmap", "envmap-hdr", "textured-area"]
 for name in NAMES:
     scene = mi.load_file(os.path.join(HERE, name + ".xml"))
     img = sum(np.array(mi.render(scene, spp=4096, seed=k), dtype=np.float64) for k in range(4)) / 4
