@@ -20,7 +20,8 @@ fn mean(path: &Path) -> glam::DVec3 {
 const KINDS: [&str; 6] = ["point", "spot", "directional", "constant", "envmap", "textured-area"];
 
 /// The scenes with Mitsuba references: one per kind, and the envmap's map as Radiance HDR.
-const SCENES: [&str; 7] = ["point", "spot", "directional", "constant", "envmap", "envmap-hdr", "textured-area"];
+const SCENES: [&str; 7] =
+    ["point", "spot", "directional", "constant", "envmap", "envmap-hdr", "textured-area"];
 
 /// `pt` at 256 spp and the consistent VPL methods at 1,024 (their bias fades) against
 /// Mitsuba 3's 16,384 spp (`tests/data/emitters/refs.py`).

@@ -1094,3 +1094,47 @@ fn rr_depth_moves_the_roulette_and_keeps_the_image() {
     let err = load(&write(dir.path(), "rr0.xml", &with("0")), &[]).unwrap_err();
     assert!(err.contains("rr0.xml") && err.contains("rr_depth 0") && err.lines().count() == 1, "{err}");
 }
+
+/// Mitsuba's `direct` integrator is the path integrator's image at `max_depth` 2: the same
+/// scene model, so the same image bit for bit; an index-matched `dielectric` (`int_ior` =
+/// `ext_ior`) is an interface light crosses unchanged (pir's glass of index 1), as Mitsuba
+/// renders it, where a coating of equal indices is still refused.
+#[test]
+fn the_direct_integrator_and_index_matched_dielectrics() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("tests/data/mitsuba-materials.xml")).unwrap();
+    let path = r#"<integrator type="path"><integer name="max_depth" value="8"/></integrator>"#;
+    assert!(text.contains(path));
+    let dir = tempfile::tempdir().unwrap();
+    let direct = write(
+        dir.path(),
+        "direct.xml",
+        &text.replace(
+            path,
+            r#"<integrator type="direct"><integer name="emitter_samples" value="2"/></integrator>"#,
+        ),
+    );
+    let two = write(
+        dir.path(),
+        "two.xml",
+        &text.replace(path, r#"<integrator type="path"><integer name="max_depth" value="2"/></integrator>"#),
+    );
+    let (d, _) = load(&direct, &[]).unwrap();
+    assert_eq!(d.defaults().max_depth, 2);
+    assert_eq!(d.fingerprint(), load(&two, &[]).unwrap().0.fingerprint());
+    let a = common::binary::render(&direct, &["--spp", "4"], &dir.path().join("d.exr"), dir.path(), "direct");
+    let b = common::binary::render(&two, &["--spp", "4"], &dir.path().join("t.exr"), dir.path(), "path 2");
+    assert_eq!(a.pixels, b.pixels);
+
+    let with = |bsdf: &str| scene(&format!(r#"<shape type="cube">{bsdf}</shape>"#));
+    let matched = r#"<bsdf type="dielectric"><float name="int_ior" value="1.33"/><float name="ext_ior" value="1.33"/></bsdf>"#;
+    let (s, _) = load(&write(dir.path(), "m.xml", &with(matched)), &[]).unwrap();
+    assert!(s.materials().iter().any(|m| m.bsdf == pir::material::Bsdf::Glass { ior: 1.0 }));
+    let thin = matched.replace("dielectric", "thindielectric");
+    let (s, _) = load(&write(dir.path(), "t.xml", &with(&thin)), &[]).unwrap();
+    assert!(
+        s.materials()
+            .iter()
+            .any(|m| matches!(m.bsdf, pir::material::Bsdf::ThinDielectric { ior, .. } if ior == 1.0))
+    );
+}

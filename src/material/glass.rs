@@ -52,3 +52,26 @@ pub fn sample(n: Vec3, ior: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> 
     };
     Some(GlassSample { wi, weight, prob: t, eta: f.eta_it })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An interface between equal indices (Mitsuba's `dielectric` with `int_ior` = `ext_ior`)
+    /// never reflects and lets every direction through unchanged, with weight 1, from either
+    /// side and in both transport modes.
+    #[test]
+    fn an_index_matched_interface_is_crossed_unchanged() {
+        let n = Vec3::Z;
+        for wo in [Vec3::new(0.3, -0.2, 0.9), Vec3::new(-0.6, 0.1, -0.4), Vec3::new(0.99, 0.0, 0.05)] {
+            let wo = wo.normalize();
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                for u in [0.0, 0.5, 0.999] {
+                    let s = sample(n, 1.0, wo, u, mode).unwrap();
+                    assert!((s.wi + wo).length() < 1e-6, "{wo} -> {}", s.wi);
+                    assert_eq!((s.weight, s.prob, s.eta), (1.0, 1.0, 1.0));
+                }
+            }
+        }
+    }
+}

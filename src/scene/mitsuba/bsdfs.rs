@@ -85,14 +85,24 @@ pub(super) fn rough_conductor(e: &Element, p: &Params) -> Result<Bsdf, SceneErro
     })
 }
 
-/// The relative index `int_ior / ext_ior` of a dielectric coating or interface.
+/// The relative index `int_ior / ext_ior` of a dielectric coating; the same indices are
+/// refused (a coating that is no coating).
 fn relative_ior(e: &Element, p: &Params, int_default: f32) -> Result<f32, SceneError> {
+    let eta = interface_ior(p, int_default)?;
+    if eta == 1.0 {
+        return Err(e.error("int_ior and ext_ior are the same: they must differ"));
+    }
+    Ok(eta)
+}
+
+/// The relative index `int_ior / ext_ior` of a smooth dielectric interface. The same index on
+/// both sides is an interface that light crosses unchanged and never reflects (Mitsuba
+/// renders it so, counting it as a vertex of the path), which is what the smooth dielectrics
+/// do at η = 1 (Fresnel reflectance 0).
+fn interface_ior(p: &Params, int_default: f32) -> Result<f32, SceneError> {
     let int = ior(p, "int_ior", int_default)?;
     let ext = ior(p, "ext_ior", 1.000277)?;
-    if int == ext {
-        return Err(e.error(format!("int_ior and ext_ior are both {int}: they must differ")));
-    }
-    Ok(int / ext)
+    Ok(if int == ext { 1.0 } else { int / ext })
 }
 
 /// `plastic` and `roughplastic` (Mitsuba's polypropylene, 1.49, inside) of the (checked)
@@ -112,8 +122,8 @@ pub(super) fn plastic(e: &Element, p: &Params, diffuse: Vec3, rough: bool) -> Re
 }
 
 /// `dielectric` (BK7 inside, 1.5046): pir's glass when it reflects and transmits in full.
-pub(super) fn dielectric(e: &Element, p: &Params) -> Result<Bsdf, SceneError> {
-    let ior = relative_ior(e, p, 1.5046)?;
+pub(super) fn dielectric(p: &Params) -> Result<Bsdf, SceneError> {
+    let ior = interface_ior(p, 1.5046)?;
     let reflectance = checked(p, "specular_reflectance", Vec3::ONE)?;
     let transmittance = checked(p, "specular_transmittance", Vec3::ONE)?;
     Ok(if reflectance == Vec3::ONE && transmittance == Vec3::ONE {
@@ -124,8 +134,8 @@ pub(super) fn dielectric(e: &Element, p: &Params) -> Result<Bsdf, SceneError> {
 }
 
 /// `thindielectric`.
-pub(super) fn thin_dielectric(e: &Element, p: &Params) -> Result<Bsdf, SceneError> {
-    let ior = relative_ior(e, p, 1.5046)?;
+pub(super) fn thin_dielectric(p: &Params) -> Result<Bsdf, SceneError> {
+    let ior = interface_ior(p, 1.5046)?;
     let reflectance = checked(p, "specular_reflectance", Vec3::ONE)?;
     let transmittance = checked(p, "specular_transmittance", Vec3::ONE)?;
     Ok(Bsdf::ThinDielectric { ior, reflectance, transmittance })

@@ -410,12 +410,25 @@ impl<'a> Builder<'a> {
     /// The integrator's `max_depth` and `rr_depth`.
     fn integrator(&mut self, e: &'a Element) -> Result<(u32, u32), SceneError> {
         let p = Params::new(e);
-        if !matches!(e.type_name(), "path" | "volpath") {
-            return Err(e.error(format!(
-                "integrator type \"{}\" is not supported: pir renders Mitsuba's path integrator (path, volpath \
-                 without media) with any of its methods (--method)",
-                e.type_name()
-            )));
+        match e.type_name() {
+            "path" | "volpath" => {}
+            // Direct light: the emitters seen and their light reflected once, which is the
+            // path integrator's image at max_depth 2 (its sample counts of the emitters and
+            // of the BSDF change the noise, not the image).
+            "direct" => {
+                p.ignore(&["emitter_samples", "bsdf_samples", "shading_samples"]);
+                if p.boolean("hide_emitters")? == Some(true) {
+                    return Err(e.error("hide_emitters: pir always shows the emitters a camera ray hits"));
+                }
+                p.finish(self)?;
+                return Ok((2, DEFAULT_RR_DEPTH));
+            }
+            other => {
+                return Err(e.error(format!(
+                    "integrator type \"{other}\" is not supported: pir renders Mitsuba's path integrator (path, \
+                     volpath without media) and direct (as path with max_depth 2), with any of its methods (--method)"
+                )));
+            }
         }
         let max_depth = match p.integer("max_depth")? {
             None | Some(-1) => MAX_DEPTH,
@@ -700,11 +713,11 @@ impl<'a> Builder<'a> {
             }
             "dielectric" => {
                 let slots = self.textured_slots(&p, &[SPECULAR])?;
-                (bsdfs::dielectric(e, &p)?, false, slots)
+                (bsdfs::dielectric(&p)?, false, slots)
             }
             "thindielectric" => {
                 let slots = self.textured_slots(&p, &[SPECULAR])?;
-                (bsdfs::thin_dielectric(e, &p)?, false, slots)
+                (bsdfs::thin_dielectric(&p)?, false, slots)
             }
             "roughdielectric" => {
                 let (bsdf, warning) = bsdfs::rough_dielectric(e, &p)?;
