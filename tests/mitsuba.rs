@@ -1138,3 +1138,47 @@ fn the_direct_integrator_and_index_matched_dielectrics() {
             .any(|m| matches!(m.bsdf, pir::material::Bsdf::ThinDielectric { ior, .. } if ior == 1.0))
     );
 }
+
+/// Instancing: a `shapegroup` drawn by two `instance`s gives the same triangles as its shapes
+/// written out with the instances' transforms after their own, and is drawn nowhere by itself;
+/// an instance of something that is not a group, and a group inside a group, are refused.
+#[test]
+fn instances_copy_their_shapegroup() {
+    let dir = tempfile::tempdir().unwrap();
+    let group = r#"<shape type="shapegroup" id="g">
+        <shape type="cube"><transform name="to_world"><scale value="0.2"/></transform><ref id="white"/></shape>
+        <shape type="rectangle"><transform name="to_world"><translate z="0.5"/></transform><ref id="white"/></shape>
+    </shape>"#;
+    let place = |t: &str| {
+        format!(r#"<transform name="to_world"><rotate y="1" angle="30"/><translate x="{t}"/></transform>"#)
+    };
+    let instanced = format!(
+        r#"{group}<shape type="instance"><ref id="g"/>{}</shape><shape type="instance"><ref id="g"/>{}</shape>"#,
+        place("1"),
+        place("-1")
+    );
+    let flat = |t: &str| {
+        format!(
+            r#"<shape type="cube"><transform name="to_world"><scale value="0.2"/><rotate y="1" angle="30"/><translate x="{t}"/></transform><ref id="white"/></shape>
+            <shape type="rectangle"><transform name="to_world"><translate z="0.5"/><rotate y="1" angle="30"/><translate x="{t}"/></transform><ref id="white"/></shape>"#
+        )
+    };
+    let (a, _) = load(&write(dir.path(), "i.xml", &scene(&instanced)), &[]).unwrap();
+    let (b, _) = load(&write(dir.path(), "f.xml", &scene(&(flat("1") + &flat("-1")))), &[]).unwrap();
+    let (none, _) = load(&write(dir.path(), "n.xml", &scene(group)), &[]).unwrap();
+    assert_eq!(a.triangle_count(), b.triangle_count());
+    assert_eq!(none.triangle_count() + 2 * (12 + 2), a.triangle_count());
+    assert_eq!(a.indices(), b.indices());
+    for (p, q) in a.positions().iter().zip(b.positions().iter()) {
+        assert!((p - q).length() < 1e-5, "{p} against {q}");
+    }
+    let bad = scene(r#"<shape type="cube" id="c"/><shape type="instance"><ref id="c"/></shape>"#);
+    let e = load(&write(dir.path(), "b.xml", &bad), &[]).unwrap_err();
+    assert!(e.contains("b.xml") && e.contains("line") && e.contains("one shapegroup"), "{e}");
+    let nested = scene(
+        r#"<shape type="shapegroup" id="h"><shape type="shapegroup" id="k"><shape type="cube"/></shape></shape>
+        <shape type="instance"><ref id="h"/></shape>"#,
+    );
+    let e = load(&write(dir.path(), "n2.xml", &nested), &[]).unwrap_err();
+    assert!(e.contains("n2.xml") && e.contains("plain shapes"), "{e}");
+}

@@ -95,7 +95,12 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
                 }
                 camera = Some(b.sensor(e)?);
             }
-            "shape" => shape_elements.push(e),
+            "shape" => match e.type_name() {
+                // Shapes drawn where an instance places them (Mitsuba's instancing), copied.
+                "shapegroup" => {}
+                "instance" => shape_elements.extend(b.instance(e)?),
+                _ => shape_elements.push((e, Mat4::IDENTITY)),
+            },
             // Definitions, instantiated where a shape refers to them.
             "bsdf" | "texture" if e.attr("id").is_some() => {}
             "emitter" => lights.push(b.light(e)?),
@@ -106,7 +111,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let shapes: Vec<Result<Shape, SceneError>> = {
         use rayon::prelude::*;
         let b = &b;
-        shape_elements.par_iter().map(|e| b.shape(e)).collect()
+        shape_elements.par_iter().map(|&(e, outer)| b.shape(e, outer)).collect()
     };
     // The emitting spheres' triangles, for next-event estimation by their cones.
     let mut spheres = Vec::new();
@@ -556,9 +561,31 @@ impl<'a> Builder<'a> {
         Ok((width, height))
     }
 
+    /// An `instance`: the shapes of the `shapegroup` it refers to, each with the instance's
+    /// `to_world` to apply after its own (pir copies them: an instance costs what its shapes
+    /// cost). Mitsuba's groups hold shapes only, and no group or instance inside.
+    fn instance(&self, e: &'a Element) -> Result<Vec<(&'a Element, Mat4)>, SceneError> {
+        let p = Params::new(e);
+        let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let groups = p.plugins(self, "shape")?;
+        p.finish(self)?;
+        let group = match groups.as_slice() {
+            [g] if g.type_name() == "shapegroup" => *g,
+            _ => return Err(e.error("an instance must refer to one shapegroup (<ref id=\"…\"/>)")),
+        };
+        let g = Params::new(group);
+        let shapes = g.plugins(self, "shape")?;
+        g.finish(self)?;
+        if let Some(s) = shapes.iter().find(|s| matches!(s.type_name(), "shapegroup" | "instance")) {
+            return Err(s.error("a shapegroup holds plain shapes, not groups or instances"));
+        }
+        Ok(shapes.into_iter().map(|s| (s, to_world)).collect())
+    }
+
     /// A shape's world-space triangles and its material (shapes are read in parallel), and
-    /// for an emitting sphere the exact sphere they are inscribed in.
-    fn shape(&self, e: &'a Element) -> Result<Shape, SceneError> {
+    /// for an emitting sphere the exact sphere they are inscribed in; `outer` is the transform
+    /// of the instance that places it (the identity for a shape of the scene).
+    fn shape(&self, e: &'a Element, outer: Mat4) -> Result<Shape, SceneError> {
         let p = Params::new(e);
         let dir = e.file.parent().unwrap_or(Path::new("")).to_path_buf();
         let file = |p: &Params<'a>| -> Result<PathBuf, SceneError> {
@@ -596,7 +623,7 @@ impl<'a> Builder<'a> {
             }
             other => {
                 return Err(e.error(format!(
-                    "shape type \"{other}\" is not supported: pir reads obj, ply, serialized, rectangle, cube, disk and sphere"
+                    "shape type \"{other}\" is not supported: pir reads obj, ply, serialized, rectangle, cube, disk, sphere, shapegroup and instance"
                 )));
             }
         };
@@ -605,7 +632,7 @@ impl<'a> Builder<'a> {
             mesh.face_normals = true;
         }
         let flip = p.boolean("flip_normals")?.unwrap_or(false);
-        let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY) * placement;
+        let to_world = outer * p.transform("to_world")?.unwrap_or(Mat4::IDENTITY) * placement;
         let bsdfs = p.plugins(self, "bsdf")?;
         let emitters = p.plugins(self, "emitter")?;
         p.finish(self)?;
