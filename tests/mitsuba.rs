@@ -421,6 +421,23 @@ fn thin_lens_converts_and_is_in_the_fingerprint() {
     ] {
         assert_ne!(fingerprint(changes), a.fingerprint(), "{changes:?}");
     }
+    // A perspective camera's principal point offset likewise.
+    let offset = scene("").replace(
+        r#"<float name="fov" value="40"/>"#,
+        r#"<float name="fov" value="40"/><float name="principal_point_offset_x" value="0.125"/>"#,
+    );
+    let source = write(dir.path(), "offset.xml", &offset);
+    let o = common::binary::pir(
+        &["convert", source.to_str().unwrap(), "--to", xml.to_str().unwrap()],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", common::binary::stderr(&o));
+    let (a, _) = load(&source, &[]).unwrap();
+    let (b, _) = load(&xml, &[]).unwrap();
+    assert_eq!(a.camera().principal_point_offset, glam::Vec2::new(0.125, 0.0));
+    assert_eq!(a.camera().principal_point_offset, b.camera().principal_point_offset);
+    let plain = write(dir.path(), "plain.xml", &scene(""));
+    assert_ne!(a.fingerprint(), load(&plain, &[]).unwrap().0.fingerprint());
 }
 
 /// A deterministic xorshift generator for the mutation tests.

@@ -25,6 +25,11 @@ pub struct Camera {
     pub far_clip: f32,
     /// The thin lens at the eye, or `None` for a pinhole.
     pub lens: Option<ThinLens>,
+    /// Mitsuba's principal point offset (`principal_point_offset_x`, `_y` of a `perspective`
+    /// camera): the film position of every ray is shifted by this fraction of the image's
+    /// width and height (x to the right, y down), which moves the optical axis off the
+    /// image's centre. Zero for none.
+    pub principal_point_offset: Vec2,
 }
 
 /// Mitsuba 3's thin lens (`thinlens`): rays leave a uniformly sampled point of a disk of
@@ -61,6 +66,7 @@ impl Camera {
             near_clip: 0.0,
             far_clip: f32::INFINITY,
             lens: None,
+            principal_point_offset: Vec2::ZERO,
         }
     }
 
@@ -94,6 +100,7 @@ impl Camera {
             near_clip: self.near_clip,
             far_clip: self.far_clip,
             lens: self.lens,
+            shift: self.principal_point_offset * Vec2::new(self.width as f32, self.height as f32),
         }
     }
 }
@@ -113,6 +120,8 @@ pub struct CameraRays {
     near_clip: f32,
     far_clip: f32,
     lens: Option<ThinLens>,
+    /// The principal point offset in pixels (zero, which changes no position, for none).
+    shift: Vec2,
 }
 
 impl CameraRays {
@@ -124,8 +133,8 @@ impl CameraRays {
         self.lens.is_some()
     }
 
-    /// The ray through the image-plane position `film` (see [`Camera::generate_ray`]) from the
-    /// lens point of the uniform `aperture` sample in `[0, 1)²` (a pinhole ignores it), as
+    /// The ray through the image-plane position `film` (see [`Camera::generate_ray`]; shifted
+    /// by the principal point offset) from the lens point of the uniform `aperture` sample in `[0, 1)²` (a pinhole ignores it), as
     /// Mitsuba 3's `thinlens` samples it: the sample mapped to the disk by the concentric
     /// map (Mitsuba's `square_to_uniform_disk_concentric`), its x to the camera's left and
     /// its y up (Mitsuba's camera space), the direction towards the focus plane's point of
@@ -135,6 +144,7 @@ impl CameraRays {
     /// on the lens, which sees the same surfaces).
     #[inline]
     pub fn generate_ray(&self, film: Vec2, aperture: Vec2) -> Ray {
+        let film = film + self.shift;
         let sx = (2.0 * film.x / self.width - 1.0) * self.tan_half * self.aspect;
         let sy = (1.0 - 2.0 * film.y / self.height) * self.tan_half;
         // The pinhole's direction, of unit length along the view axis.

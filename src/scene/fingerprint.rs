@@ -1,6 +1,6 @@
 //! A fingerprint of a loaded scene's contents, so that a render is only resumed or merged
 //! with renders of the same scene. It hashes what the image depends on (geometry, normals,
-//! materials, camera placement, clip planes and lens, lights), not the file names or the
+//! materials, camera placement, clip planes, lens and principal point, lights), not the file names or the
 //! resolution (which is part of the render job and checked separately).
 
 use super::Scene;
@@ -73,6 +73,10 @@ impl Scene {
         if let Some(lens) = c.lens {
             h.bytes(b"thin lens");
             h.f32s(&[lens.aperture_radius, lens.focus_distance]);
+        }
+        if c.principal_point_offset != glam::Vec2::ZERO {
+            h.bytes(b"principal point offset");
+            h.f32s(&c.principal_point_offset.to_array());
         }
         // Only scenes with other lights hash them, so that the others keep their fingerprints.
         for light in &self.lights {

@@ -19,3 +19,7 @@ for (w, h) in [(64, 48), (48, 64), (50, 50)]:
     for kw in [dict(fov=40), dict(fov=40, fov_axis='y'), dict(fov=40, fov_axis='diagonal'), dict(fov=40, fov_axis='smaller'), dict(fov=40, fov_axis='larger'), dict(focal_length='35mm'), dict()]:
         x = mi.traverse(sensor('perspective', w, h, **kw))['x_fov']
         print('xfov', w, h, kw, repr(float(x[0] if hasattr(x, '__len__') else x)))
+p = sensor('perspective', 64, 48, fov=40, principal_point_offset_x=0.1, principal_point_offset_y=-0.05)
+for pos in [(0.3, 0.7), (0.95, 0.05)]:
+    ray, _ = p.sample_ray(0.0, 0.5, mi.Point2f(pos), mi.Point2f(0.5, 0.5))
+    print('ppo', pos, list(ray.o), list(ray.d), ray.maxt)

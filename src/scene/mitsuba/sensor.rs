@@ -5,6 +5,8 @@
 //! - the field of view: `fov` in degrees along `fov_axis` (`x`, the default, `y`, `diagonal`,
 //!   `smaller`, `larger`, in any case), or else `focal_length` (a string, `"50mm"` by
 //!   default: the diagonal field of view of a 36 × 24 mm film), never both;
+//! - `perspective`: `principal_point_offset_x` and `_y`, fractions of the film's size by
+//!   which every film position is shifted;
 //! - `near_clip` (0.01) and `far_clip` (10⁴): camera rays see the surfaces between the two
 //!   planes orthogonal to the view axis;
 //! - `to_world` without scale or shear (Mitsuba refuses both), nor a mirror (pir's right is
@@ -13,10 +15,9 @@
 //!   one float ε renders) and `focus_distance` (default `far_clip`), positive.
 //!
 //! `shutter_open` and `shutter_close` change nothing (pir's scenes do not move), nor does a
-//! `perspective` camera's `focus_distance`; `principal_point_offset_x`/`_y` and the film's crop
-//! window are refused.
+//! `perspective` camera's `focus_distance`; the film's crop window is refused.
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 use super::{Builder, Params};
 use crate::scene::{Camera, SceneError, ThinLens};
@@ -65,6 +66,15 @@ impl<'a> Builder<'a> {
         } else {
             None
         };
+        // (A thin lens has none: Mitsuba refuses the parameters there, as `finish` does.)
+        let principal_point_offset = if thin_lens {
+            Vec2::ZERO
+        } else {
+            Vec2::new(
+                p.float("principal_point_offset_x")?.unwrap_or(0.0),
+                p.float("principal_point_offset_y")?.unwrap_or(0.0),
+            )
+        };
         p.ignore(&["shutter_open", "shutter_close"]);
         p.plugins(self, "sampler")?;
         p.finish(self)?;
@@ -105,6 +115,7 @@ impl<'a> Builder<'a> {
             near_clip,
             far_clip,
             lens,
+            principal_point_offset,
         })
     }
 }
@@ -258,6 +269,23 @@ mod tests {
         }
     }
 
+    /// `perspective`'s principal point offset as Mitsuba's: the rays of shifted film positions.
+    #[test]
+    fn principal_point_offsets_are_mitsubas() {
+        let params = r#"<float name="fov" value="40"/><float name="principal_point_offset_x" value="0.1"/>
+            <float name="principal_point_offset_y" value="-0.05"/>"#;
+        let c = camera("perspective", params, 64, 48).unwrap();
+        assert_eq!(c.principal_point_offset, Vec2::new(0.1, -0.05));
+        #[rustfmt::skip]
+        let cases = [
+            ([0.3, 0.7], [0.99821526, 1.9982711, 2.9902518], [-0.17741005, -0.17185748, -0.96901536], 10059.839),
+            ([0.95, 0.05], [1.0032215, 2.0013158, 2.9894466], [0.2899102, 0.11842085, -0.94969928], 11112.191),
+        ];
+        for (film, o, d, maxt) in cases {
+            assert_ray(&c, Vec2::from(film), Vec2::ZERO, o, d, maxt);
+        }
+    }
+
     /// The horizontal field of view of every `fov_axis`, of a `focal_length` and of the
     /// default (50 mm) is Mitsuba 3.9.1's `x_fov` (`mi.traverse(sensor)['x_fov']`), on
     /// landscape, portrait and square films.
@@ -342,8 +370,8 @@ mod tests {
                 "smaller than far_clip",
             ),
             (
-                "perspective",
-                format!("{fov}<float name=\"principal_point_offset_x\" value=\"0.1\"/>"),
+                "thinlens",
+                format!("{fov}{lens}<float name=\"principal_point_offset_x\" value=\"0.1\"/>"),
                 "principal_point_offset_x",
             ),
             ("thinlens", fov.to_string(), "aperture_radius"),

@@ -74,6 +74,17 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         let _ = writeln!(xml, "        <float name=\"aperture_radius\" value=\"{}\"/>", lens.aperture_radius);
         let _ = writeln!(xml, "        <float name=\"focus_distance\" value=\"{}\"/>", lens.focus_distance);
     }
+    if c.principal_point_offset != glam::Vec2::ZERO {
+        if c.lens.is_some() {
+            anyhow::bail!(
+                "{}: the camera has a lens and a principal point offset, which Mitsuba's thinlens does not have",
+                scene.path().display()
+            );
+        }
+        let [x, y] = c.principal_point_offset.to_array();
+        let _ = writeln!(xml, "        <float name=\"principal_point_offset_x\" value=\"{x}\"/>");
+        let _ = writeln!(xml, "        <float name=\"principal_point_offset_y\" value=\"{y}\"/>");
+    }
     let _ = writeln!(
         xml,
         "        <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>",
