@@ -363,8 +363,7 @@ mod tests {
             two_sided: false,
             textures: None,
         };
-        let camera =
-            Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };
+        let camera = Camera::pinhole(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, 4, 4);
         Scene::new("t.toml".into(), camera, RenderDefaults::default(), geometry, vec![light(1.0), light(0.5)])
             .unwrap()
     }

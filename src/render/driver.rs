@@ -3,8 +3,10 @@
 //! Iteration i (from 1) lets the integrator prepare (e.g. trace its VPLs), then renders one
 //! sample in every pixel, tiles spread over rayon's pool. The sample of pixel p in iteration
 //! i uses sampler p of `Streams::camera(sampler, seed, i)` (with Sobol points,
-//! point i − 1 of the pixel's own scrambled sequence), and each pixel's sum is accumulated in
-//! iteration order, so the image depends on the seed only, never on the thread count.
+//! point i − 1 of the pixel's own scrambled sequence): its first dimension is the position in
+//! the pixel, its second the point on a thin lens's aperture (a pinhole draws none), the rest
+//! the integrator's. Each pixel's sum is accumulated in iteration order, so the image depends
+//! on the seed only, never on the thread count.
 //!
 //! Samples that are NaN or infinite never reach the film: they are counted, dropped and
 //! reported (with the first pixel) so that a bug shows instead of hiding.
@@ -159,7 +161,10 @@ pub fn render_from(
                     for x in t.x0..t.x1 {
                         let mut sampler = streams.sampler((y * w + x) as u64);
                         let offset = sampler.next_2d();
-                        let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + offset);
+                        // A thin lens's point on the aperture is the camera sample's second
+                        // dimension; a pinhole draws none, so that its images stay as they were.
+                        let aperture = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
+                        let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + offset, aperture);
                         out.push(integ.radiance(ctx, ray, &mut sampler, &mut counters));
                         if splat.is_some() {
                             offsets.push(offset);

@@ -1,9 +1,12 @@
-//! The pinhole camera of the scene format: vertical field of view, image y downwards, pixel
-//! (0, 0) top-left, right = normalize(forward × up).
+//! The scene's camera: a pinhole, or Mitsuba 3's thin lens (depth of field), looking along
+//! `target − eye` with a vertical field of view; image y downwards, pixel (0, 0) top-left,
+//! right = normalize(forward × up). Mitsuba's near and far clip planes bound what a camera ray
+//! sees (the TOML format's camera has none: `[0, ∞)`).
 
 use glam::{Vec2, Vec3};
 
 use crate::geometry::Ray;
+use crate::sampling::concentric_disk;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -14,9 +17,59 @@ pub struct Camera {
     pub fov_deg: f32,
     pub width: u32,
     pub height: u32,
+    /// Distance along the view axis (`target − eye`) from the eye to the near clip plane: a
+    /// camera ray sees no surface in front of it (Mitsuba's `near_clip`; 0 for none).
+    pub near_clip: f32,
+    /// Distance along the view axis to the far clip plane: a camera ray sees no surface behind
+    /// it (Mitsuba's `far_clip`; infinite for none).
+    pub far_clip: f32,
+    /// The thin lens at the eye, or `None` for a pinhole.
+    pub lens: Option<ThinLens>,
+    /// Mitsuba's principal point offset (`principal_point_offset_x`, `_y` of a `perspective`
+    /// camera): the film position of every ray is shifted by this fraction of the image's
+    /// width and height (x to the right, y down), which moves the optical axis off the
+    /// image's centre. Zero for none.
+    pub principal_point_offset: Vec2,
+}
+
+/// Mitsuba 3's thin lens (`thinlens`): rays leave a uniformly sampled point of a disk of
+/// radius `aperture_radius` about the eye, in the plane orthogonal to the view axis, towards
+/// the point where the pinhole's ray through the same film position meets the focus plane,
+/// at `focus_distance` along the view axis. Surfaces on the focus plane are sharp.
+///
+/// Light tracing to the camera (connecting a light subpath's vertex to the lens) would need
+/// the lens's importance and density here, as Mitsuba's `ThinLensCamera::sample_direction`
+/// has them: a uniform point on the aperture (area density 1 / (π r²), so a solid-angle
+/// density of d² / (π r² cos θ) at the vertex), the film position where the ray from that
+/// point through the vertex crosses the focus plane, and importance 1 / (A cos³ θ d²) with A
+/// the area of the image rectangle at unit distance (zero outside the image). pir's methods
+/// do not trace light to the camera yet, so only the ray sampling is written.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinLens {
+    /// The aperture's radius in scene units (Mitsuba's `aperture_radius`).
+    pub aperture_radius: f32,
+    /// Distance along the view axis from the lens to the plane in focus (Mitsuba's
+    /// `focus_distance`), positive.
+    pub focus_distance: f32,
 }
 
 impl Camera {
+    /// A pinhole camera without clip planes (the TOML format's camera).
+    pub fn pinhole(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, width: u32, height: u32) -> Self {
+        Camera {
+            eye,
+            target,
+            up,
+            fov_deg,
+            width,
+            height,
+            near_clip: 0.0,
+            far_clip: f32::INFINITY,
+            lens: None,
+            principal_point_offset: Vec2::ZERO,
+        }
+    }
+
     /// The same camera at another resolution (the field of view stays vertical).
     pub fn with_resolution(mut self, width: u32, height: u32) -> Self {
         self.width = width;
@@ -25,9 +78,10 @@ impl Camera {
     }
 
     /// The ray through the image-plane position `film` (in pixels: x to the right, y down,
-    /// `(0, 0)` the top-left corner of pixel (0, 0)). The direction is unit length.
+    /// `(0, 0)` the top-left corner of pixel (0, 0)) and the centre of the lens: the
+    /// pinhole's ray. The direction is unit length; the interval is the clip planes'.
     pub fn generate_ray(&self, film: Vec2) -> Ray {
-        self.rays().generate_ray(film)
+        self.rays().generate_ray(film, Vec2::splat(0.5))
     }
 
     /// The camera's basis and scales computed once, for generating many rays.
@@ -43,13 +97,16 @@ impl Camera {
             aspect: self.width as f32 / self.height as f32,
             width: self.width as f32,
             height: self.height as f32,
+            near_clip: self.near_clip,
+            far_clip: self.far_clip,
+            lens: self.lens,
+            shift: self.principal_point_offset * Vec2::new(self.width as f32, self.height as f32),
         }
     }
 }
 
 /// A [`Camera`] prepared for generating rays: its basis and the tangent of half its field of
-/// view, which do not change from ray to ray. [`CameraRays::generate_ray`] is
-/// [`Camera::generate_ray`], operation for operation.
+/// view, which do not change from ray to ray.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraRays {
     eye: Vec3,
@@ -60,15 +117,48 @@ pub struct CameraRays {
     aspect: f32,
     width: f32,
     height: f32,
+    near_clip: f32,
+    far_clip: f32,
+    lens: Option<ThinLens>,
+    /// The principal point offset in pixels (zero, which changes no position, for none).
+    shift: Vec2,
 }
 
 impl CameraRays {
-    /// See [`Camera::generate_ray`].
+    /// Whether a ray needs a point on the aperture ([`CameraRays::generate_ray`]'s
+    /// `aperture`): a thin lens does, a pinhole does not, so that a pinhole's camera sample
+    /// draws the film position alone.
     #[inline]
-    pub fn generate_ray(&self, film: Vec2) -> Ray {
+    pub fn has_lens(&self) -> bool {
+        self.lens.is_some()
+    }
+
+    /// The ray through the image-plane position `film` (see [`Camera::generate_ray`]; shifted
+    /// by the principal point offset) from the lens point of the uniform `aperture` sample in `[0, 1)²` (a pinhole ignores it), as
+    /// Mitsuba 3's `thinlens` samples it: the sample mapped to the disk by the concentric
+    /// map (Mitsuba's `square_to_uniform_disk_concentric`), its x to the camera's left and
+    /// its y up (Mitsuba's camera space), the direction towards the focus plane's point of
+    /// the film position. The direction is unit length; the ray's interval `[tmin, tmax]`
+    /// lies between the clip planes, `near_clip / cos θ` to `far_clip / cos θ` with θ the
+    /// angle to the view axis (Mitsuba starts the ray on the near plane; pir keeps its origin
+    /// on the lens, which sees the same surfaces).
+    #[inline]
+    pub fn generate_ray(&self, film: Vec2, aperture: Vec2) -> Ray {
+        let film = film + self.shift;
         let sx = (2.0 * film.x / self.width - 1.0) * self.tan_half * self.aspect;
         let sy = (1.0 - 2.0 * film.y / self.height) * self.tan_half;
-        Ray::new(self.eye, (self.forward + self.right * sx + self.up * sy).normalize())
+        // The pinhole's direction, of unit length along the view axis.
+        let v = self.forward + self.right * sx + self.up * sy;
+        let (origin, dir) = match self.lens {
+            None => (self.eye, v.normalize()),
+            Some(lens) => {
+                let disk = lens.aperture_radius * concentric_disk(aperture);
+                let offset = self.up * disk.y - self.right * disk.x;
+                (self.eye + offset, (v * lens.focus_distance - offset).normalize())
+            }
+        };
+        let cos = dir.dot(self.forward);
+        Ray { origin, dir, tmin: self.near_clip / cos, tmax: self.far_clip / cos }
     }
 }
 
@@ -77,14 +167,7 @@ mod tests {
     use super::*;
 
     fn cam() -> Camera {
-        Camera {
-            eye: Vec3::new(0.0, 1.0, 3.9),
-            target: Vec3::new(0.0, 1.0, 0.0),
-            up: Vec3::Y,
-            fov_deg: 40.0,
-            width: 200,
-            height: 100,
-        }
+        Camera::pinhole(Vec3::new(0.0, 1.0, 3.9), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, 200, 100)
     }
 
     #[test]
@@ -104,5 +187,86 @@ mod tests {
         // The horizontal extent follows the aspect ratio.
         let tan_h = (right.dir.x / -right.dir.z).abs();
         assert!((tan_h - 2.0 * (20.0f32).to_radians().tan()).abs() < 1e-5);
+    }
+    /// Without clip planes or a lens, a ray is the pinhole's of before them, bit for bit,
+    /// whatever the aperture sample: the TOML scenes' images do not change.
+    #[test]
+    fn a_pinhole_ray_is_unchanged() {
+        let c = cam().rays();
+        for film in [Vec2::new(0.0, 0.0), Vec2::new(13.25, 77.5), Vec2::new(199.9, 99.9)] {
+            let sx = (2.0 * film.x / 200.0 - 1.0) * c.tan_half * c.aspect;
+            let sy = (1.0 - 2.0 * film.y / 100.0) * c.tan_half;
+            let want = Ray::new(c.eye, (c.forward + c.right * sx + c.up * sy).normalize());
+            for aperture in [Vec2::ZERO, Vec2::new(0.3, 0.9)] {
+                let r = c.generate_ray(film, aperture);
+                let bits =
+                    |r: &Ray| [r.origin.to_array(), r.dir.to_array()].concat().into_iter().map(f32::to_bits);
+                assert!(bits(&r).eq(bits(&want)), "{r:?} ≠ {want:?}");
+                assert_eq!((r.tmin.to_bits(), r.tmax), (0.0f32.to_bits(), f32::INFINITY));
+            }
+        }
+    }
+
+    /// A thin lens's rays through one film position leave points of the aperture disk (in
+    /// the plane orthogonal to the view axis) and meet at the pinhole ray's point on the
+    /// focus plane; the clip planes bound them along the view axis.
+    #[test]
+    fn thin_lens_rays_meet_on_the_focus_plane() {
+        let lens = ThinLens { aperture_radius: 0.2, focus_distance: 3.0 };
+        let c = Camera { lens: Some(lens), near_clip: 0.5, far_clip: 20.0, ..cam() };
+        let forward = (c.target - c.eye).normalize();
+        let rays = c.rays();
+        assert!(rays.has_lens() && !cam().rays().has_lens());
+        for film in [Vec2::new(100.0, 50.0), Vec2::new(3.0, 97.0), Vec2::new(180.0, 10.0)] {
+            let pin = cam().generate_ray(film);
+            let focus = pin.at(lens.focus_distance / pin.dir.dot(forward));
+            for aperture in
+                [Vec2::new(0.1, 0.2), Vec2::new(0.5, 0.5), Vec2::new(0.97, 0.6), Vec2::new(0.3, 0.99)]
+            {
+                let r = rays.generate_ray(film, aperture);
+                let offset = r.origin - c.eye;
+                assert!(offset.dot(forward).abs() < 1e-6 && offset.length() <= 0.2 + 1e-6, "{offset}");
+                let t = (focus - r.origin).dot(r.dir);
+                assert!((r.at(t) - focus).length() < 1e-5, "{} ≠ {focus}", r.at(t));
+                assert!(((r.at(r.tmin) - r.origin).dot(forward) - 0.5).abs() < 1e-5);
+                assert!(((r.at(r.tmax) - r.origin).dot(forward) - 20.0).abs() < 1e-4);
+            }
+            // The lens's centre is the pinhole.
+            let centre = rays.generate_ray(film, Vec2::splat(0.5));
+            assert!((centre.origin - c.eye).length() < 1e-7 && (centre.dir - pin.dir).length() < 1e-6);
+        }
+        // Mitsuba's camera space: the aperture sample's x to the camera's left, y up.
+        let film = Vec2::new(100.0, 50.0);
+        let left = rays.generate_ray(film, Vec2::new(1.0, 0.5)).origin - c.eye;
+        let up = rays.generate_ray(film, Vec2::new(0.5, 1.0)).origin - c.eye;
+        assert!((left - Vec3::new(-0.2, 0.0, 0.0)).length() < 1e-6, "{left}");
+        assert!((up - Vec3::new(0.0, 0.2, 0.0)).length() < 1e-6, "{up}");
+    }
+
+    /// The lens points of a pixel's camera samples (the sampler's second dimension, as the
+    /// render driver draws it) are uniform over the aperture: equal counts in 32 cells of
+    /// equal area (4 rings × 8 sectors), within 5 standard deviations.
+    #[test]
+    fn lens_points_are_uniform_over_the_aperture() {
+        use crate::sampling::{SamplerKind, Streams};
+        let lens = ThinLens { aperture_radius: 0.5, focus_distance: 2.0 };
+        let c = Camera { lens: Some(lens), ..cam() };
+        let (rays, n) = (c.rays(), 1 << 14);
+        let mut cells = [0u32; 32];
+        for iteration in 1..=n {
+            let streams = Streams::camera(SamplerKind::Sobol, 3, iteration);
+            let mut sampler = streams.sampler(17);
+            let _film = sampler.next_2d();
+            let r = rays.generate_ray(Vec2::new(100.0, 50.0), sampler.next_2d());
+            let p = (r.origin - c.eye) / lens.aperture_radius;
+            let ring = ((p.length_squared() * 4.0) as usize).min(3);
+            let sector = (((p.y.atan2(p.x) / std::f32::consts::TAU + 1.0) * 8.0) as usize) % 8;
+            cells[ring * 8 + sector] += 1;
+        }
+        let expected = n as f64 / 32.0;
+        let sd = (expected * (1.0 - 1.0 / 32.0)).sqrt();
+        for (k, &count) in cells.iter().enumerate() {
+            assert!((count as f64 - expected).abs() < 5.0 * sd, "cell {k}: {count} of {expected}");
+        }
     }
 }

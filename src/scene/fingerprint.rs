@@ -1,7 +1,7 @@
 //! A fingerprint of a loaded scene's contents, so that a render is only resumed or merged
 //! with renders of the same scene. It hashes what the image depends on (geometry, normals,
-//! materials, camera placement, lights), not the file names or the resolution (which is part of the
-//! render job and checked separately).
+//! materials, camera placement, clip planes, lens and principal point, lights), not the file names or the
+//! resolution (which is part of the render job and checked separately).
 
 use super::Scene;
 use crate::hash::Fnv1a;
@@ -64,6 +64,20 @@ impl Scene {
         h.f32s(&[
             c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,
         ]);
+        // The clip planes and the lens only where there are some (the TOML format's camera
+        // has neither), so that the other scenes keep their fingerprints.
+        if (c.near_clip, c.far_clip) != (0.0, f32::INFINITY) {
+            h.bytes(b"clip");
+            h.f32s(&[c.near_clip, c.far_clip]);
+        }
+        if let Some(lens) = c.lens {
+            h.bytes(b"thin lens");
+            h.f32s(&[lens.aperture_radius, lens.focus_distance]);
+        }
+        if c.principal_point_offset != glam::Vec2::ZERO {
+            h.bytes(b"principal point offset");
+            h.f32s(&c.principal_point_offset.to_array());
+        }
         // Only scenes with other lights hash them, so that the others keep their fingerprints.
         for light in &self.lights {
             light.fingerprint(&mut h);

@@ -191,7 +191,7 @@ impl Doc<'_> {
                 "must be non-zero and not parallel to the view direction (target − eye)",
             ));
         }
-        Ok(Camera { eye, target, up, fov_deg: fov, width: w, height: h })
+        Ok(Camera::pinhole(eye, target, up, fov, w, h))
     }
 
     /// `[render]` with its defaults (max_depth 8, seed 0).

@@ -16,7 +16,7 @@ pub mod ply;
 pub mod serialized;
 mod transform;
 
-pub use camera::{Camera, CameraRays};
+pub use camera::{Camera, CameraRays, ThinLens};
 pub use filter::Filter;
 pub use load::{SceneError, load, load_with};
 
@@ -513,8 +513,7 @@ mod tests {
     }
 
     fn build(geometry: Geometry, materials: Vec<Material>) -> Result<Scene, String> {
-        let camera =
-            Camera { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, fov_deg: 40.0, width: 4, height: 4 };
+        let camera = Camera::pinhole(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, 4, 4);
         Scene::new("t.toml".into(), camera, RenderDefaults::default(), geometry, materials)
             .map_err(|e| e.to_string())
     }

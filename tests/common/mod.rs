@@ -80,14 +80,7 @@ pub fn closed_cube_facing(
             }
         }
     }
-    let camera = Camera {
-        eye: Vec3::ZERO,
-        target: Vec3::new(0.0, 0.0, -1.0),
-        up: Vec3::Y,
-        fov_deg: 60.0,
-        width: 16,
-        height: 16,
-    };
+    let camera = Camera::pinhole(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), Vec3::Y, 60.0, 16, 16);
     let geometry = Geometry {
         normals: vec![Vec3::ZERO; positions.len()],
         uvs: vec![],

@@ -17,10 +17,10 @@
 //!   default, a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
 //! - emitters ([`emitters`]): `area` with a constant `radiance` on shapes; `point`, `spot`,
 //!   `directional`, `constant` and `envmap` (any image pir reads as a texture);
-//! - the sensor: `perspective` (`fov`, `fov_axis`, `to_world`; `near_clip`, `far_clip` and
-//!   `focus_distance` are accepted and change nothing in front of the near plane), its
-//!   `hdrfilm` (`width`, `height`; a `box` filter is pir's own, a `tent` or `gaussian` one is
-//!   rendered with a box filter and a warning) and its sampler (pir's own is used);
+//! - the sensor ([`sensor`]): `perspective` and `thinlens` (`fov` and `fov_axis` or
+//!   `focal_length`, `near_clip`, `far_clip`, `to_world`; the thin lens's `aperture_radius`
+//!   and `focus_distance`), its `hdrfilm` (`width`, `height`, a `box`, `tent` or `gaussian`
+//!   reconstruction filter) and its sampler (pir's own is used);
 //! - the integrator: `path` or `volpath` (`max_depth`, −1 for unbounded: pir's largest,
 //!   [`MAX_DEPTH`]; `rr_depth`, where the camera paths' Russian roulette starts).
 //!
@@ -28,6 +28,7 @@
 
 mod bsdfs;
 mod emitters;
+mod sensor;
 mod shapes;
 mod textures;
 mod transform;
@@ -43,7 +44,7 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
-use super::{Camera, DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
+use super::{DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
 use crate::light::SphereLight;
 use crate::material::shading_map::{BackSide, Perturbation, ShadingMap};
 use crate::material::{Bsdf, Material, Slot, Textured};
@@ -452,69 +453,6 @@ impl<'a> Builder<'a> {
         }
         p.finish(self)?;
         Ok((max_depth, rr_depth))
-    }
-
-    /// The perspective sensor as pir's camera.
-    fn sensor(&mut self, e: &'a Element) -> Result<Camera, SceneError> {
-        let p = Params::new(e);
-        if e.type_name() != "perspective" {
-            return Err(e.error(format!(
-                "sensor type \"{}\" is not supported: pir renders a perspective (pinhole) camera",
-                e.type_name()
-            )));
-        }
-        if p.get("focal_length").is_some() {
-            return Err(e.error("focal_length is not supported: give the field of view (fov)"));
-        }
-        let fov = p.float("fov")?.ok_or_else(|| e.error("needs a fov (degrees)"))?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(e.error(format!("fov {fov}: must be between 0 and 180 degrees")));
-        }
-        let axis = p.string("fov_axis")?.unwrap_or("x");
-        let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-        p.ignore(&["near_clip", "far_clip", "focus_distance", "shutter_open", "shutter_close"]);
-        let films = p.plugins(self, "film")?;
-        let (width, height) = match films.as_slice() {
-            [] => (768, 576),
-            [film] => self.film(film)?,
-            _ => return Err(e.error("more than one film")),
-        };
-        p.plugins(self, "sampler")?;
-        p.finish(self)?;
-        let (w, h) = (width as f32, height as f32);
-        let tan_half = (fov.to_radians() / 2.0).tan();
-        // pir's field of view is vertical.
-        let tan_v = match axis {
-            "x" => tan_half * h / w,
-            "y" => tan_half,
-            "diagonal" => tan_half * h / (w * w + h * h).sqrt(),
-            "smaller" if w < h => tan_half * h / w,
-            "smaller" => tan_half,
-            "larger" if w > h => tan_half * h / w,
-            "larger" => tan_half,
-            other => {
-                return Err(
-                    e.error(format!("fov_axis \"{other}\": expected x, y, diagonal, smaller or larger"))
-                );
-            }
-        };
-        let eye = m.transform_point3(Vec3::ZERO);
-        let (forward, up, left) =
-            (m.transform_vector3(Vec3::Z), m.transform_vector3(Vec3::Y), m.transform_vector3(Vec3::X));
-        let (Some(forward), Some(up), Some(left)) =
-            (forward.try_normalize(), up.try_normalize(), left.try_normalize())
-        else {
-            return Err(e.error("to_world collapses the camera's axes"));
-        };
-        if forward.dot(up).abs() > 1e-3 || forward.dot(left).abs() > 1e-3 || up.dot(left).abs() > 1e-3 {
-            return Err(e.error("to_world shears the camera: pir's camera needs orthogonal axes"));
-        }
-        if up.cross(forward).dot(left) < 0.0 {
-            return Err(e.error(
-                "to_world mirrors the image (e.g. a negative scale): not supported, a pir camera's right is forward × up",
-            ));
-        }
-        Ok(Camera { eye, target: eye + forward, up, fov_deg: 2.0 * tan_v.atan().to_degrees(), width, height })
     }
 
     /// The film's size.

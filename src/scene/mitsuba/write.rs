@@ -1,8 +1,10 @@
 //! A loaded scene written as a Mitsuba 3 scene file, so that Mitsuba can render any pir scene
 //! (`pir convert`): the triangles of each material as a binary PLY beside the XML (world
 //! space, with their shading normals where every vertex has one, else `face_normals`), the
-//! camera as a `lookat` with a vertical field of view, a box-filtered `hdrfilm`, the `path`
-//! integrator with the scene's `max_depth`, and each material as Mitsuba's equivalent:
+//! camera as a `perspective` sensor (a `thinlens` one where it has a lens) with a `lookat`, a
+//! vertical field of view and its clip planes (Mitsuba's defaults where it has none), a
+//! box-filtered `hdrfilm`, the `path` integrator with the scene's `max_depth`, and each
+//! material as Mitsuba's equivalent:
 //!
 //! | pir | Mitsuba 3 |
 //! |---|---|
@@ -57,9 +59,32 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         xml,
         "    <integrator type=\"path\"><integer name=\"max_depth\" value=\"$max_depth\"/></integrator>"
     );
-    let _ = writeln!(xml, "    <sensor type=\"perspective\">");
+    let _ =
+        writeln!(xml, "    <sensor type=\"{}\">", if c.lens.is_some() { "thinlens" } else { "perspective" });
     let _ = writeln!(xml, "        <string name=\"fov_axis\" value=\"y\"/>");
     let _ = writeln!(xml, "        <float name=\"fov\" value=\"{}\"/>", c.fov_deg);
+    // A camera without clip planes gets Mitsuba's defaults (0.01 and 10⁴: Mitsuba needs some).
+    if c.near_clip > 0.0 {
+        let _ = writeln!(xml, "        <float name=\"near_clip\" value=\"{}\"/>", c.near_clip);
+    }
+    if c.far_clip.is_finite() {
+        let _ = writeln!(xml, "        <float name=\"far_clip\" value=\"{}\"/>", c.far_clip);
+    }
+    if let Some(lens) = c.lens {
+        let _ = writeln!(xml, "        <float name=\"aperture_radius\" value=\"{}\"/>", lens.aperture_radius);
+        let _ = writeln!(xml, "        <float name=\"focus_distance\" value=\"{}\"/>", lens.focus_distance);
+    }
+    if c.principal_point_offset != glam::Vec2::ZERO {
+        if c.lens.is_some() {
+            anyhow::bail!(
+                "{}: the camera has a lens and a principal point offset, which Mitsuba's thinlens does not have",
+                scene.path().display()
+            );
+        }
+        let [x, y] = c.principal_point_offset.to_array();
+        let _ = writeln!(xml, "        <float name=\"principal_point_offset_x\" value=\"{x}\"/>");
+        let _ = writeln!(xml, "        <float name=\"principal_point_offset_y\" value=\"{y}\"/>");
+    }
     let _ = writeln!(
         xml,
         "        <transform name=\"to_world\"><lookat origin=\"{}\" target=\"{}\" up=\"{}\"/></transform>",
