@@ -616,11 +616,7 @@ impl<'a> Builder<'a> {
             }
             "dielectric" => (bsdfs::dielectric(e, &p)?, false, None),
             "thindielectric" => (bsdfs::thin_dielectric(e, &p)?, false, None),
-            "roughdielectric" => {
-                let (bsdf, warning) = bsdfs::rough_dielectric(e, &p)?;
-                self.late_warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
-                (bsdf, false, None)
-            }
+            "roughdielectric" => (bsdfs::rough_dielectric(e, &p)?, false, None),
             "conductor" => (bsdfs::conductor(e, &p)?, false, None),
             "roughconductor" => (bsdfs::rough_conductor(e, &p)?, false, None),
             "plastic" | "roughplastic" => {
@@ -667,8 +663,8 @@ impl<'a> Builder<'a> {
             other => {
                 return Err(e.error(format!(
                     "bsdf type \"{other}\" is not supported yet: pir reads diffuse, plastic, roughplastic, conductor, \
-                     roughconductor, dielectric, thindielectric, roughdielectric (without transmission), mask (of a \
-                     diffuse), twosided and blendbsdf of diffuse and roughconductor (material none, ggx)"
+                     roughconductor, dielectric, thindielectric, roughdielectric, mask (of a diffuse), twosided \
+                     and blendbsdf of diffuse and roughconductor (material none, ggx)"
                 )));
             }
         };
