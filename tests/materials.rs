@@ -16,7 +16,7 @@ const R: TransportMode = TransportMode::Radiance;
 const I: TransportMode = TransportMode::Importance;
 
 /// Number of χ² tests in this file (for the Šidák correction).
-const CHI2_TESTS: usize = 3 + 12 + 2;
+const CHI2_TESTS: usize = 3 + 12 + 2 + 6;
 const CHI2_SAMPLES: u64 = 1_000_000;
 
 fn normal() -> Vec3 {
@@ -231,6 +231,55 @@ fn chi2_glossy() {
     let bsdf = Bsdf::Glossy { albedo: Vec3::splat(0.4), specular: Vec3::splat(0.4), roughness: 0.5 };
     let wo = dir_at(n, 60.0, 0.4 + std::f32::consts::PI);
     results.push(chi2_case("glossy tilted shading normal α=0.5", bsdf, &tilted, wo, 1.0, tag + 1));
+    assert_no_failures(results);
+}
+
+/// The rough dielectric's sampler against its pdf over the whole sphere (reflection and
+/// refraction), lit from outside and from inside, GGX and Beckmann, on a shading normal tilted
+/// off the geometric one; every sample's weight is eval / pdf and its η the index crossed.
+#[test]
+fn chi2_rough_dielectric() {
+    use pir::material::microfacet::{Distribution, Microfacet};
+    let n = normal();
+    let g = geometry(dir_at(n, 10.0, 0.4), n);
+    let mut results = Vec::new();
+    let cases = [
+        (Distribution::Ggx, 0.3f32, 1.5f32, 30.0f32, false),
+        (Distribution::Ggx, 0.6, 1.5, 75.0, false),
+        (Distribution::Ggx, 0.3, 1.5, 20.0, true),
+        (Distribution::Ggx, 0.2, 1.33, 50.0, true),
+        (Distribution::Beckmann, 0.3, 1.5, 45.0, false),
+        (Distribution::Beckmann, 0.4, 2.0, 35.0, true),
+    ];
+    for (tag, (kind, alpha, eta, theta, inside)) in cases.into_iter().enumerate() {
+        let bsdf = Bsdf::RoughDielectric {
+            eta,
+            reflectance: Vec3::ONE,
+            transmittance: Vec3::new(0.9, 0.7, 0.5),
+            microfacet: Microfacet::new(kind, alpha),
+        };
+        let side = if inside { -1.0 } else { 1.0 };
+        let wo = side * dir_at(g.frame.n, theta, 2.3);
+        let name = format!("roughdielectric {kind:?} α={alpha} η={eta} θo={theta} inside={inside}");
+        let sample = |ul: f32, u: Vec2| {
+            let s = bsdf.sample(&g, wo, ul, u, R)?;
+            let refracted = s.wi.dot(n) * wo.dot(n) < 0.0;
+            let crossed = if !refracted {
+                1.0
+            } else if inside {
+                1.0 / eta
+            } else {
+                eta
+            };
+            assert!(!s.delta && s.eta == crossed, "{name}: {s:?}");
+            let (pdf, eval) = (bsdf.pdf(&g, wo, s.wi), bsdf.eval(&g, wo, s.wi, R));
+            assert!((s.pdf - pdf).abs() <= 1e-5 * pdf, "{name}: pdf {} vs {pdf}", s.pdf);
+            assert!(rel_close(s.weight, eval / pdf, 1e-5), "{name}: weight {} vs {}", s.weight, eval / pdf);
+            Some(s.wi)
+        };
+        let pdf = |w: Vec3| bsdf.pdf(&g, wo, w);
+        results.push(fit(&name, &sample, &pdf, -wo, 1.0, 300 + tag as u64));
+    }
     assert_no_failures(results);
 }
 

@@ -440,6 +440,49 @@ fn thin_lens_converts_and_is_in_the_fingerprint() {
     assert_ne!(a.fingerprint(), load(&plain, &[]).unwrap().0.fingerprint());
 }
 
+/// Mitsuba's `roughdielectric` with transmission (`tests/data/mitsuba-roughdielectric.xml`: a
+/// frosted GGX sphere of BK7 by name and a tinted Beckmann slab, lit from outside and seen
+/// through from inside): every consistent method's image means against Mitsuba 3's
+/// (`tests/data/mitsuba-roughdielectric-64x48.exr`, see `tests/data/README.md`): `pt` and
+/// `pir-bdpt` within 1 %, `pir-clamp` within 2 %. Not yet here: `pir-mis` (−5.3 % at 256
+/// spp) and `pir-vsl` (+2.4 to +4.1 % at 512 spp) are off on this scene.
+#[test]
+fn consistent_methods_match_mitsubas_rough_dielectric() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("tests/data/mitsuba-roughdielectric.xml");
+    let (r, _) = pir::image::read_exr(&root.join("tests/data/mitsuba-roughdielectric-64x48.exr")).unwrap();
+    let (s, warnings) = load(&scene, &[]).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(s.materials().iter().filter(|m| m.bsdf.transmits()).count(), 2);
+    let mean = |img: &pir::image::RgbImage| glam::DVec3::from(img.mean());
+    let want = mean(&r);
+    let dir = tempfile::tempdir().unwrap();
+    for (method, spp, tolerance) in
+        [("pt", "256", 0.01), ("pir-bdpt", "256", 0.01), ("pir-clamp", "512", 0.02)]
+    {
+        let out = dir.path().join(format!("{method}.exr"));
+        let img =
+            common::binary::render(&scene, &["--spp", spp, "--method", method], &out, dir.path(), method);
+        let got = mean(&img);
+        let rel = (got - want) / want;
+        assert!(
+            rel.abs().max_element() < tolerance,
+            "{method}: means {got} against Mitsuba's {want} ({rel})"
+        );
+    }
+    // pir-mis and pir-vsl do not converge to it yet: they refuse in one line.
+    for method in ["pir-mis", "pir-vsl"] {
+        let o = common::binary::pir(
+            &["render", scene.to_str().unwrap(), "--spp", "1", "--method", method, "-q", "--no-preview"],
+            dir.path(),
+        );
+        common::binary::assert_clean_failure(
+            &o,
+            &["mitsuba-roughdielectric.xml", method, "rough transmitting"],
+        );
+    }
+}
+
 /// A deterministic xorshift generator for the mutation tests.
 struct Rng(u64);
 
@@ -784,7 +827,14 @@ fn dielectrics_and_conductors() {
             r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
             "anisotropic",
         ),
-        (r#"<bsdf type="roughdielectric"/>"#, "transmits"),
+        (
+            r#"<bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            "anisotropic",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><float name="int_ior" value="1"/><float name="ext_ior" value="1"/></bsdf>"#,
+            "differ",
+        ),
         (r#"<bsdf type="mask"><bsdf type="plastic"/></bsdf>"#, "mask"),
         (
             r#"<bsdf type="plastic"><float name="int_ior" value="1.2"/><float name="ext_ior" value="1.2"/></bsdf>"#,

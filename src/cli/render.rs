@@ -90,6 +90,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let plan = check_arguments(&a)?;
     let start = Instant::now();
     let scene = a.options.load(&a.scene)?;
+    a.config.check_scene(&scene)?;
     let loaded = start.elapsed();
     let memory = check_memory(&a, &scene)?;
     let renderer = Renderer::new(&scene, &a.options)?;

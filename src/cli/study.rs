@@ -220,6 +220,9 @@ pub fn run(a: StudyArgs) -> Result<()> {
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
     let scene = a.options.load(&a.scene)?;
+    for run in &runs {
+        run.config.check_scene(&scene)?;
+    }
     // Every line renders at the reference's size.
     let options = SceneOptions {
         resolution: Some(vec![reference.width as u32, reference.height as u32]),

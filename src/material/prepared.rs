@@ -9,6 +9,7 @@ use glam::Vec3;
 use super::conductor::RoughConductor;
 use super::glossy::Glossy;
 use super::plastic::{Plastic, RoughPlastic};
+use super::rough_dielectric::RoughDielectric;
 use super::{Bsdf, LocalGeometry, TransportMode, diffuse, shading_correction};
 
 /// An active Lambertian [`PreparedBsdf`], taken apart ([`PreparedBsdf::as_diffuse`]). Its
@@ -32,7 +33,8 @@ pub struct PreparedBsdf {
     /// The fixed direction in the shading frame, and its cosine with the geometric normal.
     wo_l: Vec3,
     wo_ng: f32,
-    /// Whether anything can be reflected: `wo` in front of both normals, a non-delta BSDF.
+    /// Whether anything can be reflected: `wo` in front of both normals, a non-delta BSDF
+    /// (a transmitting one, [`Bsdf::transmits`]: `wo` on the same side of both normals).
     active: bool,
 }
 
@@ -49,7 +51,11 @@ impl PreparedBsdf {
     pub fn new(bsdf: Bsdf, g: LocalGeometry, wo: Vec3, mode: TransportMode) -> Self {
         let wo_ng = wo.dot(g.ng);
         let wo_l = g.frame.to_local(wo);
-        let active = wo_ng > 0.0 && wo_l.z > 0.0 && !bsdf.is_delta();
+        let active = if bsdf.transmits() {
+            wo_ng * wo_l.z > 0.0
+        } else {
+            wo_ng > 0.0 && wo_l.z > 0.0 && !bsdf.is_delta()
+        };
         PreparedBsdf { bsdf, g, mode, wo_l, wo_ng, active }
     }
 
@@ -92,8 +98,8 @@ impl PreparedBsdf {
         self.finish(self.lobe_eval(wi_l), wi_ng, wi_l.z)
     }
 
-    /// The lobe's f · cos θi at `wi_l` (shading frame, above the horizon), before the
-    /// transport-mode factor; zero for delta BSDFs.
+    /// The lobe's f · |cos θi| at `wi_l` (shading frame, above the horizon, or either side
+    /// for a transmitting BSDF), before the transport-mode factor; zero for delta BSDFs.
     #[inline]
     fn lobe_eval(&self, wi_l: Vec3) -> Vec3 {
         match self.bsdf {
@@ -111,6 +117,10 @@ impl PreparedBsdf {
                 RoughPlastic { diffuse, specular, specular_weight, nonlinear, table }.eval(self.wo_l, wi_l)
             }
             Bsdf::Mask { opacity, albedo } => diffuse::eval(albedo * opacity, wi_l),
+            Bsdf::RoughDielectric { eta, reflectance, transmittance, microfacet } => {
+                RoughDielectric { eta, reflectance, transmittance, microfacet }
+                    .eval(self.wo_l, wi_l, self.mode)
+            }
             Bsdf::Mirror { .. }
             | Bsdf::Glass { .. }
             | Bsdf::Conductor { .. }
@@ -166,9 +176,17 @@ impl PreparedBsdf {
     }
 
     /// [`PreparedBsdf::incident_cosines`] with the whole of `wi` in the shading frame (its z
-    /// is `wi · ns`).
+    /// is `wi · ns`); for a transmitting BSDF, `wi` on either side, the same side of both
+    /// normals.
     #[inline]
     fn incident(&self, wi: Vec3) -> Option<(f32, Vec3)> {
+        if self.bsdf.transmits() {
+            if !self.active {
+                return None;
+            }
+            let (wi_ng, wi_l) = (wi.dot(self.g.ng), self.g.frame.to_local(wi));
+            return (wi_ng * wi_l.z > 0.0).then_some((wi_ng, wi_l));
+        }
         let (wi_ng, _) = self.incident_cosines(wi)?;
         Some((wi_ng, self.g.frame.to_local(wi)))
     }

@@ -82,6 +82,9 @@ struct Chunk {
     power: Vec4,
     /// Segments from the emitter, every non-empty lane; infinite in empty ones.
     any_depth: Vec4,
+    /// 1 where the light's BSDF transmits ([`crate::material::Bsdf::transmits`]: it emits
+    /// to both sides of its surface), else 0.
+    transmits: Vec4,
 }
 
 const EMPTY_CHUNK: Chunk = Chunk {
@@ -93,6 +96,7 @@ const EMPTY_CHUNK: Chunk = Chunk {
     kind: [LaneKind::Empty; LANES],
     power: Vec4::ZERO,
     any_depth: Vec4::INFINITY,
+    transmits: Vec4::ZERO,
 };
 
 /// A Lambertian receiver in radiance mode, the other end of every lane.
@@ -138,6 +142,8 @@ struct PairLanes {
     power: [f32; 8],
     /// As [`Chunk::any_depth`].
     any_depth: [f32; 8],
+    /// As [`Chunk::transmits`].
+    transmits: [f32; 8],
 }
 
 impl PairLanes {
@@ -154,6 +160,7 @@ impl PairLanes {
             ns: std::array::from_fn(|k| join(a.vpl.ns[k], b.vpl.ns[k])),
             power: join(a.power, b.power),
             any_depth: join(a.any_depth, b.any_depth),
+            transmits: join(a.transmits, b.transmits),
         }
     }
 }
@@ -169,6 +176,9 @@ pub struct EstimateReceiver<'a> {
     pub bound: f32,
     pub max_depth: u32,
     pub lobe: Option<&'a Lobe>,
+    /// Whether its BSDF transmits ([`crate::material::Bsdf::transmits`]): it receives from
+    /// both sides of its surface.
+    pub transmits: bool,
 }
 
 /// `a` if it is smaller, else `b`: SSE's `minps`, which glam's `Vec4::min` is.
@@ -224,6 +234,7 @@ impl VplLanes {
             if c.kind[i] != LaneKind::Empty {
                 c.power[i] = power[j];
                 c.any_depth[i] = v.depth as f32;
+                c.transmits[i] = if e.bsdf().transmits() { 1.0 } else { 0.0 };
             }
         }
         let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
@@ -280,7 +291,7 @@ impl VplLanes {
         const W: usize = 2 * LANES;
         let q = &self.pairs[chunk];
         let ([px, py, pz], [gx, gy, gz], [sx, sy, sz]) = (q.p, q.ng, q.ns);
-        let (power, any_depth) = (q.power, q.any_depth);
+        let (power, any_depth, transmits) = (q.power, q.any_depth, q.transmits);
         let (x, ng, ns) = (r.x, r.ng, r.ns);
         let (mut dx, mut dy, mut dz, mut dist2) = ([0.0; W], [0.0; W], [0.0; W], [0.0; W]);
         let (mut x_ng, mut x_ns, mut p_ng, mut p_ns, mut g) =
@@ -299,8 +310,10 @@ impl VplLanes {
             // light's shading cosine times its adjoint correction is its geometric cosine
             // times the correction's constant factor, which `power` holds, so the clamped
             // term is scaled by cos_g / cos_s at the light (exactly 1 where the normals
-            // agree).
-            g[l] = min(x_ns[l] * p_ns[l] / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l]);
+            // agree). Absolute values for an end that transmits, which sees the other end from
+            // behind (the same numbers for the others, whose cosines are positive).
+            g[l] =
+                min((x_ns[l] * p_ns[l]).abs() / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l]).abs();
         }
         let mut value = g;
         if let Some(lobe) = r.lobe {
@@ -313,19 +326,20 @@ impl VplLanes {
                 let c = min(max(cos_r, -1.0), 1.0);
                 // The lobe's bound holds the receiver's cosine (f · cos θ_x): the clamped
                 // term without it, g / cos θ_x, so that the bound holds when clamped too.
-                let g1 = g[l] * dist / x_ns[l];
+                let g1 = g[l] * dist / x_ns[l].abs();
                 value[l] = diffuse * g[l] + lobe.bound(c) * g1;
             }
         }
         let max_depth = r.max_depth as f32;
         let mut out = [0.0; W];
         for l in 0..W {
-            let active = (any_depth[l] <= max_depth)
-                & (x_ng[l] > 0.0)
-                & (x_ns[l] > 0.0)
-                & (p_ng[l] > 0.0)
-                & (p_ns[l] > 0.0)
-                & (dist2[l] > 0.0);
+            // Each end in front of the other, or behind it where that end transmits (on the
+            // same side of both its normals either way).
+            let x_side =
+                ((x_ng[l] > 0.0) & (x_ns[l] > 0.0)) | (r.transmits & (x_ng[l] < 0.0) & (x_ns[l] < 0.0));
+            let p_side = ((p_ng[l] > 0.0) & (p_ns[l] > 0.0))
+                | ((transmits[l] != 0.0) & (p_ng[l] < 0.0) & (p_ns[l] < 0.0));
+            let active = (any_depth[l] <= max_depth) & x_side & p_side & (dist2[l] > 0.0);
             out[l] = if active { power[l] * value[l] } else { 0.0 };
         }
         out
@@ -344,7 +358,7 @@ impl VplLanes {
         max_depth: u32,
         lobe: Option<&Lobe>,
     ) -> Vec4 {
-        let r = EstimateReceiver { x, ng, ns, bound, max_depth, lobe };
+        let r = EstimateReceiver { x, ng, ns, bound, max_depth, lobe, transmits: false };
         Vec4::from_slice(&self.estimates8(chunk, &r)[..LANES])
     }
 
@@ -600,8 +614,15 @@ mod tests {
             // The gather's pushes, two chunks at a time in the version the CPU runs (AVX2 on
             // CPUs that have it), give the blocks that the build's own version gives chunk by
             // chunk, bit for bit, for windows from every chunk, wrapping or not.
-            let r =
-                EstimateReceiver { x: Vec3::ZERO, ng, ns: frame.n, bound, max_depth: 2, lobe: lobe.as_ref() };
+            let r = EstimateReceiver {
+                x: Vec3::ZERO,
+                ng,
+                ns: frame.n,
+                bound,
+                max_depth: 2,
+                lobe: lobe.as_ref(),
+                transmits: false,
+            };
             let n = lanes.chunks();
             for (start, w) in [(round % n, n), (n - 1, 1 + round % n), (round / 2 % n, n.div_ceil(2))] {
                 let window = Window::new(start, w, n);

@@ -128,6 +128,7 @@ impl Lights for PointLights {
             bound: self.bound,
             max_depth: rx.max_depth,
             lobe: rx.lobe.as_ref(),
+            transmits: rx.v.bsdf.transmits(),
         };
         self.lanes.push_estimates(cands, window, &r);
     }

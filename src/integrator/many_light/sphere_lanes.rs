@@ -48,6 +48,9 @@ struct Chunk {
     /// active sphere (padding, or one that reflects nothing), so that the depth test masks
     /// them.
     depth: Vec4,
+    /// 1 where the sphere's BSDF transmits ([`Bsdf::transmits`]): its planes rule out no
+    /// light, as in `no_light_in`.
+    transmits: Vec4,
 }
 
 const EMPTY_CHUNK: Chunk = Chunk {
@@ -60,6 +63,7 @@ const EMPTY_CHUNK: Chunk = Chunk {
     albedo: [Vec4::ZERO; 3],
     diffuse: Vec4::ZERO,
     depth: Vec4::INFINITY,
+    transmits: Vec4::ZERO,
 };
 
 /// The receiver, the other end of every lane: its point, normals, and its albedo when it can
@@ -74,6 +78,8 @@ pub struct ReceiverEnd {
     /// ρ̄ / π of its BSDF, and whether it has a narrow lobe, for [`SphereLanes::estimates`].
     reflected: Vec3,
     narrow: bool,
+    /// Whether its BSDF transmits: its planes rule out no light.
+    transmits: bool,
 }
 
 /// GGX alphas below this make a lobe narrow: [`SphereLanes::estimates`] leaves the spheres it
@@ -101,6 +107,7 @@ impl ReceiverEnd {
             diffuse,
             reflected: bsdf.reflectance() / PI,
             narrow: has_narrow_lobe(bsdf),
+            transmits: bsdf.transmits(),
         }
     }
 }
@@ -137,6 +144,7 @@ impl SphereLanes {
             c.narrow[i] = if has_narrow_lobe(&bsdfs[j]) { 1.0 } else { 0.0 };
             c.radius[i] = r;
             c.depth[i] = v.depth as f32;
+            c.transmits[i] = if bsdfs[j].transmits() { 1.0 } else { 0.0 };
             // The scalar closed form's conditions at the sphere.
             if let Bsdf::Diffuse { albedo } = bsdfs[j]
                 && in_ns > 0.0
@@ -201,18 +209,22 @@ impl SphereLanes {
         let rho = x.reflected;
         let reflected = q.reflected[0] * s(rho.x) + q.reflected[1] * s(rho.y) + q.reflected[2] * s(rho.z);
         // The receiver's shading cosine, the sphere's geometric one (the adjoint correction).
-        let p = reflected * widest(na).max(floor) * widest(ma).max(floor) * solid;
+        let (na_side, ma_side) = (
+            Vec4::select(BVec4A::splat(x.transmits), na.abs(), na),
+            Vec4::select(q.transmits.cmpgt(Vec4::ZERO), ma.abs(), ma),
+        );
+        let p = reflected * widest(na_side).max(floor) * widest(ma_side).max(floor) * solid;
         // Where without_sampling returns zero; the same margin as no_light_in.
         let behind = -(sin_max + s(1e-4));
         let same_normal =
             q.vpl.ng[0].cmpeq(s(x.ng.x)) & q.vpl.ng[1].cmpeq(s(x.ng.y)) & q.vpl.ng[2].cmpeq(s(x.ng.z));
+        // A transmitting end's cosines count on either side, as no_light_in's planes.
+        let (tx, tp) = (BVec4A::splat(x.transmits), q.transmits.cmpgt(Vec4::ZERO));
         let dark = dist2.cmple(Vec4::ZERO)
             | q.radius.cmple(Vec4::ZERO)
-            | same_normal
-            | ga.cmplt(behind)
-            | na.cmplt(behind)
-            | ma.cmplt(behind)
-            | sa.cmplt(behind);
+            | (same_normal & !(tx | tp))
+            | (!tx & (ga.cmplt(behind) | na.cmplt(behind)))
+            | (!tp & (ma.cmplt(behind) | sa.cmplt(behind)));
         let active = q.depth.cmple(s(max_depth as f32)) & !dark;
         let narrow = active & (q.narrow.cmpgt(Vec4::ZERO) | BVec4A::splat(x.narrow));
         (Vec4::select(active & p.is_finite_mask(), p, Vec4::ZERO), narrow.bitmask())
@@ -266,8 +278,10 @@ impl SphereLanes {
         let same_normal =
             q.vpl.ng[0].cmpeq(s(x.ng.x)) & q.vpl.ng[1].cmpeq(s(x.ng.y)) & q.vpl.ng[2].cmpeq(s(x.ng.z));
         let behind = -lim;
-        let no_light =
-            same_normal | ga.cmplt(behind) | na.cmplt(behind) | ma.cmplt(behind) | sa.cmplt(behind);
+        let (tx, tp) = (BVec4A::splat(x.transmits), q.transmits.cmpgt(Vec4::ZERO));
+        let no_light = (same_normal & !(tx | tp))
+            | (!tx & (ga.cmplt(behind) | na.cmplt(behind)))
+            | (!tp & (ma.cmplt(behind) | sa.cmplt(behind)));
         let done = q.depth.cmple(s(max_depth as f32)) & (closed | no_cone | no_light);
         let out = [0, 1, 2].map(|k| Vec4::select(closed & done, q.vpl.flux[k] * v[k] / q.area, Vec4::ZERO));
         (out, done.bitmask())

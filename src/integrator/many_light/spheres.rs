@@ -331,16 +331,18 @@ fn prepared_contribution(e: &Ends, x: Vec3, vsl: &Vpl, radius: f32, sampler: &mu
 /// [`diffuse_pair`]), and everywhere when the two surfaces share a plane's geometric normal
 /// bit for bit (coplanar faces of a wall: no direction is in front of x and behind the VSL,
 /// since the two dot products are the same number with opposite signs).
+///
+/// A transmitting end ([`Bsdf::transmits`]) scatters to both sides of its planes: neither its
+/// planes nor the shared normal rule out light there.
 fn no_light_in(e: &Ends, cone: &Cone) -> bool {
-    if e.gx.ng == e.gp.ng {
+    let (tx, tp) = (e.bsdf_x.transmits(), e.bsdf_p.transmits());
+    if e.gx.ng == e.gp.ng && !(tx || tp) {
         return true;
     }
     let lim = -(cone.sin_max + 1e-4);
     let axis = cone.axis;
-    e.gx.ng.dot(axis) < lim
-        || e.gx.frame.n.dot(axis) < lim
-        || -e.gp.ng.dot(axis) < lim
-        || -e.gp.frame.n.dot(axis) < lim
+    (!tx && (e.gx.ng.dot(axis) < lim || e.gx.frame.n.dot(axis) < lim))
+        || (!tp && (-e.gp.ng.dot(axis) < lim || -e.gp.frame.n.dot(axis) < lim))
 }
 
 /// Which ends' BSDF sampling joins uniform cone sampling in [`sampled`].

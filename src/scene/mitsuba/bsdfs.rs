@@ -1,8 +1,8 @@
 //! Mitsuba 3's BSDF plugins beyond `diffuse` and the `twosided` wrapper: conductors with their
 //! Fresnel term (`eta`/`k`, or a `material` of Mitsuba's table, whose RGB values are those
 //! Mitsuba's RGB variants compute from its spectra), rough conductors, smooth and rough
-//! plastics, dielectrics with their reflectance and transmittance, thin dielectrics and the
-//! mask of a diffuse BSDF. Defaults are Mitsuba's.
+//! plastics, dielectrics (smooth and rough) with their reflectance and transmittance, thin
+//! dielectrics and the mask of a diffuse BSDF. Defaults are Mitsuba's.
 
 use glam::Vec3;
 
@@ -141,28 +141,14 @@ pub(super) fn thin_dielectric(p: &Params) -> Result<Bsdf, SceneError> {
     Ok(Bsdf::ThinDielectric { ior, reflectance, transmittance })
 }
 
-/// `roughdielectric` that transmits nothing (`specular_transmittance` 0): its reflection seen
-/// from outside, a rough Fresnel reflector of index η + 0i (Mitsuba's dielectric Fresnel term
-/// is the conductor's with k = 0), and a warning that its back side is black where Mitsuba's
-/// reflects with index 1/η. A transmitting one is refused.
-pub(super) fn rough_dielectric(e: &Element, p: &Params) -> Result<(Bsdf, String), SceneError> {
+/// `roughdielectric` (BK7 inside, 1.5046): a rough interface that reflects and refracts,
+/// from either side ([`crate::material::rough_dielectric`]).
+pub(super) fn rough_dielectric(e: &Element, p: &Params) -> Result<Bsdf, SceneError> {
     let eta = relative_ior(e, p, 1.5046)?;
     let microfacet = microfacet(e, p)?;
-    let specular = checked(p, "specular_reflectance", Vec3::ONE)?;
+    let reflectance = checked(p, "specular_reflectance", Vec3::ONE)?;
     let transmittance = checked(p, "specular_transmittance", Vec3::ONE)?;
-    if transmittance != Vec3::ZERO {
-        return Err(e.error(
-            "a roughdielectric that transmits light is not supported yet: pir reads one with specular_transmittance 0 \
-             (its rough reflection), and dielectric and thindielectric",
-        ));
-    }
-    let ior = ComplexIor { eta: Vec3::splat(eta), k: Vec3::ZERO };
-    let warning = format!(
-        "{}: line {}: roughdielectric without transmission is rendered as its reflection from outside; its back side is black",
-        e.file.display(),
-        e.line
-    );
-    Ok((Bsdf::RoughConductor { specular, ior, microfacet }, warning))
+    Ok(Bsdf::RoughDielectric { eta, reflectance, transmittance, microfacet })
 }
 
 /// `mask` of a diffuse BSDF (or a two-sided one): its opacity (a number, or the luminance of

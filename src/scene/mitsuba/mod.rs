@@ -684,11 +684,7 @@ impl<'a> Builder<'a> {
                 let slots = self.textured_slots(&p, &[SPECULAR])?;
                 (bsdfs::thin_dielectric(&p)?, false, slots)
             }
-            "roughdielectric" => {
-                let (bsdf, warning) = bsdfs::rough_dielectric(e, &p)?;
-                self.late_warnings.lock().unwrap_or_else(|e| e.into_inner()).push(warning);
-                (bsdf, false, None)
-            }
+            "roughdielectric" => (bsdfs::rough_dielectric(e, &p)?, false, None),
             "conductor" => {
                 let slots = self.textured_slots(&p, &[SPECULAR])?;
                 (bsdfs::conductor(e, &p)?, false, slots)
@@ -756,7 +752,7 @@ impl<'a> Builder<'a> {
             other => {
                 return Err(e.error(format!(
                     "bsdf type \"{other}\" is not supported yet: pir reads diffuse, plastic, roughplastic, conductor, \
-                     roughconductor, dielectric, thindielectric, roughdielectric (without transmission), mask (of a \
+                     roughconductor, dielectric, thindielectric, roughdielectric, mask (of a \
                      diffuse), twosided, normalmap, bumpmap and blendbsdf of diffuse and roughconductor (material \
                      none, ggx)"
                 )));

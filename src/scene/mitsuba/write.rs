@@ -227,6 +227,13 @@ fn bsdf_xml(m: &Material, pad: &str) -> String {
             v3(reflectance),
             v3(transmittance)
         ),
+        Bsdf::RoughDielectric { eta, reflectance, transmittance, microfacet } => format!(
+            "<bsdf type=\"roughdielectric\"><string name=\"distribution\" value=\"{}\"/><float name=\"alpha\" value=\"{:?}\"/><float name=\"int_ior\" value=\"{eta:?}\"/><float name=\"ext_ior\" value=\"1\"/><rgb name=\"specular_reflectance\" value=\"{}\"/><rgb name=\"specular_transmittance\" value=\"{}\"/></bsdf>",
+            microfacet.kind.name(),
+            microfacet.alpha,
+            v3(reflectance),
+            v3(transmittance)
+        ),
         Bsdf::Mask { opacity, albedo } => {
             let inner =
                 format!("<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"{}\"/></bsdf>", v3(albedo));
