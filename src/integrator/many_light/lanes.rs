@@ -144,6 +144,8 @@ struct PairLanes {
     any_depth: [f32; 8],
     /// As [`Chunk::transmits`].
     transmits: [f32; 8],
+    /// Whether any of its lights transmits.
+    any_transmits: bool,
 }
 
 impl PairLanes {
@@ -161,6 +163,7 @@ impl PairLanes {
             power: join(a.power, b.power),
             any_depth: join(a.any_depth, b.any_depth),
             transmits: join(a.transmits, b.transmits),
+            any_transmits: (a.transmits + b.transmits).max_element() > 0.0,
         }
     }
 }
@@ -203,7 +206,12 @@ fn push_estimates_dispatch(lanes: &VplLanes, cands: &mut Candidates, window: Win
     for (first, count) in window.runs() {
         let end = first + count;
         for b in (first..end).step_by(2) {
-            let p = lanes.estimates8(b, r);
+            // Ends that transmit are rare: the kernel for them only where there are some.
+            let p = if r.transmits || lanes.pairs[b].any_transmits {
+                lanes.estimates8::<true>(b, r)
+            } else {
+                lanes.estimates8::<false>(b, r)
+            };
             cands.push(b * LANES, Vec4::from_slice(&p[..LANES]));
             if b + 1 < end {
                 cands.push((b + 1) * LANES, Vec4::from_slice(&p[LANES..]));
@@ -287,7 +295,7 @@ impl VplLanes {
     /// picks and images, are the same bit for bit (the gain: `docs/integrator-measurements.md`,
     /// "Eight-wide estimates").
     #[inline(always)]
-    fn estimates8(&self, chunk: usize, r: &EstimateReceiver) -> [f32; 8] {
+    fn estimates8<const TRANSMITS: bool>(&self, chunk: usize, r: &EstimateReceiver) -> [f32; 8] {
         const W: usize = 2 * LANES;
         let q = &self.pairs[chunk];
         let ([px, py, pz], [gx, gy, gz], [sx, sy, sz]) = (q.p, q.ng, q.ns);
@@ -310,10 +318,13 @@ impl VplLanes {
             // light's shading cosine times its adjoint correction is its geometric cosine
             // times the correction's constant factor, which `power` holds, so the clamped
             // term is scaled by cos_g / cos_s at the light (exactly 1 where the normals
-            // agree). Absolute values for an end that transmits, which sees the other end from
-            // behind (the same numbers for the others, whose cosines are positive).
-            g[l] =
-                min((x_ns[l] * p_ns[l]).abs() / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l]).abs();
+            // agree). Where an end may transmit (`TRANSMITS`), absolute values: it sees the
+            // other end from behind (the same numbers where the cosines are positive).
+            g[l] = if TRANSMITS {
+                min((x_ns[l] * p_ns[l]).abs() / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l]).abs()
+            } else {
+                min(x_ns[l] * p_ns[l] / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l])
+            };
         }
         let mut value = g;
         if let Some(lobe) = r.lobe {
@@ -326,7 +337,7 @@ impl VplLanes {
                 let c = min(max(cos_r, -1.0), 1.0);
                 // The lobe's bound holds the receiver's cosine (f · cos θ_x): the clamped
                 // term without it, g / cos θ_x, so that the bound holds when clamped too.
-                let g1 = g[l] * dist / x_ns[l].abs();
+                let g1 = g[l] * dist / if TRANSMITS { x_ns[l].abs() } else { x_ns[l] };
                 value[l] = diffuse * g[l] + lobe.bound(c) * g1;
             }
         }
@@ -335,10 +346,15 @@ impl VplLanes {
         for l in 0..W {
             // Each end in front of the other, or behind it where that end transmits (on the
             // same side of both its normals either way).
-            let x_side =
-                ((x_ng[l] > 0.0) & (x_ns[l] > 0.0)) | (r.transmits & (x_ng[l] < 0.0) & (x_ns[l] < 0.0));
-            let p_side = ((p_ng[l] > 0.0) & (p_ns[l] > 0.0))
-                | ((transmits[l] != 0.0) & (p_ng[l] < 0.0) & (p_ns[l] < 0.0));
+            let (x_side, p_side) = if TRANSMITS {
+                (
+                    ((x_ng[l] > 0.0) & (x_ns[l] > 0.0)) | (r.transmits & (x_ng[l] < 0.0) & (x_ns[l] < 0.0)),
+                    ((p_ng[l] > 0.0) & (p_ns[l] > 0.0))
+                        | ((transmits[l] != 0.0) & (p_ng[l] < 0.0) & (p_ns[l] < 0.0)),
+                )
+            } else {
+                ((x_ng[l] > 0.0) & (x_ns[l] > 0.0), (p_ng[l] > 0.0) & (p_ns[l] > 0.0))
+            };
             let active = (any_depth[l] <= max_depth) & x_side & p_side & (dist2[l] > 0.0);
             out[l] = if active { power[l] * value[l] } else { 0.0 };
         }
@@ -359,7 +375,7 @@ impl VplLanes {
         lobe: Option<&Lobe>,
     ) -> Vec4 {
         let r = EstimateReceiver { x, ng, ns, bound, max_depth, lobe, transmits: false };
-        Vec4::from_slice(&self.estimates8(chunk, &r)[..LANES])
+        Vec4::from_slice(&self.estimates8::<false>(chunk, &r)[..LANES])
     }
 
     /// Pushes the estimates p̂ of the chunks of `window` to `cands` (the private
