@@ -479,6 +479,14 @@ fn consistent_methods_match_mitsubas_rough_dielectric() {
             &["mitsuba-roughdielectric.xml", method, "rough transmitting"],
         );
     }
+    // Nor do the light tree's bounds.
+    let tree =
+        ["render", scene.to_str().unwrap(), "--spp", "1", "--method", "pir-bdpt", "--gather", "tree", "-q"];
+    let o = common::binary::pir(&tree, dir.path());
+    common::binary::assert_clean_failure(
+        &o,
+        &["mitsuba-roughdielectric.xml", "--gather tree", "rough transmitting"],
+    );
 }
 
 /// A deterministic xorshift generator for the mutation tests.

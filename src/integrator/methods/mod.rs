@@ -336,18 +336,28 @@ impl MethodConfig {
     /// `roughdielectric`: `pir-mis` about 2 % dark, `pir-vsl` 2–3 % bright after 2,048
     /// iterations on `tests/data/mitsuba-roughdielectric.xml`), so they refuse such a scene
     /// rather than render it wrong.
+    /// The light tree's bounds (`--gather tree`) likewise assume that both ends of a
+    /// connection face each other, which such a material's do not.
     pub fn check_scene(&self, scene: &crate::scene::Scene) -> Result<()> {
-        if matches!(self.method.name(), "pir-mis" | "pir-vsl")
-            && let Some(m) = scene.materials().iter().find(|m| {
-                matches!(m.bsdf, crate::material::Bsdf::RoughDielectric { transmittance, .. }
-                    if transmittance != glam::Vec3::ZERO)
-            })
-        {
+        let Some(m) = scene.materials().iter().find(|m| {
+            matches!(m.bsdf, crate::material::Bsdf::RoughDielectric { transmittance, .. }
+                if transmittance != glam::Vec3::ZERO)
+        }) else {
+            return Ok(());
+        };
+        let path = scene.path().display();
+        if matches!(self.method.name(), "pir-mis" | "pir-vsl") {
             anyhow::bail!(
-                "{}: --method {} does not render rough transmitting materials yet (material \"{}\"); \
+                "{path}: --method {} does not render rough transmitting materials yet (material \"{}\"); \
                  pt, pir-bdpt and pir-clamp do",
-                scene.path().display(),
                 self.method,
+                m.name
+            );
+        }
+        if self.method.uses(Parameter::Gather) && self.gather_parameters().0 == GatherKind::Tree {
+            anyhow::bail!(
+                "{path}: --gather tree does not bound rough transmitting materials yet (material \"{}\"); \
+                 --gather resample and all do",
                 m.name
             );
         }
