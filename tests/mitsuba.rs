@@ -396,15 +396,18 @@ fn thin_lens_converts_and_is_in_the_fingerprint() {
         r#"<sensor type="thinlens"><float name="aperture_radius" value="0.2"/>
         <float name="focus_distance" value="6"/><float name="near_clip" value="0.1"/>"#,
     );
-    let source = write(dir.path(), "lens.xml", &thin_lens);
     let xml = dir.path().join("converted.xml");
-    let o = common::binary::pir(
-        &["convert", source.to_str().unwrap(), "--to", xml.to_str().unwrap()],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", common::binary::stderr(&o));
-    let (a, _) = load(&source, &[]).unwrap();
-    let (b, _) = load(&xml, &[]).unwrap();
+    // The scene `text` as written, and as `pir convert` writes it back.
+    let converted = |name: &str, text: &str| {
+        let source = write(dir.path(), name, text);
+        let o = common::binary::pir(
+            &["convert", source.to_str().unwrap(), "--to", xml.to_str().unwrap()],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", common::binary::stderr(&o));
+        (load(&source, &[]).unwrap().0, load(&xml, &[]).unwrap().0)
+    };
+    let (a, b) = converted("lens.xml", &thin_lens);
     let (ca, cb) = (a.camera(), b.camera());
     assert_eq!((ca.lens, ca.near_clip, ca.far_clip), (cb.lens, cb.near_clip, cb.far_clip));
     assert!(ca.lens.is_some() && ca.near_clip == 0.1 && ca.far_clip == 1e4, "{ca:?}");
@@ -436,14 +439,7 @@ fn thin_lens_converts_and_is_in_the_fingerprint() {
         r#"<float name="fov" value="40"/>"#,
         r#"<float name="fov" value="40"/><float name="principal_point_offset_x" value="0.125"/>"#,
     );
-    let source = write(dir.path(), "offset.xml", &offset);
-    let o = common::binary::pir(
-        &["convert", source.to_str().unwrap(), "--to", xml.to_str().unwrap()],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", common::binary::stderr(&o));
-    let (a, _) = load(&source, &[]).unwrap();
-    let (b, _) = load(&xml, &[]).unwrap();
+    let (a, b) = converted("offset.xml", &offset);
     assert_eq!(a.camera().principal_point_offset, glam::Vec2::new(0.125, 0.0));
     assert_eq!(a.camera().principal_point_offset, b.camera().principal_point_offset);
     let plain = write(dir.path(), "plain.xml", &scene(""));

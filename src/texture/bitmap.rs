@@ -151,11 +151,7 @@ impl Bitmap {
             let c = self.texel(y * w as usize + x);
             if self.image.channels == 1 { c.x } else { super::luminance(c) }
         };
-        let p = st * res - 0.5;
-        let f = p.floor();
-        let (x, y) = (f.x as i64, f.y as i64);
-        let w1 = p - f;
-        let w0 = 1.0 - w1;
+        let (x, y, w0, w1) = bilinear_cell(st, res);
         let (f00, f10, f01, f11) = (one(x, y), one(x + 1, y), one(x, y + 1), one(x + 1, y + 1));
         let df = Vec2::new(w0.y * (f10 - f00) + w1.y * (f11 - f01), w0.x * (f01 - f00) + w1.x * (f11 - f10));
         let m = self.to_uv.matrix2;
@@ -188,11 +184,7 @@ impl Bitmap {
                 at(p.x as i64, p.y as i64)
             }
             Filter::Bilinear => {
-                let p = uv * res - 0.5;
-                let f = p.floor();
-                let (x, y) = (f.x as i64, f.y as i64);
-                let w1 = p - f;
-                let w0 = 1.0 - w1;
+                let (x, y, w0, w1) = bilinear_cell(uv, res);
                 let (v00, v10, v01, v11) = (at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1));
                 let c0 = w0.x * v00 + w1.x * v10;
                 let c1 = w0.x * v01 + w1.x * v11;
@@ -225,6 +217,17 @@ fn wrap(i: i64, n: u32, mode: Wrap) -> usize {
             if m >= n { 2 * n - 1 - m } else { m }
         }
     }) as usize
+}
+
+/// The cell of a bilinear lookup at texture coordinates `st` of an image of `res` texels:
+/// the texel at its lower corner (texel centres at half-integers, as Mitsuba's) and the
+/// weights of the lower (`w0`) and upper (`w1`) neighbours per axis.
+#[inline]
+fn bilinear_cell(st: Vec2, res: Vec2) -> (i64, i64, Vec2, Vec2) {
+    let p = st * res - 0.5;
+    let f = p.floor();
+    let w1 = p - f;
+    (f.x as i64, f.y as i64, 1.0 - w1, w1)
 }
 
 #[cfg(test)]
