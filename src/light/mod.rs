@@ -52,8 +52,6 @@ pub struct Emitters {
     light_pmf: Vec<f32>,
     /// The indices (into `lights`) of the environments, which escaping rays see.
     environments: Vec<usize>,
-    /// Only triangles outside spheres: [`Emitters::sample`] serves.
-    plain: bool,
 }
 
 /// An emitting sphere's entry of the table.
@@ -176,8 +174,7 @@ impl Emitters {
         let first_light = prims.len() + groups.len();
         let light_pmf = (0..lights.len()).map(|k| dist.pmf(first_light + k)).collect();
         let environments = (0..lights.len()).filter(|&k| lights[k].is_environment()).collect();
-        let plain = lights.is_empty() && groups.is_empty();
-        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, plain })
+        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments })
     }
 
     /// The lights other than triangles.
@@ -186,17 +183,11 @@ impl Emitters {
         &self.lights
     }
 
-    /// Whether there are lights other than triangles.
-    #[inline]
-    pub fn has_lights(&self) -> bool {
-        !self.lights.is_empty()
-    }
-
     /// Whether the emitters are triangles outside spheres only: then [`Emitters::sample`]
     /// serves, else [`Emitters::choose`] (and [`Emitters::choose_from`]) sample.
     #[inline]
     pub fn is_plain(&self) -> bool {
-        self.plain
+        self.lights.is_empty() && self.groups.is_empty()
     }
 
     /// The probability of choosing light `k` of [`Emitters::lights`].
@@ -258,8 +249,14 @@ impl Emitters {
     #[inline(always)]
     pub fn sample(&self, scene: &Scene, u_select: f32, u: Vec2) -> EmitterSample {
         let (i, rest) = self.dist.sample_reuse(refined(u.x, u_select));
-        let prim = self.prims[i];
-        let b = uniform_triangle(Vec2::new(to_unit_f32(rest), u.y));
+        self.area_sample(scene, self.prims[i], rest, u.y)
+    }
+
+    /// A uniform point on emitter triangle `prim` from what is left of the first number,
+    /// `rest`, and the second, `v`.
+    #[inline(always)]
+    fn area_sample(&self, scene: &Scene, prim: u32, rest: f64, v: f32) -> EmitterSample {
+        let b = uniform_triangle(Vec2::new(to_unit_f32(rest), v));
         let (p, ng) = scene.point_at(prim, b);
         EmitterSample {
             point: EmitterPoint { p, ng, prim },
@@ -297,15 +294,7 @@ impl Emitters {
     /// Entry `i` of the table, with what is left of the first number, `rest`.
     #[inline]
     fn choice(&self, scene: &Scene, i: usize, rest: f64, u: Vec2) -> Choice {
-        let area = |prim: u32, rest: f64| {
-            let b = uniform_triangle(Vec2::new(to_unit_f32(rest), u.y));
-            let (p, ng) = scene.point_at(prim, b);
-            Choice::Area(EmitterSample {
-                point: EmitterPoint { p, ng, prim },
-                radiance: scene.emission_at(prim, b),
-                pdf_area: self.pdf_area[prim as usize],
-            })
-        };
+        let area = |prim: u32, rest: f64| Choice::Area(self.area_sample(scene, prim, rest, u.y));
         if let Some(&prim) = self.prims.get(i) {
             return area(prim, rest);
         }
