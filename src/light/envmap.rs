@@ -23,6 +23,7 @@ use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Mitsuba's luminance of linear RGB (Rec. 709 primaries).
+#[inline]
 pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.212_671, 0.715_160, 0.072_169))
 }

@@ -5,10 +5,3 @@
 //!
 //! Shadow rays are blocked by masked surfaces, as in Mitsuba 3's `path` integrator: only
 //! sampled paths pass through them.
-
-use glam::Vec3;
-
-/// Luminance of a linear RGB colour (Rec. 709 primaries, Mitsuba's `luminance`).
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.212671, 0.715160, 0.072169))
-}

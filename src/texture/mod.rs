@@ -98,11 +98,7 @@ impl Texture {
     }
 }
 
-/// Mitsuba's luminance of linear sRGB (Rec. 709 primaries).
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    c.x * 0.212671 + c.y * 0.715160 + c.z * 0.072169
-}
+pub use crate::light::envmap::luminance;
 
 /// Mitsuba's `to_uv` of a 4×4 `<transform>`: rows and columns 0, 1 and 3 (the translation in
 /// x and y); z and the projective row are ignored.

@@ -8,8 +8,8 @@ use glam::Vec3;
 
 use super::xml::Element;
 use super::{Params, SceneError, ior, reflectance};
+use crate::light::envmap::luminance;
 use crate::material::conductor::ComplexIor;
-use crate::material::mask::luminance;
 use crate::material::microfacet::{Distribution, Microfacet};
 use crate::material::{Bsdf, ggx};
 
@@ -102,7 +102,7 @@ fn relative_ior(e: &Element, p: &Params, int_default: f32) -> Result<f32, SceneE
 fn interface_ior(p: &Params, int_default: f32) -> Result<f32, SceneError> {
     let int = ior(p, "int_ior", int_default)?;
     let ext = ior(p, "ext_ior", 1.000277)?;
-    Ok(if int == ext { 1.0 } else { int / ext })
+    Ok(int / ext)
 }
 
 /// `plastic` and `roughplastic` (Mitsuba's polypropylene, 1.49, inside) of the (checked)
