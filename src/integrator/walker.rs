@@ -210,6 +210,9 @@ pub fn walk<E: Estimator>(
                     let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &how };
                     estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
                 }
+                if !(bounce || through) {
+                    break;
+                }
                 let bsdf = material.bsdf_at(sp.uv);
                 let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
                 if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {

@@ -435,9 +435,9 @@ impl Scene {
     #[inline]
     pub fn emission_at(&self, prim: u32, uv: Vec2) -> Vec3 {
         let m = self.material_of(prim);
-        match m.textures {
+        match m.textures.as_deref().and_then(|t| t.get(crate::material::Slot::Emission)) {
             None => m.emission,
-            Some(_) => m.emission_at(self.texture_coordinates(prim, uv)),
+            Some(texture) => texture.eval(self.texture_coordinates(prim, uv)),
         }
     }
 
