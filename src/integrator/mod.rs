@@ -44,7 +44,7 @@ use crate::accel::Accelerator;
 use crate::geometry::Ray;
 use crate::light::Emitters;
 use crate::sampling::{Sampler, SamplerKind};
-use crate::scene::Scene;
+use crate::scene::{CameraRays, Scene};
 
 /// Most light samples at the camera path's first vertex (`--light-samples`).
 pub const MAX_LIGHT_SAMPLES: u32 = 64;
@@ -63,6 +63,16 @@ pub struct RenderContext<'a> {
     /// above alone, so that every integrator made for the render (its own, and the ones that
     /// only report their parameters) runs it once; `None`: each runs its own.
     pub pilot: Option<&'a std::sync::OnceLock<many_light::Pilot>>,
+}
+
+/// Light that an iteration traced to the camera ([`Integrator::film_splats`]): a film
+/// position (in pixels, as a camera sample's: x to the right, y down, inside the image) and
+/// the value it adds there, per unit area of a pixel; the driver spreads it over the pixels
+/// by the film's reconstruction filter, as it spreads a camera sample at that position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilmSplat {
+    pub film: glam::Vec2,
+    pub value: Vec3,
 }
 
 /// Ray counts, kept per task and summed for the summary.
@@ -109,9 +119,20 @@ pub trait Integrator: Send + Sync {
     /// sharded render prepares the same. What it traces is counted in `counters`.
     fn prepare(&mut self, _ctx: &RenderContext, _counters: &mut Counters) {}
 
+    /// The camera at the film's resolution, given by the driver before the first iteration
+    /// (for methods that trace light to the camera).
+    fn set_camera(&mut self, _camera: CameraRays) {}
+
     /// Work done once per iteration before any pixel (iterations count from 1), counting
     /// what it traces in `counters`.
     fn begin_iteration(&mut self, _ctx: &RenderContext, _iteration: u64, _counters: &mut Counters) {}
+
+    /// The light the current iteration traced to the camera, added to the iteration's
+    /// samples in this order (a function of the seed and the iteration alone, so that the
+    /// image does not depend on the threads); none by default.
+    fn film_splats(&self) -> &[FilmSplat] {
+        &[]
+    }
 
     /// Radiance arriving along the camera ray `ray` (unit direction).
     fn radiance(&self, ctx: &RenderContext, ray: Ray, sampler: &mut Sampler, counters: &mut Counters)

@@ -8,6 +8,11 @@
 //! the integrator's. Each pixel's sum is accumulated in iteration order, so the image depends
 //! on the seed only, never on the thread count.
 //!
+//! Light that the integrator traced to the camera in the iteration ([`Integrator::film_splats`],
+//! `pir-bdpt`) is added to the iteration's samples through the same reconstruction filter,
+//! splat by splat in the integrator's order, so the iteration's value of a pixel is its camera
+//! sample's share plus the light tracer's, whatever the threads.
+//!
 //! Samples that are NaN or infinite never reach the film: they are counted, dropped and
 //! reported (with the first pixel) so that a bug shows instead of hiding.
 //!
@@ -20,7 +25,7 @@ use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 use super::Film;
-use super::splat::Splat;
+use super::splat::{Splat, light_image};
 use super::state::Shard;
 use crate::integrator::{Counters, Integrator, RenderContext};
 use crate::sampling::Streams;
@@ -132,6 +137,7 @@ pub fn render_from(
     let mut splat = (ctx.scene.filter() != Filter::Box).then(|| Splat::new(ctx.scene.filter(), w, h));
     let mut stats = RenderStats { iterations: film.iterations(), ..RenderStats::default() };
     let start = Instant::now();
+    integrator.set_camera(camera);
     // (A no-op for an integrator the caller prepared already.)
     integrator.prepare(ctx, &mut stats.counters);
     stats.prepare_time += start.elapsed();
@@ -177,26 +183,40 @@ pub fn render_from(
         if let Some(splat) = &mut splat {
             splat.clear();
         }
+        // The light traced to the camera, through the filter.
+        let splats = integrator.film_splats();
+        let light = (!splats.is_empty()).then(|| {
+            let (image, dropped, first) = light_image(splats, splat.as_ref(), w, h);
+            stats.dropped += dropped;
+            if let Some((x, y)) = first {
+                stats.first_dropped.get_or_insert((x, y, iteration));
+            }
+            image
+        });
         for (tile, (values, offsets, counters)) in tiles.iter().zip(results) {
             stats.counters += counters;
             let mut k = 0;
             for y in tile.y0..tile.y1 {
                 for x in tile.x0..tile.x1 {
                     let v = values[k];
+                    let lit = light.as_ref().map(|l| l[y * w + x]);
                     if !v.is_finite() {
                         stats.dropped += 1;
                         stats.first_dropped.get_or_insert((x, y, iteration));
+                        if let (None, Some(l)) = (&splat, lit) {
+                            film.add(y * w + x, l);
+                        }
                     } else if let Some(splat) = &mut splat {
                         splat.put(x, y, offsets[k], v);
                     } else {
-                        film.add(y * w + x, v);
+                        film.add(y * w + x, lit.map_or(v, |l| v + l));
                     }
                     k += 1;
                 }
             }
         }
         if let Some(splat) = &splat {
-            splat.develop(&mut film);
+            splat.develop(&mut film, light.as_deref());
         }
         film.end_iteration();
         stats.iterations = film.iterations();

@@ -4,11 +4,16 @@
 //! weights' expected sum (the filter's integral over the image around the pixel), so that the
 //! iteration's value is an unbiased estimate of the filtered image. Each pixel sums its
 //! neighbours in a fixed order, whatever the threads, so the image is the same bit for bit.
+//!
+//! Light traced to the camera ([`FilmSplat`]) goes through the same filter: a splat at a film
+//! position adds to every pixel within reach its value times the weight a camera sample at
+//! that position would have there ([`light_image`]), the splats in their given order.
 
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::Film;
+use crate::integrator::FilmSplat;
 use crate::scene::Filter;
 
 pub struct Splat {
@@ -48,8 +53,9 @@ impl Splat {
         self.samples[y * self.width + x] = Some((v, offset));
     }
 
-    /// Adds the iteration's filtered value of every pixel to `film`.
-    pub fn develop(&self, film: &mut Film) {
+    /// Adds the iteration's filtered value of every pixel to `film`, plus `light`'s
+    /// ([`light_image`]) where given.
+    pub fn develop(&self, film: &mut Film, light: Option<&[Vec3]>) {
         let (w, h, r) = (self.width, self.height, self.reach as isize);
         let rows: Vec<Vec<Vec3>> = (0..h)
             .into_par_iter()
@@ -82,10 +88,52 @@ impl Splat {
             .collect();
         for (py, row) in rows.into_iter().enumerate() {
             for (px, v) in row.into_iter().enumerate() {
-                film.add(py * w + px, v);
+                let i = py * w + px;
+                film.add(i, light.map_or(v, |l| v + l[i]));
             }
         }
     }
+
+    /// Adds the light of `value` at film position `pos` to the pixels within the filter's
+    /// reach, each with the weight a camera sample there has ([`Splat::develop`]).
+    fn spread(&self, pos: Vec2, value: Vec3, out: &mut [Vec3]) {
+        let (w, h, r) = (self.width as isize, self.height as isize, self.reach as isize);
+        let (cx, cy) = (pos.x.floor() as isize, pos.y.floor() as isize);
+        for py in (cy - r).max(0)..=(cy + r).min(h - 1) {
+            let wy = self.filter.eval(pos.y - (py as f32 + 0.5)) as f64 * self.inv_y[py as usize];
+            for px in (cx - r).max(0)..=(cx + r).min(w - 1) {
+                let wx = self.filter.eval(pos.x - (px as f32 + 0.5)) as f64 * self.inv_x[px as usize];
+                out[(py * w + px) as usize] += value * (wx * wy) as f32;
+            }
+        }
+    }
+}
+
+/// The image of an iteration's light traced to the camera, `width` × `height` pixels: each
+/// splat through the film's filter (`filter`; `None` for the box, which puts it in its pixel
+/// alone), in the splats' order. Splats that are not finite are left out and counted in the
+/// second value, the first with its pixel in the third.
+pub fn light_image(
+    splats: &[FilmSplat],
+    filter: Option<&Splat>,
+    width: usize,
+    height: usize,
+) -> (Vec<Vec3>, u64, Option<(usize, usize)>) {
+    let mut out = vec![Vec3::ZERO; width * height];
+    let (mut dropped, mut first) = (0, None);
+    for s in splats {
+        let (x, y) = ((s.film.x.max(0.0) as usize).min(width - 1), (s.film.y.max(0.0) as usize).min(height - 1));
+        if !s.value.is_finite() {
+            dropped += 1;
+            first.get_or_insert((x, y));
+            continue;
+        }
+        match filter {
+            Some(f) => f.spread(s.film, s.value, &mut out),
+            None => out[y * width + x] += s.value,
+        }
+    }
+    (out, dropped, first)
 }
 
 #[cfg(test)]
@@ -114,7 +162,7 @@ mod tests {
                             splat.put(x, y, o, Vec3::ONE);
                         }
                     }
-                    splat.develop(&mut film);
+                    splat.develop(&mut film, None);
                     film.end_iteration();
                 }
             }
@@ -133,7 +181,7 @@ mod tests {
                             splat.put(x, y, o, if (x, y) == (7, 6) { Vec3::ONE } else { Vec3::ZERO });
                         }
                     }
-                    splat.develop(&mut film);
+                    splat.develop(&mut film, None);
                     film.end_iteration();
                 }
             }

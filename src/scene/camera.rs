@@ -37,13 +37,11 @@ pub struct Camera {
 /// the point where the pinhole's ray through the same film position meets the focus plane,
 /// at `focus_distance` along the view axis. Surfaces on the focus plane are sharp.
 ///
-/// Light tracing to the camera (connecting a light subpath's vertex to the lens) would need
-/// the lens's importance and density here, as Mitsuba's `ThinLensCamera::sample_direction`
-/// has them: a uniform point on the aperture (area density 1 / (π r²), so a solid-angle
-/// density of d² / (π r² cos θ) at the vertex), the film position where the ray from that
-/// point through the vertex crosses the focus plane, and importance 1 / (A cos³ θ d²) with A
-/// the area of the image rectangle at unit distance (zero outside the image). pir's methods
-/// do not trace light to the camera yet, so only the ray sampling is written.
+/// Light tracing to the camera ([`CameraRays::connect`]) picks the lens point as Mitsuba's
+/// `ThinLensCamera::sample_direction` does: uniformly on the aperture, the film position
+/// where the ray from that point through the vertex crosses the focus plane. The aperture's
+/// density is the camera rays' own, so that both see the vertex from the lens point with the
+/// pinhole's direction density ([`CameraRays::direction_pdf`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ThinLens {
     /// The aperture's radius in scene units (Mitsuba's `aperture_radius`).
@@ -124,7 +122,76 @@ pub struct CameraRays {
     shift: Vec2,
 }
 
+/// A point connected to the camera ([`CameraRays::connect`]): where on the lens, where on
+/// the film, and how densely the camera's rays sample the direction.
+#[derive(Clone, Copy, Debug)]
+pub struct LensConnection {
+    /// The lens point (the eye for a pinhole).
+    pub lens: Vec3,
+    /// The film position in pixels, as [`CameraRays::generate_ray`] takes it (x to the right,
+    /// y down, the principal point offset undone), inside the image.
+    pub film: Vec2,
+    /// The camera's density of the direction from `lens` to the point
+    /// ([`CameraRays::direction_pdf`]).
+    pub pdf_dir: f32,
+    /// Where the segment from the point to the lens leaves what camera rays see: the near
+    /// clip plane, or the lens point without one (the end of a shadow ray).
+    pub visible_end: Vec3,
+}
+
 impl CameraRays {
+    /// The density with which the camera's rays sample the unit direction `dir` from their
+    /// lens point, per unit solid angle, with a pixel of the film as the unit of area (a
+    /// camera ray's film position is uniform in its pixel): W H / (A cos³ θ), A the image
+    /// rectangle's area at unit distance along the view axis, θ the angle to the axis (zero
+    /// behind the lens). The same for a pinhole and a thin lens (seen from the lens point,
+    /// the focus plane's area element is the unit-distance rectangle's, scaled by f²).
+    /// As in pbrt-v4's `PerspectiveCamera::PDF_We` (per pixel here, not per image) and
+    /// Georgiev's vertex connection and merging (the image plane at the distance where a
+    /// pixel has unit area).
+    #[inline]
+    pub fn direction_pdf(&self, dir: Vec3) -> f32 {
+        let cos = dir.dot(self.forward) / dir.length();
+        if cos.is_nan() || cos <= 0.0 {
+            return 0.0;
+        }
+        let area = 4.0 * self.tan_half * self.tan_half * self.aspect;
+        self.width * self.height / (area * cos * cos * cos)
+    }
+
+    /// The camera's view of the point `p`, seen from the lens point of the uniform `aperture`
+    /// sample (ignored by a pinhole, as [`CameraRays::generate_ray`] ignores it): the film
+    /// position whose rays from that lens point pass through `p`, and the direction's
+    /// density; `None` where no camera ray sees `p` (behind the lens, outside the clip
+    /// planes, outside the image).
+    pub fn connect(&self, p: Vec3, aperture: Vec2) -> Option<LensConnection> {
+        let (lens, focus) = match self.lens {
+            None => (self.eye, 1.0),
+            Some(l) => {
+                let disk = l.aperture_radius * concentric_disk(aperture);
+                (self.eye + self.up * disk.y - self.right * disk.x, l.focus_distance)
+            }
+        };
+        let d = p - lens;
+        let depth = d.dot(self.forward);
+        if depth.is_nan() || depth <= 0.0 || depth < self.near_clip || depth > self.far_clip {
+            return None;
+        }
+        // Where the ray from the lens point through p meets the focus plane, relative to the
+        // eye and in units of the focus distance: the pinhole's direction of the film position.
+        let q = (lens - self.eye + d * (focus / depth)) / focus;
+        let (sx, sy) = (q.dot(self.right), q.dot(self.up));
+        let film = Vec2::new(
+            (sx / (self.tan_half * self.aspect) + 1.0) * 0.5 * self.width,
+            (1.0 - sy / self.tan_half) * 0.5 * self.height,
+        ) - self.shift;
+        if !(film.x >= 0.0 && film.x < self.width && film.y >= 0.0 && film.y < self.height) {
+            return None;
+        }
+        let visible_end = lens + d * (self.near_clip / depth);
+        Some(LensConnection { lens, film, pdf_dir: self.direction_pdf(d), visible_end })
+    }
+
     /// Whether a ray needs a point on the aperture ([`CameraRays::generate_ray`]'s
     /// `aperture`): a thin lens does, a pinhole does not, so that a pinhole's camera sample
     /// draws the film position alone.
@@ -241,6 +308,61 @@ mod tests {
         let up = rays.generate_ray(film, Vec2::new(0.5, 1.0)).origin - c.eye;
         assert!((left - Vec3::new(-0.2, 0.0, 0.0)).length() < 1e-6, "{left}");
         assert!((up - Vec3::new(0.0, 0.2, 0.0)).length() < 1e-6, "{up}");
+    }
+
+    /// [`CameraRays::connect`] inverts [`CameraRays::generate_ray`]: a point on a camera
+    /// ray, seen from the ray's lens point, is at the ray's film position, for a pinhole and
+    /// a thin lens, with a principal point offset; points outside the image, behind the lens
+    /// or beyond the clip planes are not seen.
+    #[test]
+    fn connect_finds_the_film_position_of_a_camera_ray() {
+        let lens = ThinLens { aperture_radius: 0.2, focus_distance: 3.0 };
+        let shifted = Camera { principal_point_offset: Vec2::new(0.1, -0.05), near_clip: 0.5, ..cam() };
+        for c in [cam(), Camera { lens: Some(lens), ..cam() }, shifted] {
+            let rays = c.rays();
+            for (film, aperture, t) in [
+                (Vec2::new(100.0, 50.0), Vec2::new(0.3, 0.8), 2.0),
+                (Vec2::new(3.5, 97.25), Vec2::new(0.9, 0.1), 5.0),
+                (Vec2::new(180.0, 10.0), Vec2::new(0.5, 0.5), 0.8),
+            ] {
+                let r = rays.generate_ray(film, aperture);
+                let got = rays.connect(r.at(t), aperture).expect("a point on a camera ray is seen");
+                assert!((got.film - film).length() < 2e-3, "{c:?}: {} ≠ {film}", got.film);
+                assert!((got.lens - r.origin).length() < 1e-5);
+                assert!((got.pdf_dir - rays.direction_pdf(r.dir)).abs() <= 1e-4 * got.pdf_dir);
+                assert!(((got.visible_end - got.lens).dot(rays.forward) - c.near_clip).abs() < 1e-5);
+            }
+            let behind = c.eye - (c.target - c.eye);
+            assert!(rays.connect(behind, Vec2::splat(0.5)).is_none());
+            let outside = c.eye + (c.target - c.eye) + Vec3::new(0.0, 10.0, 0.0);
+            assert!(rays.connect(outside, Vec2::splat(0.5)).is_none());
+        }
+        let near = Camera { near_clip: 1.0, ..cam() }.rays();
+        assert!(near.connect(Vec3::new(0.0, 1.0, 3.2), Vec2::ZERO).is_none());
+        assert!(near.connect(Vec3::new(0.0, 1.0, 2.8), Vec2::ZERO).is_some());
+    }
+
+    /// The direction density integrates to the film's pixel count over the directions the
+    /// image sees (Monte Carlo over the unit sphere, 1 % of it).
+    #[test]
+    fn direction_pdf_integrates_to_the_pixel_count() {
+        use crate::sampling::{Domain, Sampler};
+        let rays = cam().rays();
+        let mut s = Sampler::new(1, 0, Domain::LightPath, 0);
+        let n = 1 << 20;
+        let mut sum = 0.0f64;
+        for _ in 0..n {
+            let (u, v) = (s.next_f32(), s.next_f32());
+            let z = 1.0 - 2.0 * u;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * v;
+            let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            if rays.connect(rays.eye + dir, Vec2::ZERO).is_some() {
+                sum += rays.direction_pdf(dir) as f64;
+            }
+        }
+        let integral = sum * 4.0 * std::f64::consts::PI / n as f64;
+        assert!((integral / (200.0 * 100.0) - 1.0).abs() < 0.01, "{integral}");
     }
 
     /// The lens points of a pixel's camera samples (the sampler's second dimension, as the

@@ -16,7 +16,7 @@ pub mod ply;
 pub mod serialized;
 mod transform;
 
-pub use camera::{Camera, CameraRays, ThinLens};
+pub use camera::{Camera, CameraRays, LensConnection, ThinLens};
 pub use filter::Filter;
 pub use load::{SceneError, load, load_with};
 

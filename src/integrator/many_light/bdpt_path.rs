@@ -1,5 +1,7 @@
 //! `pir-bdpt`'s camera path: the walker's [`Estimator`] whose every technique is weighed by
-//! the bidirectional weights of [`super::bidirectional`], its [`MisState`] the per-path state.
+//! the bidirectional weights of [`super::bidirectional`], its [`MisState`] the per-path state
+//! (weighed against light tracing to the camera, [`super::to_camera`], where the light paths
+//! splat).
 
 use glam::Vec3;
 
@@ -15,6 +17,7 @@ use crate::integrator::walker::{Arrival, Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
 use crate::material::{Bsdf, BsdfSample, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
+use crate::scene::CameraRays;
 
 /// `pir-bdpt`'s camera path: a full path tracer's walk with next-event estimation, emitter
 /// hits and the gather from `set` at the non-delta vertices that `connect` names, all weighed
@@ -26,6 +29,9 @@ pub struct Bidirectional<'a> {
     pub light_samples: u32,
     pub counts: Counts,
     pub bound: f32,
+    /// The camera that the light paths splat into ([`super::to_camera`]), whose density of
+    /// the camera ray starts the weights' sums; none: no light tracing to the camera.
+    pub camera: Option<&'a CameraRays>,
 }
 
 /// The camera subpath's bookkeeping along the walk.
@@ -47,12 +53,14 @@ impl Estimator for Bidirectional<'_> {
 
     #[inline]
     fn start(&self, ray: &Ray) -> CameraPath {
-        CameraPath { mis: MisState::CAMERA, from: ray.origin, previous: None, depth: 0 }
+        let mis = self.camera.map_or(MisState::CAMERA, |c| MisState::from_camera(c.direction_pdf(ray.dir)));
+        CameraPath { mis, from: ray.origin, previous: None, depth: 0 }
     }
 
     /// The environments found by a ray that leaves the scene, each weighed against
     /// next-event estimation of it at the vertex the ray left and every connection that
-    /// makes the path ([`escape_weight`]).
+    /// makes the path ([`escape_weight`]); seen from the camera, the camera's alone (light
+    /// tracing does not connect a light's own point to the lens).
     fn on_escape(
         &self,
         path: &mut CameraPath,
@@ -73,13 +81,18 @@ impl Estimator for Bidirectional<'_> {
             }
             let nee = ctx.emitters.light_pmf(k) * light.environment_pdf(dir);
             let emission = light.emission_density(f32::INFINITY, radius);
-            let w = escape_weight(&path.mis, nee, emission, self.counts.paths, left_samples);
+            let w = match path.depth {
+                0 => 1.0,
+                _ => escape_weight(&path.mis, nee, emission, self.counts.paths, left_samples),
+            };
             *radiance += beta * le * w;
         }
     }
 
     /// The emission found by the camera ray or a BSDF sample, weighed against next-event
-    /// estimation at the vertex the ray left and every connection that makes the path.
+    /// estimation at the vertex the ray left and every connection that makes the path; found
+    /// by the camera ray, the camera's alone (light tracing does not connect an emitter's own
+    /// point to the lens).
     #[inline]
     fn on_hit(
         &self,
@@ -103,7 +116,10 @@ impl Estimator for Bidirectional<'_> {
             };
             // Light samples at the vertex the ray left: `light_samples` at the first.
             let left_samples = if at.depth == 2 { self.light_samples as f32 } else { 1.0 };
-            let w = hit_weight(&path.mis, pdf_nee, pdf_area, cos_in, self.counts.paths, left_samples);
+            let w = match path.depth {
+                0 => 1.0,
+                _ => hit_weight(&path.mis, pdf_nee, pdf_area, cos_in, self.counts.paths, left_samples),
+            };
             *radiance += beta * le * w;
         }
     }

@@ -254,6 +254,39 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     weight((w_light + w_camera) / x.counts.factor(x.bsdf, bsdf_y))
 }
 
+/// The weight of light tracing to the camera from the light subpath's vertex `y`: `mis` its
+/// sums on arriving there, `depth` its segments from the emitter, `count_out` the count of the
+/// connection from it (as the camera's first vertex) to the light subpath's previous vertex
+/// ([`Vpl::count_out`]); `pdf_camera` the camera's density of `y` per unit area (its direction
+/// density, [`crate::scene::CameraRays::direction_pdf`], times cos θ_y / d²), `light_rev` the
+/// density of `y`'s BSDF sampling, from the camera's direction, the way the light came; the
+/// first camera vertex takes `light_samples` light samples.
+///
+/// The others, relative to light tracing (which counts N, each light path splatting once):
+/// the camera path ending at `y` (next-event estimation there if it is lit directly, else
+/// the connection to the previous vertex's VPL; `dvcm`) and further on (`dvc`, only the
+/// emitter techniques where the camera connects at its first vertex only, and the connection
+/// at the second vertex too with `first-two`), all behind the camera's density of `y`.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn camera_weight(
+    mis: &MisState,
+    depth: u32,
+    count_out: f32,
+    pdf_camera: f32,
+    light_rev: f32,
+    connect: Connect,
+    light_samples: f32,
+) -> f32 {
+    let one = if depth == 1 { mis.dvcm * light_samples } else { mis.dvcm * count_out };
+    let more = match connect {
+        Connect::First => mis.dvc_emitter,
+        Connect::FirstTwo => mis.dvc_two,
+        Connect::All => mis.dvc,
+    };
+    weight(pdf_camera * (one + more * light_rev))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,6 +343,20 @@ mod tests {
         Environment { nee: f32, disk: f32 },
     }
 
+    /// The test camera's density of the direction from z[0] to `to`, as
+    /// [`crate::scene::CameraRays::direction_pdf`] has it: W H / (A cos³ θ) about the view
+    /// axis +z (every test path lies in front of it), W H / A chosen so that light tracing
+    /// and the camera's techniques weigh alike on the test paths.
+    fn camera_pdf_dir(z: &[Node], to: &Node) -> f32 {
+        let cos = z[0].dir(to).z;
+        100.0 / (cos * cos * cos)
+    }
+
+    /// The camera's density of z[1] per unit area.
+    fn camera_pdf_area(z: &[Node]) -> f32 {
+        camera_pdf_dir(z, &z[1]) * z[1].cos(&z[0]) / dist2(&z[0], &z[1])
+    }
+
     /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
     fn camera_state(z: &[Node], t: usize, connect: Connect, counts: Counts) -> MisState {
         camera_state_to(z, t, connect, counts, true)
@@ -318,7 +365,7 @@ mod tests {
     /// [`camera_state`], or, with `arrive` false, the sums as the scatter at z[t − 1]
     /// towards z[t] leaves them (an environment's: no distance to arrive over).
     fn camera_state_to(z: &[Node], t: usize, connect: Connect, counts: Counts, arrive: bool) -> MisState {
-        let mut s = MisState::CAMERA;
+        let mut s = MisState::from_camera(camera_pdf_dir(z, &z[1]));
         for j in 1..=t {
             if j == t && !arrive {
                 break;
@@ -366,8 +413,9 @@ mod tests {
         s
     }
 
-    /// Every technique's weight for the path z[1..=k] (z[k] on the emitter), in order of t;
-    /// `None` for a technique that cannot make the path. The first vertex takes
+    /// Every technique's weight for the path z[1..=k] (z[k] on the emitter), in order of t
+    /// from t = 0, light tracing to the camera; `None` for a technique that cannot make the
+    /// path. The first vertex takes
     /// `light_samples` light samples.
     fn weights(
         z: &[Node],
@@ -390,7 +438,15 @@ mod tests {
         let k = z.len() - 1;
         let paths = counts.paths;
         let samples_at = |t: usize| if t == 1 { light_samples as f32 } else { 1.0 };
-        let mut w = Vec::new();
+        // Light tracing: the light subpath's vertex z[1] connected to the camera, as
+        // `to_camera` weighs it.
+        let mut w = vec![z[1].bsdf.map(|_| {
+            let mis = light_state(z, 1, source, counts);
+            let count_out = factor(counts, (2 < k).then(|| &z[2]), &z[1]);
+            let light_rev = z[1].pdf(&z[0], &z[2]);
+            let pdf_camera = camera_pdf_area(z);
+            camera_weight(&mis, (k - 1) as u32, count_out, pdf_camera, light_rev, connect, samples_at(1))
+        })];
         for t in 1..=k {
             let x = &z[t];
             let count_in = factor(counts, (t > 1).then(|| &z[t - 1]), x);
@@ -516,8 +572,8 @@ mod tests {
     }
 
     /// On a path camera → z_1 → z_2 → emitter z_3, the connection at z_1 weighs exactly
-    /// n_c P_c / (n_c P_c + P_nee + P_hit) with the densities written out (the camera ray's
-    /// common to all three left out) and n_c its count by its two ends: Lambertian and glossy
+    /// n_c P_c / (n_c P_c + P_nee + P_hit + P_lt) with the densities written out (the camera
+    /// ray's common to the first three left out, light tracing's divided by it) and n_c its count by its two ends: Lambertian and glossy
     /// vertices, counts below one of either kind.
     #[test]
     fn the_connection_weighs_its_count_against_the_emitter_techniques() {
@@ -537,9 +593,12 @@ mod tests {
             let camera_z2 = z[1].pdf(&z[0], &z[2]) * z[2].cos(&z[1]) / dist2(&z[1], &z[2]);
             let p_nee = camera_z2 * pdf_area;
             let p_hit = camera_z2 * z[2].pdf(&z[1], &z[3]) * z[3].cos(&z[2]) / dist2(&z[2], &z[3]);
-            let expected = n_c * p_c / (n_c * p_c + p_nee + p_hit);
+            // Light tracing: the light path to z_1, over the camera's density of z_1.
+            let p_lt = counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2]) / dist2(&z[1], &z[2])
+                / camera_pdf_area(&z);
+            let expected = n_c * p_c / (n_c * p_c + p_nee + p_hit + p_lt);
             let w = weights(&z, pdf_area, counts, Connect::First, 1);
-            let got = w[0].unwrap();
+            let got = w[1].unwrap();
             assert!(
                 (got - expected).abs() < 1e-3 * expected.max(1e-3),
                 "{b1:?} {b2:?}: {got} against {expected}"
@@ -620,9 +679,10 @@ mod tests {
             }
         }
     }
-    /// The direct light of the first non-delta vertex (a path of two segments after any delta
-    /// chain from the camera) is weighed exactly as `pt` weighs it: the power heuristic of
-    /// next-event estimation against BSDF sampling.
+    /// The direct light of the first non-delta vertex (a path of two segments) is weighed as
+    /// `pt` weighs it, the power heuristic of next-event estimation against BSDF sampling,
+    /// within the share that light tracing to the camera leaves them, which is light
+    /// tracing's density N p_L(z_1) against theirs, balanced, with the densities written out.
     #[test]
     fn direct_light_is_weighed_as_the_path_tracer_weighs_it() {
         let mut s = Sampler::new(5, 0, Domain::LightPath, 0);
@@ -649,8 +709,18 @@ mod tests {
                     n,
                 );
                 let nee = crate::integrator::direct::power_heuristic(n as f32 * pdf_light, pdf_bsdf);
-                assert!((w[0].unwrap() - nee).abs() < 1e-4, "n {n}: {w:?} against {nee}");
-                assert!((w[1].unwrap() - (1.0 - nee)).abs() < 1e-4, "n {n}: {w:?} against {}", 1.0 - nee);
+                // Per unit area of the emitter point, each over the camera's density of z_1.
+                let to_area = e.cos(x) / dist2(x, e);
+                let p_lt = 32.0 * pdf_area * e.cos(x) / PI * x.cos(e) / dist2(x, e) / camera_pdf_area(&z);
+                let lt = p_lt / (p_lt + n as f32 * pdf_area + pdf_bsdf * to_area);
+                let rest = 1.0 - lt;
+                assert!((w[0].unwrap() - lt).abs() < 1e-4 * lt.max(1e-2), "n {n}: {w:?} against {lt}");
+                assert!((w[1].unwrap() - rest * nee).abs() < 1e-4, "n {n}: {w:?} against {}", rest * nee);
+                assert!(
+                    (w[2].unwrap() - rest * (1.0 - nee)).abs() < 1e-4,
+                    "n {n}: {w:?} against {}",
+                    rest * (1.0 - nee)
+                );
             }
             checked += 1;
         }
@@ -659,11 +729,13 @@ mod tests {
 
     /// The techniques' weights of a path sum to one, for paths of 2 to 7 vertices with diffuse
     /// and glossy vertices, and with a delta vertex (which rules out the connections that
-    /// touch it), whichever camera vertices connect.
+    /// touch it), whichever camera vertices connect; light tracing to the camera among them,
+    /// with a share large enough on many paths that the sum fails without it.
     #[test]
     fn weights_of_every_path_sum_to_one() {
         let mut s = Sampler::new(3, 0, Domain::LightPath, 0);
         let mut checked = 0;
+        let mut light_tracing = 0;
         for trial in 0..400 {
             let k = 2 + trial % 6;
             let delta_at = (trial % 3 == 0 && k > 2).then(|| 1 + trial / 3 % (k - 1));
@@ -697,12 +769,14 @@ mod tests {
                                 "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}, next-event density {pdf_nee}: weights {w:?} sum to {sum}"
                             );
                             checked += 1;
+                            light_tracing += usize::from(w[0].is_some_and(|w| w > 0.05));
                         }
                     }
                 }
             }
         }
         assert!(checked > 3 * 4500, "only {checked} paths checked");
+        assert!(light_tracing > checked / 10, "light tracing weighs over 5 % on {light_tracing} of {checked}");
     }
 
     /// The same with light from a point light (which no BSDF sample hits) and from an

@@ -1,6 +1,7 @@
 //! The many-light integrator: each iteration traces the light paths, makes the iteration's
 //! light set from their VPLs, and walks every camera path with the method's estimator
-//! ([`super::gathering`] or [`super::bdpt_path`]).
+//! ([`super::gathering`] or [`super::bdpt_path`]); `pir-bdpt`'s light paths also splat into
+//! the film ([`super::to_camera`]).
 
 use glam::Vec3;
 
@@ -8,16 +9,18 @@ use super::bdpt_path::Bidirectional;
 use super::bidirectional;
 use super::config::{Clamping, Gather, VirtualLights};
 use super::gathering::{Gathering, WeighedGathering};
-use super::light_paths::{Vpl, trace_vpls};
+use super::light_paths::{Vpl, trace_light_paths};
 use super::light_set::LightSet;
 use super::path_count::{AutoPaths, Pilot};
 use super::points::PointLights;
 use super::spheres::SphereLights;
 use super::subpath::Counts;
+use super::to_camera::ToCamera;
 use crate::geometry::Ray;
 use crate::integrator::walker::walk;
-use crate::integrator::{Counters, Integrator, RenderContext};
+use crate::integrator::{Counters, FilmSplat, Integrator, RenderContext};
 use crate::sampling::Sampler;
+use crate::scene::CameraRays;
 
 /// A many-light method: its parameters, and the light set of the current iteration.
 pub struct InstantRadiosity {
@@ -34,7 +37,13 @@ pub struct InstantRadiosity {
     /// Whether [`Integrator::prepare`] chooses `light_samples` by the pilot's visibility of
     /// the emitters ([`bidirectional::light_samples_for`], with `light_samples` the base).
     auto_light_samples: bool,
+    /// The camera at the film's resolution ([`Integrator::set_camera`]): `pir-bdpt` traces
+    /// light to it (none given: no light tracing to the camera, which the weights then leave
+    /// out).
+    camera: Option<CameraRays>,
     set: IterationLights,
+    /// The current iteration's light traced to the camera, in path order.
+    splats: Vec<FilmSplat>,
 }
 
 /// The current iteration's lights (none before the first iteration).
@@ -60,7 +69,9 @@ impl InstantRadiosity {
             gather: Gather::All,
             light_samples: 1,
             auto_light_samples: false,
+            camera: None,
             set: IterationLights::None,
+            splats: Vec::new(),
         }
     }
 
@@ -97,6 +108,10 @@ impl InstantRadiosity {
 }
 
 impl Integrator for InstantRadiosity {
+    fn film_splats(&self) -> &[FilmSplat] {
+        &self.splats
+    }
+
     /// The light paths per iteration, and for [`VirtualLights::Bidirectional`] the light
     /// samples at the first vertex and the pilot's visibility of the emitters (what the
     /// weights' counts used, [`Pilot`]).
@@ -127,13 +142,26 @@ impl Integrator for InstantRadiosity {
         self.pilot = Some(pilot);
     }
 
+    fn set_camera(&mut self, camera: CameraRays) {
+        self.camera = Some(camera);
+    }
+
     fn begin_iteration(&mut self, ctx: &RenderContext, iteration: u64, counters: &mut Counters) {
         // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
         let visibility = self.pilot.map_or(1.0, |p| p.visibility);
         let counts = Counts::new(self.paths, self.gather, visibility);
-        let (vpls, rays) = trace_vpls(ctx, iteration, self.paths, counts, max_vpl_depth);
+        let to_camera = match (self.lights, self.camera) {
+            (VirtualLights::Bidirectional(_, connect), Some(camera)) => {
+                Some(ToCamera { camera, connect, light_samples: self.light_samples, weighed: true })
+            }
+            _ => None,
+        };
+        let traced = trace_light_paths(ctx, iteration, self.paths, counts, max_vpl_depth, to_camera.as_ref());
+        let (vpls, rays) = (traced.vpls, traced.rays);
+        self.splats = traced.splats;
         counters.light_rays += rays;
+        counters.shadow_rays += traced.shadow_rays;
         counters.light_paths += self.paths as u64;
         counters.vpls += vpls.len() as u64;
         let gather = self.gather;
@@ -181,8 +209,9 @@ impl Integrator for InstantRadiosity {
             (IterationLights::Points { set, counts, bound }, lights) => match lights {
                 VirtualLights::Bidirectional(_, connect) => {
                     let light_samples = self.light_samples;
+                    let camera = self.camera.as_ref();
                     let camera_path =
-                        Bidirectional { set, connect, light_samples, counts: *counts, bound: *bound };
+                        Bidirectional { set, connect, light_samples, counts: *counts, bound: *bound, camera };
                     walk(ctx, ray, &camera_path, sampler, counters)
                 }
                 VirtualLights::WeighedPoints(_) => {

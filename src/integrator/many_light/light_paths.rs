@@ -25,13 +25,18 @@
 //! Path `k` of iteration `i` draws its numbers from sampler k of `Streams::light_paths(sampler,
 //! seed, i)` (with Sobol points, point k of the iteration's own scrambled sequence), and paths are traced in parallel but collected in path order, so the VPL set is a function
 //! of the seed alone.
+//!
+//! With light tracing to the camera (`pir-bdpt`, [`super::to_camera`]) every non-delta vertex
+//! within `max_depth` − 1 segments of the emitter also splats its light into the film, one
+//! segment deeper than the VPLs reach; the splats too are collected in path order.
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::subpath::{Counts, MisState, Scatter};
+use super::to_camera::{LightVertex, ToCamera};
 use crate::geometry::{Frame, Ray, offset_origin};
-use crate::integrator::RenderContext;
+use crate::integrator::{FilmSplat, RenderContext};
 use crate::integrator::scatter::{scatter, survives_roulette};
 use crate::light::Choice;
 use crate::material::{Bsdf, LocalGeometry, TransportMode};
@@ -134,35 +139,88 @@ pub fn trace_vpls(
     counts: Counts,
     max_vpl_depth: u32,
 ) -> (Vec<Vpl>, u64) {
-    const CHUNK: usize = 64;
-    let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
-    let chunks: Vec<(Vec<Vpl>, u64)> = (0..paths.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut vpls = Vec::new();
-            let mut rays = 0u64;
-            for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
-                let mut sampler = streams.sampler(k as u64);
-                rays += trace_path(ctx, &mut sampler, paths as f32, counts, max_vpl_depth, &mut vpls);
-            }
-            (vpls, rays)
-        })
-        .collect();
-    let rays = chunks.iter().map(|c| c.1).sum();
-    (chunks.into_iter().flat_map(|c| c.0).collect(), rays)
+    let traced = trace_light_paths(ctx, iteration, paths, counts, max_vpl_depth, None);
+    (traced.vpls, traced.rays)
 }
 
-/// Traces one light path, appending its VPLs; returns the number of rays traced.
+/// What an iteration's light paths leave: VPLs and splats on the film, in path order, and
+/// the queries they made.
+#[derive(Default)]
+pub struct Traced {
+    pub vpls: Vec<Vpl>,
+    pub splats: Vec<FilmSplat>,
+    /// Closest-hit queries.
+    pub rays: u64,
+    /// Occlusion queries (light tracing to the camera).
+    pub shadow_rays: u64,
+}
+
+/// [`trace_vpls`], and with `to_camera` light tracing to the camera from every non-delta
+/// vertex within `ctx.max_depth` − 1 segments of the emitter.
+pub fn trace_light_paths(
+    ctx: &RenderContext,
+    iteration: u64,
+    paths: usize,
+    counts: Counts,
+    max_vpl_depth: u32,
+    to_camera: Option<&ToCamera>,
+) -> Traced {
+    const CHUNK: usize = 64;
+    let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
+    let chunks: Vec<Traced> = (0..paths.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Traced::default();
+            for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
+                let mut sampler = streams.sampler(k as u64);
+                let depths = Depths::new(ctx, max_vpl_depth, to_camera);
+                trace_path(ctx, &mut sampler, paths as f32, counts, depths, &mut out);
+            }
+            out
+        })
+        .collect();
+    let mut traced = Traced::default();
+    for c in chunks {
+        traced.vpls.extend(c.vpls);
+        traced.splats.extend(c.splats);
+        traced.rays += c.rays;
+        traced.shadow_rays += c.shadow_rays;
+    }
+    traced
+}
+
+/// How deep a light path goes: VPLs within `vpl` segments of the emitter, splats (with
+/// `to_camera`) within `camera`; the path is traced to the deeper of the two.
+#[derive(Clone, Copy)]
+struct Depths<'a> {
+    vpl: u32,
+    camera: u32,
+    to_camera: Option<&'a ToCamera>,
+}
+
+impl<'a> Depths<'a> {
+    fn new(ctx: &RenderContext, vpl: u32, to_camera: Option<&'a ToCamera>) -> Self {
+        // A vertex of s segments from the emitter and one to the camera: s + 1 ≤ max_depth.
+        let camera = if to_camera.is_some() { ctx.max_depth.saturating_sub(1) } else { 0 };
+        Depths { vpl, camera, to_camera }
+    }
+
+    fn last(&self) -> u32 {
+        self.vpl.max(self.camera)
+    }
+}
+
+/// Traces one light path, appending its VPLs and splats and counting its queries.
 fn trace_path(
     ctx: &RenderContext,
     sampler: &mut Sampler,
     n_paths: f32,
     counts: Counts,
-    max_depth: u32,
-    out: &mut Vec<Vpl>,
-) -> u64 {
-    if max_depth == 0 {
-        return 0;
+    depths: Depths,
+    out: &mut Traced,
+) {
+    if depths.last() == 0 {
+        return;
     }
     let u_select = sampler.next_f32();
     let u_point = sampler.next_2d();
@@ -171,7 +229,7 @@ fn trace_path(
             Choice::Area(es) => es,
             Choice::Light { index, pmf, u } => {
                 let light = &ctx.emitters.lights()[index];
-                let Some(e) = light.emit(ctx.scene.bounding_sphere(), u, sampler.next_2d()) else { return 0 };
+                let Some(e) = light.emit(ctx.scene.bounding_sphere(), u, sampler.next_2d()) else { return };
                 let beta = e.weight / (pmf * n_paths);
                 // Next-event estimation's density of what the start picks: none to weigh for
                 // a delta light, the direction back to an environment.
@@ -185,7 +243,7 @@ fn trace_path(
                     nee: if light.is_delta() { NeeAt::Delta } else { NeeAt::Environment(index, pmf) },
                     mis: MisState::light_source(nee, e.density, counts.paths),
                 };
-                return follow(ctx, sampler, start, counts, max_depth, out);
+                return follow(ctx, sampler, start, counts, depths, out);
             }
         }
     } else {
@@ -196,7 +254,7 @@ fn trace_path(
     // throughput Le · cos / (p_A · cos / π) = Le · π / p_A.
     let local = cosine_hemisphere(u_dir);
     if local.z <= 0.0 {
-        return 0;
+        return;
     }
     let dir = Frame::from_normal(es.point.ng).to_world(local);
     let beta = es.radiance * (std::f32::consts::PI / es.pdf_area) / n_paths;
@@ -209,7 +267,7 @@ fn trace_path(
         nee: NeeAt::Area { p: es.point.p, prim: es.point.prim, pdf_area: es.pdf_area, cos_e: local.z },
         mis: MisState::light(es.pdf_area, local.z, counts.paths),
     };
-    follow(ctx, sampler, start, counts, max_depth, out)
+    follow(ctx, sampler, start, counts, depths, out)
 }
 
 /// How next-event estimation from a vertex lit directly finds the light that lit it.
@@ -240,22 +298,15 @@ struct Start {
     mis: MisState,
 }
 
-/// Follows a light path from its start, appending its VPLs; returns the number of rays traced.
-fn follow(
-    ctx: &RenderContext,
-    sampler: &mut Sampler,
-    start: Start,
-    counts: Counts,
-    max_depth: u32,
-    out: &mut Vec<Vpl>,
-) -> u64 {
+/// Follows a light path from its start, appending its VPLs and splats.
+fn follow(ctx: &RenderContext, sampler: &mut Sampler, start: Start, counts: Counts, depths: Depths, out: &mut Traced) {
     let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis } = start;
     let beta0 = beta.max_element();
     // The BSDF of the light path's previous vertex (none at the emitter).
     let mut previous: Option<Bsdf> = None;
-    let mut rays = 0;
+    let max_depth = depths.last();
     for depth in 1..=max_depth {
-        rays += 1;
+        out.rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { break };
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         let w_in = -ray.dir.normalize();
@@ -291,8 +342,8 @@ fn follow(
         // that miss an opening and strike the wall around it from outside) or on a black
         // material would add nothing to any receiver, yet take a place in every gather's
         // window. The path ends there all the same ([`scatter`] finds no direction).
-        if bsdf.reflects_from(&sp.geometry(), w_in) {
-            out.push(Vpl {
+        if depth <= depths.vpl && bsdf.reflects_from(&sp.geometry(), w_in) {
+            out.vpls.push(Vpl {
                 p: sp.p,
                 ng: sp.ng,
                 frame: sp.frame,
@@ -307,7 +358,8 @@ fn follow(
                     None if depth == 1 && at_infinity => density,
                     None => density / dist2,
                 },
-                survival,
+                // (None beyond the VPLs' depth: a path traced deeper only splats.)
+                survival: if depth == depths.vpl { 0.0 } else { survival },
                 nee_pdf: if depth == 1 {
                     match (nee, cone) {
                         (_, Some((pdf, ..))) => pdf,
@@ -326,6 +378,16 @@ fn follow(
                 count_out: count,
             });
         }
+        if let Some(to_camera) = depths.to_camera
+            && depth <= depths.camera
+            && !bsdf.is_delta()
+        {
+            let aperture = if to_camera.draws_aperture() { sampler.next_2d() } else { Vec2::ZERO };
+            let v = LightVertex { sp: &sp, bsdf, w_in, beta, mis: &mis, depth, count_out: count };
+            if let Some(splat) = to_camera.splat(ctx, &v, aperture, &mut out.shadow_rays) {
+                out.splats.push(splat);
+            }
+        }
         if depth == max_depth {
             break;
         }
@@ -340,5 +402,4 @@ fn follow(
         density = if s.delta { f32::INFINITY } else { survival * s.pdf };
         ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }
-    rays
 }

@@ -30,7 +30,8 @@
 //!   [`schedule`] (the progressive schedules), [`path_count`] (light paths chosen by a
 //!   pilot);
 //! - light tracing: [`light_paths`] (the [`Vpl`]), [`subpath`] (the running sums and counts
-//!   of bidirectional weights that both subpaths carry);
+//!   of bidirectional weights that both subpaths carry), [`to_camera`] (`pir-bdpt`'s light
+//!   paths splatted into the film);
 //! - the lights, one interface ([`virtual_light::Lights`]) and two kinds: [`points`] (with
 //!   [`lanes`], the four-wide kernel) and [`spheres`] (the cone integral, with
 //!   [`sphere_lanes`] and [`knn`] for the radii);
@@ -65,6 +66,7 @@ pub mod shadow_batch;
 pub mod sphere_lanes;
 pub mod spheres;
 pub mod subpath;
+pub mod to_camera;
 pub mod tree_gather;
 pub mod virtual_light;
 

@@ -125,11 +125,27 @@ pub struct MisState {
     /// what is left of `dvc` when the camera may not connect further along the path
     /// ([`Connect`]).
     pub dvc_emitter: f32,
+    /// The part of `dvc` that the emitter techniques and the technique folded in last (the
+    /// camera connecting at the light subpath's previous vertex) contribute (light subpaths
+    /// only): what light tracing to the camera weighs against with `--connect first-two`,
+    /// where the camera connects at its first two vertices only.
+    pub dvc_two: f32,
 }
 
 impl MisState {
-    /// A camera subpath: no technique reaches the camera from the light side.
-    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0 };
+    /// A camera subpath without light tracing to the camera: no technique reaches the
+    /// camera from the light side.
+    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0, dvc_two: 0.0 };
+
+    /// A camera subpath whose first ray's direction the camera sampled with density `pdf_dir`
+    /// per unit solid angle, a pixel the unit of the film's area
+    /// ([`crate::scene::CameraRays::direction_pdf`]), where light tracing to the camera
+    /// competes: its N light paths each splat, so relative to N it counts once, and `dvcm`
+    /// starts at 1 / `pdf_dir` (Georgiev's light subpath count over the camera's density,
+    /// in pir's sums relative to N).
+    pub fn from_camera(pdf_dir: f32) -> MisState {
+        MisState { dvcm: finite(1.0 / pdf_dir), ..MisState::CAMERA }
+    }
 
     /// A light subpath of `paths` per iteration, started at an emitter point of area density
     /// `pdf_area` (as next-event estimation picks it too) in a cosine-distributed direction of
@@ -137,7 +153,7 @@ impl MisState {
     /// emitter hit, `dvc`) count once against the connections' N.
     pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
         let dvc = PI / (pdf_area * paths);
-        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc }
+        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc, dvc_two: dvc }
     }
 
     /// A light subpath of `paths` per iteration, started at a light that is not a triangle
@@ -153,7 +169,7 @@ impl MisState {
     /// unit area.
     pub fn light_source(nee: f32, emission: f32, paths: f32) -> MisState {
         let dvc = if nee.is_infinite() { 0.0 } else { finite(1.0 / (nee * emission * paths)) };
-        MisState { dvcm: finite(1.0 / (emission * paths)), dvc, dvc_emitter: dvc }
+        MisState { dvcm: finite(1.0 / (emission * paths)), dvc, dvc_emitter: dvc, dvc_two: dvc }
     }
 
     /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
@@ -163,6 +179,7 @@ impl MisState {
         self.dvcm = finite(self.dvcm * dist2 / cos);
         self.dvc = finite(self.dvc / cos);
         self.dvc_emitter = finite(self.dvc_emitter / cos);
+        self.dvc_two = finite(self.dvc_two / cos);
     }
 
     /// The subpath continues from a vertex by BSDF sampling: density `pdf` (per solid angle;
@@ -174,6 +191,8 @@ impl MisState {
     #[inline]
     pub fn scatter(&mut self, s: Scatter) {
         if s.delta {
+            // (Nothing is folded in: a delta vertex connects to nothing.)
+            self.dvc_two = finite(self.dvc_emitter * s.cos_out);
             self.dvcm = 0.0;
             self.dvc = finite(self.dvc * s.cos_out);
             self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
@@ -182,6 +201,7 @@ impl MisState {
             let dvcm = if s.fold { self.dvcm * s.count } else { 0.0 };
             let emitter = if s.emitter { self.dvcm } else { 0.0 };
             self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
+            self.dvc_two = finite(k * (self.dvc_emitter * s.pdf_rev + dvcm));
             self.dvc_emitter = finite(k * (self.dvc_emitter * s.pdf_rev + emitter));
             self.dvcm = finite(1.0 / s.pdf);
         }
