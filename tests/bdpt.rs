@@ -172,20 +172,82 @@ fn the_progressive_bound_recovers_what_a_constant_bound_removes() {
     assert!(expected - m_p < 0.5 * (expected - m_k), "the progressive bound must remove most of the bias");
 }
 
-/// Same seed, same image, whatever the thread count.
+/// Same seed, same image, whatever the thread count: in the glossy cube, and with a thin lens
+/// and a tent filter (`tests/data/mitsuba-thinlens.xml`), where the light traced to the camera
+/// draws its lens points from the light paths and splats through the filter.
 #[test]
 fn bidirectional_gather_does_not_depend_on_the_thread_count() {
-    let scene = closed_cube(glossy(1.0));
-    let run = |threads| {
-        Job { iterations: 4, threads, ..Job::default() }
-            .run(
-                &scene,
-                &mut bdpt(Clamping::progressive(1.0), 16)
-                    .with_gather(Gather::Resampled { candidates: 32, samples: 4 }),
-            )
-            .image()
-    };
-    assert!(run(1).pixels == run(2).pixels, "pir-bdpt differs between 1 and 2 threads");
+    let mut lens = pir::scene::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba-thinlens.xml"),
+    )
+    .unwrap();
+    lens.set_filter(pir::scene::Filter::Tent { radius: 1.5 });
+    for scene in [closed_cube(glossy(1.0)), lens] {
+        let run = |threads| {
+            Job { iterations: 4, threads, width: 24, height: 18, max_depth: 4, ..Job::default() }
+                .run(
+                    &scene,
+                    &mut bdpt(Clamping::progressive(1.0), 16)
+                        .with_gather(Gather::Resampled { candidates: 32, samples: 4 }),
+                )
+                .image()
+        };
+        assert!(run(1).pixels == run(2).pixels, "pir-bdpt differs between 1 and 2 threads");
+    }
+}
+
+/// Light tracing to the camera alone, every splat unweighed (a plain light tracer), gives the
+/// furnace its exact value Le · Σ_{1≤k<D} a^k (every path but the emitters seen directly,
+/// which light tracing leaves to the camera), in the image's mean and in every pixel (z-tests
+/// over independent iterations), through a pinhole and a thin lens, for two path lengths.
+#[test]
+fn light_tracing_alone_gives_the_furnace_its_value() {
+    use pir::integrator::many_light::light_paths::trace_light_paths;
+    use pir::integrator::many_light::subpath::Counts;
+    use pir::integrator::many_light::to_camera::ToCamera;
+    use pir::scene::{Camera, ThinLens};
+    let (a, le) = (0.5f64, 1.0f64);
+    let scene = closed_cube(diffuse(a as f32, le as f32));
+    let (w, h, paths, iterations) = (12usize, 10usize, 512usize, 96u64);
+    let thin = ThinLens { aperture_radius: 0.3, focus_distance: 0.7 };
+    for lens in [None, Some(thin)] {
+        for depth in [2u32, 4] {
+            let expected: f64 = (1..depth).map(|k| le * a.powi(k as i32)).sum();
+            let camera = Camera { lens, ..*scene.camera() }.with_resolution(w as u32, h as u32).rays();
+            let to_camera = ToCamera { camera, connect: Connect::First, light_samples: 1, weighed: false };
+            let job = Job { max_depth: depth, ..Job::default() };
+            // Per iteration, each pixel's light (the box filter: the splat's own pixel).
+            let images: Vec<Vec<f64>> = job.with_context(&scene, |ctx| {
+                (1..=iterations)
+                    .map(|i| {
+                        let counts = Counts::uniform(paths as f32);
+                        let t = trace_light_paths(ctx, i, paths, counts, depth - 2, Some(&to_camera));
+                        let mut image = vec![0.0; w * h];
+                        for s in &t.splats {
+                            image[s.film.y as usize * w + s.film.x as usize] += s.value.x as f64;
+                        }
+                        image
+                    })
+                    .collect()
+            });
+            let n = iterations as f64;
+            let z = |values: &[f64]| {
+                let m = values.iter().sum::<f64>() / n;
+                let var = values.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0);
+                (m, (m - expected) / (var / n).sqrt().max(1e-12))
+            };
+            let means: Vec<f64> = images.iter().map(|im| im.iter().sum::<f64>() / (w * h) as f64).collect();
+            let (mean, z_mean) = z(&means);
+            eprintln!(
+                "light tracing, {lens:?}, max_depth {depth}: mean {mean:.5}, expected {expected:.5} (z {z_mean:+.2})"
+            );
+            assert!(z_mean.abs() < Z, "{lens:?}, max_depth {depth}: mean {mean} against {expected}");
+            let worst = (0..w * h)
+                .map(|p| z(&images.iter().map(|im| im[p]).collect::<Vec<_>>()).1.abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 5.0, "{lens:?}, max_depth {depth}: a pixel's z is {worst:.2}");
+        }
+    }
 }
 
 /// The room lit through a slit (`scenes/stress/slit`), whose emitters are mostly hidden from

@@ -122,7 +122,8 @@ pub fn light_image(
     let mut out = vec![Vec3::ZERO; width * height];
     let (mut dropped, mut first) = (0, None);
     for s in splats {
-        let (x, y) = ((s.film.x.max(0.0) as usize).min(width - 1), (s.film.y.max(0.0) as usize).min(height - 1));
+        let (x, y) =
+            ((s.film.x.max(0.0) as usize).min(width - 1), (s.film.y.max(0.0) as usize).min(height - 1));
         if !s.value.is_finite() {
             dropped += 1;
             first.get_or_insert((x, y));

@@ -5,7 +5,7 @@
 //! (the two emitter techniques among themselves by the power heuristic, as `pt` weighs them).
 //!
 //! **The techniques.** Take a path z_1 … z_k from the camera's first hit z_1 to an emitter
-//! point z_k. pir can make it in k ways, by t = 1 … k camera vertices:
+//! point z_k. pir can make it in k + 1 ways, by t = 0 … k camera vertices:
 //! - t = k: the camera path hits the emitter (BSDF sampling); one sample per camera path;
 //! - t = k − 1: next-event estimation at z_{k−1}; one sample, or n = `--light-samples` at
 //!   the camera's first vertex (default 2), counted n times, each sample's estimate divided
@@ -13,14 +13,23 @@
 //! - t ≤ k − 2: the camera vertex z_t connects to the VPL that light tracing left at z_{t+1}
 //!   (its light path came from the emitter through z_k … z_{t+2}); the iteration's N light
 //!   paths give N samples, so this technique's density is N times its path density (a
-//!   sampled gather counts fewer: [`Counts`]).
+//!   sampled gather counts fewer: [`Counts`]);
+//! - t = 0: light tracing to the camera ([`super::to_camera`]): the light path that came
+//!   from the emitter through z_k … z_2 to z_1 connects z_1 to the lens and splats into the
+//!   film; each of the N light paths splats, so it counts N, against the camera's density
+//!   of z_1 (its direction density with a pixel as the unit of area, times cos / d²). An
+//!   emitter seen directly (k = 1) is the camera's alone: light tracing does not connect the
+//!   emitter's own point to the lens.
 //!
-//! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}; the hit is
-//! always possible. Every technique reaches every path length up to `max_depth`, so the set
+//! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}, light tracing
+//! z_1; the hit is always possible. Every technique reaches every path length up to `max_depth`, so the set
 //! of techniques is the same for every path of a given shape and the balance heuristic's
 //! weights p_t n_t / Σ_u p_u n_u (n_u for a connection as [`Counts`] says from its two
 //! ends, the light samples for next-event estimation, 1 for the hit) sum to one: without
-//! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests).
+//! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests). Light tracing
+//! makes the paths no other technique can, a caustic seen directly (z_1 diffuse, z_2 … z_{k−1}
+//! delta): the camera finds them only by BSDF sampling into the delta chain, which rarely
+//! reaches a small light (fireflies).
 //!
 //! **The emitter techniques: the power heuristic among themselves.** The weights are
 //! two-level: next-event estimation and the hit together take their balance-heuristic share
@@ -28,9 +37,11 @@
 //! them by the power heuristic (β = 2), p_n² / (p_n² + p_h²), as `pt` does; a connection
 //! keeps p_c n_c / Σ_u p_u n_u. The three shares of a path still sum to one, whatever the
 //! densities. A path that no connection can make (the direct light of the first non-delta
-//! vertex: a connection needs two non-delta vertices before the emitter) is weighed exactly
-//! as `pt` weighs it, which keeps `pir-bdpt` as good as `pt` where direct light dominates
-//! (`docs/integrator-measurements.md`, "Which heuristic").
+//! vertex: a connection needs two non-delta vertices before the emitter) is weighed as `pt`
+//! weighs it, within the share light tracing leaves it (which is small: the camera's density
+//! of a point, thousands of pixels over what it sees, against N light paths), which keeps
+//! `pir-bdpt` as good as `pt` where direct light dominates (`docs/integrator-measurements.md`,
+//! "Which heuristic").
 //!
 //! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
 //! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
@@ -38,8 +49,11 @@
 //! technique that would end the other subpath one vertex earlier, and `dvc`, the sum over
 //! the techniques that end it earlier still. They are updated at every hit and scatter from
 //! the BSDF's densities in both directions, and a connection, a light sample or an emitter
-//! hit finishes the sum with its own end's densities. pir's changes: no light tracing to the
-//! camera (the camera subpath starts at zero), and the counts n_u: the light subpath's sums
+//! hit finishes the sum with its own end's densities. pir's changes: the camera subpath starts
+//! at 1 / the camera's direction density (light tracing's N over N, in sums relative to N;
+//! zero without light tracing, which the camera path then leaves out too), the light subpath
+//! carries a third sum for `--connect first-two` ([`MisState::dvc_two`]), and the counts n_u:
+//! the light subpath's sums
 //! start divided by N (the two emitter techniques it carries count once, not N times), and
 //! the camera subpath's sums count N when next-event estimation or a hit weighs them. A
 //! connection whose count is not N enters either subpath's sums times its count relative to
@@ -594,7 +608,8 @@ mod tests {
             let p_nee = camera_z2 * pdf_area;
             let p_hit = camera_z2 * z[2].pdf(&z[1], &z[3]) * z[3].cos(&z[2]) / dist2(&z[2], &z[3]);
             // Light tracing: the light path to z_1, over the camera's density of z_1.
-            let p_lt = counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2]) / dist2(&z[1], &z[2])
+            let p_lt = counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2])
+                / dist2(&z[1], &z[2])
                 / camera_pdf_area(&z);
             let expected = n_c * p_c / (n_c * p_c + p_nee + p_hit + p_lt);
             let w = weights(&z, pdf_area, counts, Connect::First, 1);
@@ -776,7 +791,10 @@ mod tests {
             }
         }
         assert!(checked > 3 * 4500, "only {checked} paths checked");
-        assert!(light_tracing > checked / 10, "light tracing weighs over 5 % on {light_tracing} of {checked}");
+        assert!(
+            light_tracing > checked / 10,
+            "light tracing weighs over 5 % on {light_tracing} of {checked}"
+        );
     }
 
     /// The same with light from a point light (which no BSDF sample hits) and from an

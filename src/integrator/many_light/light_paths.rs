@@ -36,8 +36,8 @@ use rayon::prelude::*;
 use super::subpath::{Counts, MisState, Scatter};
 use super::to_camera::{LightVertex, ToCamera};
 use crate::geometry::{Frame, Ray, offset_origin};
-use crate::integrator::{FilmSplat, RenderContext};
 use crate::integrator::scatter::{scatter, survives_roulette};
+use crate::integrator::{FilmSplat, RenderContext};
 use crate::light::Choice;
 use crate::material::{Bsdf, LocalGeometry, TransportMode};
 use crate::sampling::{Sampler, Streams, cosine_hemisphere};
@@ -299,7 +299,14 @@ struct Start {
 }
 
 /// Follows a light path from its start, appending its VPLs and splats.
-fn follow(ctx: &RenderContext, sampler: &mut Sampler, start: Start, counts: Counts, depths: Depths, out: &mut Traced) {
+fn follow(
+    ctx: &RenderContext,
+    sampler: &mut Sampler,
+    start: Start,
+    counts: Counts,
+    depths: Depths,
+    out: &mut Traced,
+) {
     let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis } = start;
     let beta0 = beta.max_element();
     // The BSDF of the light path's previous vertex (none at the emitter).

@@ -1,6 +1,7 @@
 //! `pir-bdpt`: bidirectional. A full path tracer's camera path connects to the VPLs at its
-//! first non-delta vertex (`--connect first-two`, `all`: at more of them), and every
-//! technique (the path tracer's two and each connection) is weighed against the others by
+//! first non-delta vertex (`--connect first-two`, `all`: at more of them), the light paths
+//! splat into the film through the lens (light tracing to the camera), and every
+//! technique (the path tracer's two, each connection, light tracing) is weighed against the others by
 //! the balance heuristic (the two emitter techniques among themselves by the power
 //! heuristic, as `pt`), the weighted connection bounded progressively: consistent (pir's
 //! own, [`crate::integrator::many_light::bidirectional`]). Its light paths and its light
@@ -42,8 +43,8 @@ impl MethodSpec for PirBdpt {
     }
     fn description(&self) -> &'static str {
         "bidirectional: a full camera path connecting to the VPLs at its first non-delta vertex \
-         (--connect: more), every technique weighed against the others, the weighted connection \
-         bounded progressively: consistent"
+         (--connect: more) and the light paths traced to the camera, every technique weighed \
+         against the others, the weighted connection bounded progressively: consistent"
     }
     fn parameters(&self) -> &'static [Parameter] {
         use Parameter::*;
