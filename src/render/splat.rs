@@ -141,6 +141,36 @@ pub fn light_image(
 mod tests {
     use super::*;
 
+    /// A light splat goes through the filter exactly as a camera sample at the same film
+    /// position: the same image to rounding, at the edges too, for the box (its pixel alone)
+    /// and wider filters.
+    #[test]
+    fn a_light_splat_develops_as_a_camera_sample_there() {
+        let (w, h) = (9, 7);
+        for filter in [Filter::Box, Filter::Tent { radius: 1.5 }, Filter::Gaussian { stddev: 0.5 }] {
+            let splat = Splat::new(filter, w, h);
+            for (x, y, o) in
+                [(4, 3, Vec2::new(0.25, 0.8)), (0, 0, Vec2::new(0.1, 0.05)), (8, 6, Vec2::splat(0.99))]
+            {
+                let v = Vec3::new(1.0, 2.0, 3.0);
+                let mut camera = Splat::new(filter, w, h);
+                camera.put(x, y, o, v);
+                let mut want = Film::new(w, h);
+                camera.develop(&mut want, None);
+                let light = [FilmSplat { film: Vec2::new(x as f32, y as f32) + o, value: v }];
+                let boxed = (filter != Filter::Box).then_some(&splat);
+                let (image, dropped, _) = light_image(&light, boxed, w, h);
+                assert_eq!(dropped, 0);
+                let mut got = Film::new(w, h);
+                // The box's Splat develops as the box does without one: the same pixel.
+                Splat::new(filter, w, h).develop(&mut got, Some(&image));
+                for (a, b) in got.sums().iter().zip(want.sums()) {
+                    assert!((*a - *b).abs().max_element() < 1e-5, "{filter:?} at ({x}, {y}): {a} ≠ {b}");
+                }
+            }
+        }
+    }
+
     /// A constant image stays constant (to rounding) through any filter, at the edges too, on
     /// average over the offsets; one bright pixel spreads its light over its neighbours with
     /// the filter's weights and loses none of it away from the edges.
