@@ -220,11 +220,11 @@ pub struct CameraEnd<'a> {
     pub geometry: LocalGeometry,
     pub wo: Vec3,
     pub state: MisState,
-    /// Which camera vertices connect, and this one's segments from the camera: whether the
-    /// vertices after it connect (else only the emitter techniques extend the camera subpath
-    /// into the light subpath).
+    /// Which camera vertices connect, and this one's rank among the camera path's non-delta
+    /// vertices ([`Connect::at`]): whether the vertices after it connect (else only the
+    /// emitter techniques extend the camera subpath into the light subpath).
     pub connect: Connect,
-    pub depth: u32,
+    pub rank: u32,
     /// The connections' counts, and the count of the connection from the camera vertex
     /// before this one to this one (relative to [`Counts::paths`]; any value where the
     /// sums are zero).
@@ -260,7 +260,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
     let one = match vpl.depth {
         1 => vpl.mis.dvcm,
-        _ if x.connect.at(x.depth + 1) => vpl.mis.dvcm * vpl.count_out,
+        _ if x.connect.at(x.rank + 1) => vpl.mis.dvcm * vpl.count_out,
         _ => 0.0,
     };
     let w_light = camera_pdf * (one + more * light_rev);
@@ -372,6 +372,12 @@ mod tests {
     }
 
     /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
+    /// The rank of the camera vertex z[t] among the path's non-delta vertices z[1..=t]
+    /// ([`Connect::at`]).
+    fn rank(z: &[Node], t: usize) -> u32 {
+        z[1..=t].iter().filter(|n| n.bsdf.is_some()).count() as u32
+    }
+
     fn camera_state(z: &[Node], t: usize, connect: Connect, counts: Counts) -> MisState {
         camera_state_to(z, t, connect, counts, true)
     }
@@ -389,7 +395,8 @@ mod tests {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
                 let delta = z[j].bsdf.is_none();
                 let count = factor(counts, (j > 1).then(|| &z[j - 1]), &z[j]);
-                let scatter = Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, j as u32, count);
+                let scatter =
+                    Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, rank(z, j), count);
                 s.scatter(scatter);
             }
         }
@@ -451,7 +458,7 @@ mod tests {
     ) -> Vec<Option<f32>> {
         let k = z.len() - 1;
         let paths = counts.paths;
-        let samples_at = |t: usize| if t == 1 { light_samples as f32 } else { 1.0 };
+        let samples_at = |t: usize| if rank(z, t) == 1 { light_samples as f32 } else { 1.0 };
         // Light tracing: the light subpath's vertex z[1] connected to the camera, as
         // `to_camera` weighs it.
         let mut w = vec![z[1].bsdf.map(|_| {
@@ -479,7 +486,7 @@ mod tests {
                 continue;
             }
             let cam = camera_state(z, t, connect, counts);
-            let possible = t + 1 == k || (z[t + 1].bsdf.is_some() && connect.at(t as u32));
+            let possible = t + 1 == k || (z[t + 1].bsdf.is_some() && connect.at(rank(z, t)));
             let Some(bx) = x.bsdf.filter(|_| possible) else {
                 w.push(None);
                 continue;
@@ -519,7 +526,7 @@ mod tests {
                         emission: Some(disk),
                     },
                 };
-                let previous = if connect.at(t as u32 - 1) { count_in } else { 0.0 };
+                let previous = if connect.at(rank(z, t) - 1) { count_in } else { 0.0 };
                 let n = samples_at(t);
                 Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, n))
             } else {
@@ -535,7 +542,6 @@ mod tests {
                 let wo = x.dir(&z[t - 1]);
                 let fx = PreparedBsdf::new(bx, x.g, wo, TransportMode::Radiance);
                 let emitting = PreparedBsdf::new(by, y.g, w_in, TransportMode::Importance);
-                let depth = t as u32;
                 let end = CameraEnd {
                     fx: &fx,
                     bsdf: &bx,
@@ -543,7 +549,7 @@ mod tests {
                     wo,
                     state: cam,
                     connect,
-                    depth,
+                    rank: rank(z, t),
                     counts,
                     count_in,
                 };

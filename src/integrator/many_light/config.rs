@@ -100,12 +100,15 @@ pub enum Connect {
 }
 
 impl Connect {
-    /// Whether the camera vertex of `depth` segments connects.
+    /// Whether the camera vertex of rank `rank` among its path's non-delta vertices connects
+    /// (1: the first non-delta vertex, after any mirror or glass the camera ray met first,
+    /// so that a wall seen in a mirror connects as one seen directly; 0: the camera itself,
+    /// which light tracing always reaches).
     #[inline]
-    pub fn at(self, depth: u32) -> bool {
+    pub fn at(self, rank: u32) -> bool {
         match self {
-            Connect::First => depth <= 1,
-            Connect::FirstTwo => depth <= 2,
+            Connect::First => rank <= 1,
+            Connect::FirstTwo => rank <= 2,
             Connect::All => true,
         }
     }

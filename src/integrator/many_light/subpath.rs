@@ -191,8 +191,10 @@ impl MisState {
     #[inline]
     pub fn scatter(&mut self, s: Scatter) {
         if s.delta {
-            // (Nothing is folded in: a delta vertex connects to nothing.)
-            self.dvc_two = finite(self.dvc_emitter * s.cos_out);
+            // (Nothing is folded in: a delta vertex connects to nothing. The camera's next
+            // connecting vertex is the next non-delta one, [`Connect::at`], so `dvc_two`
+            // passes through.)
+            self.dvc_two = finite(self.dvc_two * s.cos_out);
             self.dvcm = 0.0;
             self.dvc = finite(self.dvc * s.cos_out);
             self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
@@ -223,9 +225,11 @@ pub struct Scatter {
 }
 
 impl Scatter {
-    /// A camera subpath's sample at its vertex of `depth` segments, `connect` saying which
-    /// vertices connect: the previous vertex's connection counts if that vertex connects,
-    /// `count` times ([`Counts::factor`] of the previous vertex and this one).
+    /// A camera subpath's sample at its non-delta vertex of rank `rank` among the path's
+    /// non-delta vertices ([`Connect::at`]; for a delta vertex, whose sample folds nothing
+    /// in, any), `connect` saying which vertices connect: the previous non-delta vertex's
+    /// connection counts if that vertex connects, `count` times ([`Counts::factor`] of the
+    /// previous vertex and this one); at the first, light tracing to the camera.
     #[inline]
     pub fn camera(
         pdf: f32,
@@ -233,10 +237,18 @@ impl Scatter {
         cos_out: f32,
         delta: bool,
         connect: Connect,
-        depth: u32,
+        rank: u32,
         count: f32,
     ) -> Self {
-        Scatter { pdf, pdf_rev, cos_out, delta, fold: connect.at(depth - 1), emitter: false, count }
+        Scatter {
+            pdf,
+            pdf_rev,
+            cos_out,
+            delta,
+            fold: connect.at(rank.saturating_sub(1)),
+            emitter: false,
+            count,
+        }
     }
 
     /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
