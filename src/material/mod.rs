@@ -18,10 +18,13 @@
 //!   is written once, in [`shading_correction`].
 //!
 //! One file per concept: [`diffuse`], [`glossy`] (with [`ggx`]), [`mirror`], [`glass`] (with
-//! [`fresnel`]). This module checks the hemispheres, applies the transport-mode correction and
+//! [`fresnel`]), and [`composite`] for the BSDFs made of others. This module checks the hemispheres, applies the transport-mode correction and
 //! dispatches on the [`Bsdf`] enum; the lobes work in the local shading frame.
 
 mod adjoint;
+pub mod composite;
+#[cfg(test)]
+mod composite_values;
 pub mod conductor;
 pub mod diffuse;
 pub mod fresnel;
@@ -50,6 +53,7 @@ use glam::{Vec2, Vec3};
 
 use crate::geometry::Frame;
 use crate::sampling::reuse::{choose, refined};
+use composite::Composite;
 use conductor::{ComplexIor, RoughConductor};
 use glossy::Glossy;
 use microfacet::Microfacet;
@@ -93,7 +97,8 @@ impl Bsdf {
                 &[("specular_reflectance", *reflectance), ("specular_transmittance", *transmittance)]
             }
             Bsdf::Mask { albedo, .. } => &[("albedo", *albedo)],
-            Bsdf::Glass { .. } => &[],
+            // The parts were checked as they were read.
+            Bsdf::Glass { .. } | Bsdf::Composite { .. } => &[],
         };
         fields.iter().copied().find(|(_, v)| v.max_element() > 1.0)
     }
@@ -214,6 +219,10 @@ pub enum Bsdf {
     RoughDielectric { eta: f32, reflectance: Vec3, transmittance: Vec3, microfacet: Microfacet },
     /// Mitsuba's `mask` of a diffuse BSDF ([`mask`]): opaque with probability `opacity`.
     Mask { opacity: f32, albedo: Vec3 },
+    /// Mitsuba's `blendbsdf` of any two BSDFs or `mask` of any other one ([`composite`]):
+    /// the `parts` mixed by `weight` (the blend's second part's share, the mask's opacity),
+    /// resolved at the texture coordinates `uv` (at their textures' means where `None`).
+    Composite { weight: f32, parts: &'static Composite, uv: Option<Vec2> },
 }
 
 /// Whether radiance (camera paths) or importance (light paths) is being transported.
@@ -263,6 +272,7 @@ impl Bsdf {
                 diffuse + specular * fresnel::fresnel_dielectric(1.0, table.eta).reflectance
             }
             Bsdf::Mask { opacity, albedo } => albedo * opacity,
+            Bsdf::Composite { weight, parts, uv } => composite::reflectance(parts, weight, uv),
             // What leaves either side at normal incidence: R F₀ + T (1 − F₀).
             Bsdf::RoughDielectric { eta, reflectance, transmittance, .. } => {
                 let f0 = fresnel::fresnel_dielectric(1.0, eta).reflectance;
@@ -280,20 +290,24 @@ impl Bsdf {
     /// dielectrics). Plastic and mask have a delta lobe and a diffuse one: not delta, and their
     /// samples say which lobe they came from ([`BsdfSample::delta`]).
     pub fn is_delta(&self) -> bool {
-        matches!(
-            self,
+        match self {
             Bsdf::Mirror { .. }
-                | Bsdf::Glass { .. }
-                | Bsdf::Conductor { .. }
-                | Bsdf::Dielectric { .. }
-                | Bsdf::ThinDielectric { .. }
-        )
+            | Bsdf::Glass { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => true,
+            Bsdf::Composite { parts, .. } => parts.is_delta(),
+            _ => false,
+        }
     }
 
-    /// Whether some of its samples come from a delta lobe: the delta materials, plastic and
-    /// mask.
+    /// Whether some of its samples come from a delta lobe: the delta materials, plastic,
+    /// mask, and composites with such a part.
     pub fn has_delta(&self) -> bool {
-        self.is_delta() || matches!(self, Bsdf::Plastic { .. } | Bsdf::Mask { .. })
+        match self {
+            Bsdf::Composite { parts, .. } => parts.has_delta(),
+            _ => self.is_delta() || matches!(self, Bsdf::Plastic { .. } | Bsdf::Mask { .. }),
+        }
     }
 
     /// The narrowest microfacet roughness (α) of its non-delta lobes; `None` without a
@@ -304,17 +318,22 @@ impl Bsdf {
             Bsdf::RoughConductor { microfacet, .. } => Some(microfacet.alpha),
             Bsdf::RoughPlastic { table, .. } => Some(table.microfacet.alpha),
             Bsdf::RoughDielectric { microfacet, .. } => Some(microfacet.alpha),
+            Bsdf::Composite { weight, parts, uv } => composite::glossy_alpha(parts, weight, uv),
             _ => None,
         }
     }
 
-    /// Whether a non-delta lobe transmits: the rough dielectric, whose [`Bsdf::eval`] and
-    /// [`Bsdf::pdf`] are non-zero for directions on both sides of the surface, from either
-    /// side. Every other non-delta BSDF reflects only into the hemisphere in front of both
-    /// its normals.
+    /// Whether a non-delta lobe transmits: the rough dielectric (or a composite with one),
+    /// whose [`Bsdf::eval`] and [`Bsdf::pdf`] are non-zero for directions on both sides of
+    /// the surface, from either side. Every other non-delta BSDF reflects only into the
+    /// hemisphere in front of both its normals.
     #[inline]
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::RoughDielectric { .. })
+        match self {
+            Bsdf::RoughDielectric { .. } => true,
+            Bsdf::Composite { parts, .. } => parts.transmits(),
+            _ => false,
+        }
     }
 
     /// Whether light that arrives from `w` (a unit direction away from the surface) can
@@ -327,6 +346,9 @@ impl Bsdf {
         if let Bsdf::RoughDielectric { eta, reflectance, transmittance, microfacet } = *self {
             let lobe = RoughDielectric { eta, reflectance, transmittance, microfacet };
             return w.dot(g.ng) * w.dot(g.frame.n) > 0.0 && !lobe.is_black();
+        }
+        if let Bsdf::Composite { weight, parts, uv } = *self {
+            return composite::reflects_from(parts, weight, uv, g, w);
         }
         !self.is_delta()
             && w.dot(g.ng) > 0.0
@@ -357,7 +379,7 @@ impl Bsdf {
             let (co, ci) = (wo.dot(g.frame.n), wi.dot(g.frame.n));
             return if co > 0.0 && ci > 0.0 { diffuse::pdf(Vec3::new(0.0, 0.0, ci)) } else { 0.0 };
         }
-        if self.transmits() {
+        if self.transmits() || matches!(self, Bsdf::Composite { .. }) {
             return PreparedBsdf::new(*self, *g, wo, TransportMode::Radiance).pdf(wi);
         }
         let Some((wo_l, wi_l)) = reflection_pair(g, wo, wi) else { return 0.0 };
@@ -511,6 +533,9 @@ impl Bsdf {
                 let weight = Vec3::splat(s.weight * mode_factor(g, wo, s.wi, mode));
                 finite_sample(s.wi, weight, s.prob, true, s.eta)
             }
+            Bsdf::Composite { weight, parts, uv } => {
+                composite::sample(parts, (weight, uv), g, wo, u_lobe, u, mode)
+            }
         }
     }
 
@@ -655,6 +680,18 @@ mod tests {
         uniform_cone(rng.next_2d(), -1.0)
     }
 
+    /// A `blendbsdf` of two constant BSDFs, the second of share `w`.
+    fn blend(w: f32, a: Bsdf, b: Bsdf) -> Bsdf {
+        let part = |bsdf| composite::Part { bsdf, textures: None };
+        Bsdf::Composite { weight: w, parts: Composite::Blend([part(a), part(b)]).intern(), uv: None }
+    }
+
+    /// A `mask` of opacity `w` of a constant BSDF.
+    fn mask(w: f32, inner: Bsdf) -> Bsdf {
+        let parts = Composite::Mask(composite::Part { bsdf: inner, textures: None }).intern();
+        Bsdf::Composite { weight: w, parts, uv: None }
+    }
+
     /// `reflects_from` is false exactly where every evaluation with that direction is zero:
     /// checked against `eval` over many other directions, both modes, for tilted shading
     /// normals, black and delta materials included.
@@ -680,6 +717,18 @@ mod tests {
                 transmittance: Vec3::ZERO,
                 microfacet: Microfacet::new(microfacet::Distribution::Beckmann, 0.4),
             },
+            blend(
+                0.3,
+                Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.5, 0.2) },
+                Bsdf::RoughDielectric {
+                    eta: 1.5,
+                    reflectance: Vec3::ONE,
+                    transmittance: Vec3::new(0.5, 0.2, 0.0),
+                    microfacet: Microfacet::new(microfacet::Distribution::Ggx, 0.4),
+                },
+            ),
+            blend(0.5, Bsdf::Mirror { specular: Vec3::ONE }, Bsdf::Diffuse { albedo: Vec3::ZERO }),
+            mask(0.6, Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.5), roughness: 0.3 }),
         ];
         let (mut reflecting, mut not) = (0, 0);
         for bsdf in bsdfs {
@@ -744,6 +793,27 @@ mod tests {
                 transmittance: white,
                 microfacet: Microfacet::new(Beckmann, 0.3),
             },
+            // Composites: non-delta parts, a delta and a non-delta one, a transmitting one,
+            // masks of a microfacet lobe and of a delta one, and a blend within a mask.
+            blend(
+                0.3,
+                Bsdf::RoughConductor { specular: white, ior, microfacet: Microfacet::new(Beckmann, 0.2) },
+                Bsdf::Diffuse { albedo: white },
+            ),
+            blend(0.6, Bsdf::Conductor { specular: white, ior }, Bsdf::Diffuse { albedo: white }),
+            blend(
+                0.4,
+                Bsdf::RoughDielectric {
+                    eta: 1.5,
+                    reflectance: white,
+                    transmittance: white,
+                    microfacet: Microfacet::new(Ggx, 0.3),
+                },
+                Bsdf::rough_plastic(white, None, 1.5, Microfacet::new(Ggx, 0.2), false),
+            ),
+            mask(0.6, Bsdf::RoughConductor { specular: white, ior, microfacet: Microfacet::new(Ggx, 0.3) }),
+            mask(0.3, Bsdf::Dielectric { ior: 1.5, reflectance: white, transmittance: white }),
+            mask(0.8, blend(0.5, Bsdf::plastic(white, None, 1.5, false), Bsdf::Diffuse { albedo: white })),
         ];
         for bsdf in bsdfs {
             let g = LocalGeometry { ng: Vec3::Z, frame: Frame::from_normal(Vec3::Z) };

@@ -94,6 +94,9 @@ impl PreparedBsdf {
             let Some((wi_ng, wi_ns)) = self.incident_cosines(wi) else { return Vec3::ZERO };
             return self.finish(diffuse::eval_pdf_cos(albedo, wi_ns).0, wi_ng, wi_ns);
         }
+        if let Bsdf::Composite { .. } = self.bsdf {
+            return self.eval_composite(wi, false).0;
+        }
         let Some((wi_ng, wi_l)) = self.incident(wi) else { return Vec3::ZERO };
         self.finish(self.lobe_eval(wi_l), wi_ng, wi_l.z)
     }
@@ -121,11 +124,13 @@ impl PreparedBsdf {
                 RoughDielectric { eta, reflectance, transmittance, microfacet }
                     .eval(self.wo_l, wi_l, self.mode)
             }
+            // (A composite is evaluated part by part before coming here.)
             Bsdf::Mirror { .. }
             | Bsdf::Glass { .. }
             | Bsdf::Conductor { .. }
             | Bsdf::Dielectric { .. }
-            | Bsdf::ThinDielectric { .. } => Vec3::ZERO,
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Composite { .. } => Vec3::ZERO,
         }
     }
 
@@ -149,6 +154,9 @@ impl PreparedBsdf {
     /// which BSDF sampling picks `wi`, per unit solid angle.
     #[inline]
     pub fn pdf(&self, wi: Vec3) -> f32 {
+        if let Bsdf::Composite { .. } = self.bsdf {
+            return self.eval_composite(wi, true).1;
+        }
         let Some((_, wi_l)) = self.incident(wi) else { return 0.0 };
         self.bsdf.local_pdf(self.wo_l, wi_l)
     }
@@ -156,8 +164,23 @@ impl PreparedBsdf {
     /// [`PreparedBsdf::eval_pdf`] of any lobe.
     #[inline(never)]
     pub(super) fn eval_pdf_general(&self, wi: Vec3) -> (Vec3, f32) {
+        if let Bsdf::Composite { .. } = self.bsdf {
+            return self.eval_composite(wi, true);
+        }
         let Some((wi_ng, wi_l)) = self.incident(wi) else { return (Vec3::ZERO, 0.0) };
         (self.finish(self.lobe_eval(wi_l), wi_ng, wi_l.z), self.bsdf.local_pdf(self.wo_l, wi_l))
+    }
+
+    /// A composite's eval and (where `with_pdf`) pdf: part by part, each with its own checks
+    /// and transport-mode factor (`wo` from the shading frame again).
+    #[inline(never)]
+    fn eval_composite(&self, wi: Vec3, with_pdf: bool) -> (Vec3, f32) {
+        let Bsdf::Composite { weight, parts, uv } = self.bsdf else { return (Vec3::ZERO, 0.0) };
+        if !self.active {
+            return (Vec3::ZERO, 0.0);
+        }
+        let wo = self.g.frame.to_world(self.wo_l);
+        super::composite::eval_pdf(parts, (weight, uv), &self.g, wo, wi, self.mode, with_pdf)
     }
 
     /// `wi · ng` and `wi · ns` when the BSDF is active and `wi` is in front of the geometric

@@ -6,6 +6,7 @@
 use glam::{Vec2, Vec3};
 
 use super::Bsdf;
+use super::conductor::ComplexIor;
 use super::microfacet::Microfacet;
 use super::shading_map::ShadingMap;
 use crate::texture::Texture;
@@ -18,8 +19,18 @@ pub enum Slot {
     /// The specular colour (`specular_reflectance`) of a glossy BSDF, a mirror, a conductor,
     /// a plastic or a dielectric (its reflection's weight).
     Specular,
-    /// A mask's opacity (a number: the texture's [`Texture::eval_1`]).
+    /// The transmission's weight (`specular_transmittance`) of a dielectric (smooth, thin or
+    /// rough).
+    Transmittance,
+    /// A conductor's (smooth or rough) index of refraction η, per channel.
+    Eta,
+    /// A conductor's (smooth or rough) absorption coefficient k, per channel.
+    K,
+    /// A mask's opacity (a number: the texture's [`Texture::eval_1`]), the diffuse one's or a
+    /// composite's ([`Bsdf::Composite`]).
     Opacity,
+    /// A blend's weight (a number), its second part's share ([`Bsdf::Composite`]).
+    Weight,
     /// A rough conductor's α (a number), or the roughness of the glossy lobe pir reads a
     /// GGX conductor of index "none" as.
     Alpha,
@@ -33,7 +44,11 @@ impl Slot {
         match self {
             Slot::Reflectance => "reflectance",
             Slot::Specular => "specular",
+            Slot::Transmittance => "transmittance",
+            Slot::Eta => "eta",
+            Slot::K => "k",
             Slot::Opacity => "opacity",
+            Slot::Weight => "weight",
             Slot::Alpha => "alpha",
             Slot::Emission => "emission",
         }
@@ -41,7 +56,7 @@ impl Slot {
 
     /// Whether it holds a number (set from [`Texture::eval_1`]) rather than a colour.
     fn is_number(self) -> bool {
-        matches!(self, Slot::Opacity | Slot::Alpha)
+        matches!(self, Slot::Opacity | Slot::Alpha | Slot::Weight)
     }
 }
 
@@ -65,12 +80,16 @@ impl Textured {
         self.slots.iter().find(|(s, _)| *s == slot).map(|(_, t)| t)
     }
 
-    /// `bsdf` with every slot set to its texture's value at `uv`.
+    /// `bsdf` with every slot set to its texture's value at `uv` (a composite's parts are
+    /// resolved at `uv` too: [`Bsdf::Composite`]).
     #[inline]
     pub fn apply(&self, mut bsdf: Bsdf, uv: Vec2) -> Bsdf {
         for (slot, texture) in self.slots.iter().filter(|(s, _)| *s != Slot::Emission) {
             let value = if slot.is_number() { Vec3::splat(texture.eval_1(uv)) } else { texture.eval(uv) };
             bsdf = bsdf.with_slot(*slot, value);
+        }
+        if let Bsdf::Composite { weight, parts, .. } = bsdf {
+            bsdf = Bsdf::Composite { weight, parts, uv: Some(uv) };
         }
         bsdf
     }
@@ -135,6 +154,33 @@ impl Bsdf {
                 Bsdf::ThinDielectric { ior, reflectance: value, transmittance }
             }
             (Bsdf::Mask { albedo, .. }, Slot::Opacity) => Bsdf::Mask { opacity: value.x, albedo },
+            (Bsdf::Dielectric { ior, reflectance, .. }, Slot::Transmittance) => {
+                Bsdf::Dielectric { ior, reflectance, transmittance: value }
+            }
+            (Bsdf::ThinDielectric { ior, reflectance, .. }, Slot::Transmittance) => {
+                Bsdf::ThinDielectric { ior, reflectance, transmittance: value }
+            }
+            (Bsdf::RoughDielectric { eta, transmittance, microfacet, .. }, Slot::Specular) => {
+                Bsdf::RoughDielectric { eta, reflectance: value, transmittance, microfacet }
+            }
+            (Bsdf::RoughDielectric { eta, reflectance, microfacet, .. }, Slot::Transmittance) => {
+                Bsdf::RoughDielectric { eta, reflectance, transmittance: value, microfacet }
+            }
+            (Bsdf::Conductor { specular, ior }, Slot::Eta) => {
+                Bsdf::Conductor { specular, ior: ComplexIor { eta: value, k: ior.k } }
+            }
+            (Bsdf::Conductor { specular, ior }, Slot::K) => {
+                Bsdf::Conductor { specular, ior: ComplexIor { eta: ior.eta, k: value } }
+            }
+            (Bsdf::RoughConductor { specular, ior, microfacet }, Slot::Eta) => {
+                Bsdf::RoughConductor { specular, ior: ComplexIor { eta: value, k: ior.k }, microfacet }
+            }
+            (Bsdf::RoughConductor { specular, ior, microfacet }, Slot::K) => {
+                Bsdf::RoughConductor { specular, ior: ComplexIor { eta: ior.eta, k: value }, microfacet }
+            }
+            (Bsdf::Composite { parts, uv, .. }, Slot::Opacity | Slot::Weight) => {
+                Bsdf::Composite { weight: value.x, parts, uv }
+            }
             (other, _) => other,
         }
     }

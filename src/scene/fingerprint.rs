@@ -28,6 +28,10 @@ impl Scene {
             if *two_sided {
                 h.bytes(b"two-sided");
             }
+            // A composite's parts' textures (its Debug form names only their slots).
+            if let crate::material::Bsdf::Composite { parts, .. } = bsdf {
+                parts.hash_textures(&mut |b| h.bytes(b));
+            }
             // Textures likewise, only where there are some.
             if let Some(t) = textures {
                 for (slot, texture) in &t.slots {

@@ -2,7 +2,7 @@
 //! Fresnel term (`eta`/`k`, or a `material` of Mitsuba's table, whose RGB values are those
 //! Mitsuba's RGB variants compute from its spectra), rough conductors, smooth and rough
 //! plastics, dielectrics (smooth and rough) with their reflectance and transmittance, thin
-//! dielectrics and the mask of a diffuse BSDF. Defaults are Mitsuba's.
+//! dielectrics and the mask's opacity. Defaults are Mitsuba's.
 
 use glam::Vec3;
 
@@ -67,18 +67,23 @@ fn checked(p: &Params, name: &str, default: Vec3) -> Result<Vec3, SceneError> {
 
 /// `conductor`: a perfect mirror when its index is "none" (pir's mirror), else the Fresnel
 /// conductor.
-pub(super) fn conductor(e: &Element, p: &Params) -> Result<Bsdf, SceneError> {
+/// `textured_ior`: η or k is a texture (whose means `ior` holds).
+pub(super) fn conductor(e: &Element, p: &Params, textured_ior: bool) -> Result<Bsdf, SceneError> {
     let ior = complex_ior(e, p)?;
     let specular = checked(p, "specular_reflectance", Vec3::ONE)?;
-    Ok(if ior == ComplexIor::NONE { Bsdf::Mirror { specular } } else { Bsdf::Conductor { specular, ior } })
+    Ok(if ior == ComplexIor::NONE && !textured_ior {
+        Bsdf::Mirror { specular }
+    } else {
+        Bsdf::Conductor { specular, ior }
+    })
 }
 
 /// `roughconductor`; of index "none" and GGX it is pir's glossy lobe without albedo.
-pub(super) fn rough_conductor(e: &Element, p: &Params) -> Result<Bsdf, SceneError> {
+pub(super) fn rough_conductor(e: &Element, p: &Params, textured_ior: bool) -> Result<Bsdf, SceneError> {
     let ior = complex_ior(e, p)?;
     let microfacet = microfacet(e, p)?;
     let specular = checked(p, "specular_reflectance", Vec3::ONE)?;
-    Ok(if ior == ComplexIor::NONE && microfacet.kind == Distribution::Ggx {
+    Ok(if ior == ComplexIor::NONE && !textured_ior && microfacet.kind == Distribution::Ggx {
         Bsdf::Glossy { albedo: Vec3::ZERO, specular, roughness: microfacet.alpha }
     } else {
         Bsdf::RoughConductor { specular, ior, microfacet }
@@ -151,17 +156,14 @@ pub(super) fn rough_dielectric(e: &Element, p: &Params) -> Result<Bsdf, SceneErr
     Ok(Bsdf::RoughDielectric { eta, reflectance, transmittance, microfacet })
 }
 
-/// `mask` of a diffuse BSDF (or a two-sided one): its opacity (a number, or the luminance of
-/// a colour) and the nested BSDF, given by the caller.
-pub(super) fn mask(e: &Element, p: &Params, inner: (Bsdf, bool)) -> Result<(Bsdf, bool), SceneError> {
+/// A `mask`'s opacity (default 0.5): a number, or the luminance of a colour (a texture's mean
+/// where the caller took it as a texture).
+pub(super) fn opacity(e: &Element, p: &Params) -> Result<f32, SceneError> {
     let opacity = p.colour("opacity")?.map_or(0.5, luminance);
     if !(0.0..=1.0).contains(&opacity) {
         return Err(e.error(format!("opacity {opacity}: must lie between 0 and 1")));
     }
-    match inner {
-        (Bsdf::Diffuse { albedo }, two_sided) => Ok((Bsdf::Mask { opacity, albedo }, two_sided)),
-        _ => Err(e.error("a mask is supported of a diffuse BSDF (or a twosided diffuse)")),
-    }
+    Ok(opacity)
 }
 
 /// Mitsuba's conductors as its RGB variants see them: (name, η, k), from its spectra

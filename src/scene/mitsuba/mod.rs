@@ -13,7 +13,8 @@
 //!   ([`shapes`]);
 //! - BSDFs: `diffuse` (its `reflectance` a colour or a texture), those of [`bsdfs`], `twosided`
 //!   around them ([`crate::material::Material::two_sided`]), and `normalmap` and `bumpmap`
-//!   around them ([`crate::material::shading_map`]); a shape without one gets Mitsuba's
+//!   around them ([`crate::material::shading_map`]), `blendbsdf` of any two and `mask` of
+//!   any one ([`crate::material::composite`]); a shape without one gets Mitsuba's
 //!   default, a one-sided diffuse of reflectance 0.5, black (0) on an emitter;
 //! - emitters ([`emitters`]): `area` with a constant `radiance` on shapes; `point`, `spot`,
 //!   `directional`, `constant` and `envmap` (any image pir reads as a texture);
@@ -46,6 +47,7 @@ use glam::{Mat4, Vec3};
 use super::format::MAX_DEPTH;
 use super::{DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
 use crate::light::SphereLight;
+use crate::material::composite::{Composite, Part};
 use crate::material::shading_map::{BackSide, Perturbation, ShadingMap};
 use crate::material::{Bsdf, Material, Slot, Textured};
 use crate::texture::Texture;
@@ -191,8 +193,10 @@ struct Builder<'a> {
 
 /// The parameters pir reads as textures, for the error about any other.
 const TEXTURED_PARAMETERS: &str = "diffuse's reflectance, plastic's and roughplastic's diffuse_reflectance, \
-     the specular_reflectance of conductor, roughconductor, plastic, roughplastic, dielectric and thindielectric, \
-     roughconductor's alpha, mask's opacity, normalmap's normalmap and bumpmap's height texture";
+     the specular_reflectance of conductor, roughconductor, plastic, roughplastic, dielectric, thindielectric and \
+     roughdielectric, the specular_transmittance of dielectric, thindielectric and roughdielectric, the eta and k \
+     of conductor and roughconductor, roughconductor's alpha, mask's opacity, blendbsdf's weight, normalmap's \
+     normalmap and bumpmap's height texture";
 
 /// Property tags: the children of a plugin that are its parameters.
 const PROPERTY_TAGS: [&str; 10] =
@@ -677,22 +681,25 @@ impl<'a> Builder<'a> {
                 (Bsdf::Diffuse { albedo }, false, slots)
             }
             "dielectric" => {
-                let slots = self.textured_slots(&p, &[SPECULAR])?;
+                let slots = self.textured_slots(&p, &[SPECULAR, TRANSMITTANCE])?;
                 (bsdfs::dielectric(&p)?, false, slots)
             }
             "thindielectric" => {
-                let slots = self.textured_slots(&p, &[SPECULAR])?;
+                let slots = self.textured_slots(&p, &[SPECULAR, TRANSMITTANCE])?;
                 (bsdfs::thin_dielectric(&p)?, false, slots)
             }
-            "roughdielectric" => (bsdfs::rough_dielectric(e, &p)?, false, None),
+            "roughdielectric" => {
+                let slots = self.textured_slots(&p, &[SPECULAR, TRANSMITTANCE])?;
+                (bsdfs::rough_dielectric(e, &p)?, false, slots)
+            }
             "conductor" => {
-                let slots = self.textured_slots(&p, &[SPECULAR])?;
-                (bsdfs::conductor(e, &p)?, false, slots)
+                let slots = self.textured_slots(&p, &[SPECULAR, ETA, K])?;
+                (bsdfs::conductor(e, &p, textured_ior(&slots))?, false, slots)
             }
             "roughconductor" => {
                 let alpha = ("alpha", Slot::Alpha, (0.0, super::format::MAX_ROUGHNESS));
-                let slots = self.textured_slots(&p, &[SPECULAR, alpha])?;
-                (bsdfs::rough_conductor(e, &p)?, false, slots)
+                let slots = self.textured_slots(&p, &[SPECULAR, alpha, ETA, K])?;
+                (bsdfs::rough_conductor(e, &p, textured_ior(&slots))?, false, slots)
             }
             "plastic" | "roughplastic" => {
                 let (diffuse, slots) = self.reflectance_texture(e, &p, "diffuse_reflectance")?;
@@ -702,10 +709,21 @@ impl<'a> Builder<'a> {
             "mask" => {
                 let inner = p.plugins(self, "bsdf")?;
                 let [b] = inner.as_slice() else { return Err(e.error("needs one nested bsdf")) };
-                let (inner, two_sided, slots) = self.bsdf(b)?;
-                let opacity = self.textured_slots(&p, &[("opacity", Slot::Opacity, (0.0, 1.0))])?;
-                let (bsdf, two_sided) = bsdfs::mask(e, &p, (inner, two_sided))?;
-                (bsdf, two_sided, merge(slots, opacity))
+                let (inner, two_sided, mut slots) = self.bsdf(b)?;
+                let opacity_slot = self.textured_slots(&p, &[("opacity", Slot::Opacity, (0.0, 1.0))])?;
+                let opacity = bsdfs::opacity(e, &p)?;
+                if let Bsdf::Diffuse { albedo } = inner {
+                    (Bsdf::Mask { opacity, albedo }, two_sided, merge(slots, opacity_slot))
+                } else {
+                    // A normal or bump map of the nested BSDF is the whole mask's: the null
+                    // interaction does not depend on the frame.
+                    let map = slots.as_mut().and_then(|t| t.map.take());
+                    let part = part(inner, slots);
+                    let textured = part.textures.is_some();
+                    let parts = Composite::Mask(part).intern();
+                    let bsdf = Bsdf::Composite { weight: opacity, parts, uv: None };
+                    (bsdf, two_sided, composite_slots(opacity_slot, textured, map))
+                }
             }
             "normalmap" | "bumpmap" => {
                 let inner = p.plugins(self, "bsdf")?;
@@ -720,41 +738,61 @@ impl<'a> Builder<'a> {
                 (bsdf, two_sided, Some(slots))
             }
             "blendbsdf" => {
-                let w = p
-                    .float("weight")?
-                    .ok_or_else(|| e.error("needs a weight (a texture weight is not supported)"))?;
+                let weight_slot = self.textured_slots(&p, &[("weight", Slot::Weight, (0.0, 1.0))])?;
+                let w = p.float("weight")?.ok_or_else(|| e.error("needs a weight"))?;
                 if !(0.0..=1.0).contains(&w) {
                     return Err(e.error(format!("weight {w}: must lie between 0 and 1")));
                 }
                 let inner = p.plugins(self, "bsdf")?;
                 let [a, b] = inner.as_slice() else { return Err(e.error("needs two nested bsdfs")) };
-                // (1 − w) · a + w · b, a Lambertian lobe and a GGX one: pir's glossy material.
-                let parts = |d: &'a Element, g: &'a Element, wd: f32, wg: f32| -> Result<Bsdf, SceneError> {
-                    let (pd, pg) = (Params::new(d), Params::new(g));
-                    let albedo = diffuse_albedo(&pd)?;
-                    let (specular, roughness) = rough_mirror(g, &pg)?;
-                    pd.finish(self)?;
-                    pg.finish(self)?;
-                    Ok(Bsdf::Glossy { albedo: albedo * wd, specular: specular * wg, roughness })
-                };
-                let bsdf = match (a.type_name(), b.type_name()) {
-                    ("diffuse", "roughconductor") => parts(a, b, 1.0 - w, w)?,
-                    ("roughconductor", "diffuse") => parts(b, a, w, 1.0 - w)?,
-                    _ => {
-                        return Err(e.error(
-                            "a blendbsdf is supported of a diffuse and a roughconductor (material none, ggx): \
-                             pir's glossy material",
+                let (a_bsdf, a_two_sided, a_slots) = self.bsdf(a)?;
+                let (b_bsdf, b_two_sided, b_slots) = self.bsdf(b)?;
+                if a_two_sided != b_two_sided {
+                    return Err(e.error(
+                        "a blend of a twosided BSDF and a one-sided one is not supported: make both twosided or \
+                         neither",
+                    ));
+                }
+                for (nested, slots) in [(a, &a_slots), (b, &b_slots)] {
+                    if slots.as_ref().is_some_and(|t| t.map.is_some()) {
+                        return Err(nested.error(
+                            "a normalmap or bumpmap inside a blendbsdf is not supported: put it around the blendbsdf",
                         ));
                     }
+                }
+                // A constant blend of a diffuse and a GGX rough mirror is pir's glossy material,
+                // albedo (1 − w) ρ and specular w s (or the other way round).
+                let constant =
+                    weight_slot.is_none() && a_slots.is_none() && b_slots.is_none() && !a_two_sided;
+                let glossy = match (a_bsdf, b_bsdf) {
+                    (Bsdf::Diffuse { albedo }, Bsdf::Glossy { albedo: none, specular, roughness })
+                        if constant && none == Vec3::ZERO =>
+                    {
+                        Some(Bsdf::Glossy { albedo: albedo * (1.0 - w), specular: specular * w, roughness })
+                    }
+                    (Bsdf::Glossy { albedo: none, specular, roughness }, Bsdf::Diffuse { albedo })
+                        if constant && none == Vec3::ZERO =>
+                    {
+                        Some(Bsdf::Glossy { albedo: albedo * w, specular: specular * (1.0 - w), roughness })
+                    }
+                    _ => None,
                 };
-                (bsdf, false, None)
+                match glossy {
+                    Some(bsdf) => (bsdf, false, None),
+                    None => {
+                        let parts = [part(a_bsdf, a_slots), part(b_bsdf, b_slots)];
+                        let textured = parts.iter().any(|p| p.textures.is_some());
+                        let bsdf =
+                            Bsdf::Composite { weight: w, parts: Composite::Blend(parts).intern(), uv: None };
+                        (bsdf, a_two_sided, composite_slots(weight_slot, textured, None))
+                    }
+                }
             }
             other => {
                 return Err(e.error(format!(
                     "bsdf type \"{other}\" is not supported yet: pir reads diffuse, plastic, roughplastic, conductor, \
-                     roughconductor, dielectric, thindielectric, roughdielectric, mask (of a \
-                     diffuse), twosided, normalmap, bumpmap and blendbsdf of diffuse and roughconductor (material \
-                     none, ggx)"
+                     roughconductor, dielectric, thindielectric, roughdielectric, mask, twosided, normalmap, bumpmap \
+                     and blendbsdf"
                 )));
             }
         };
@@ -882,6 +920,36 @@ impl<'a> Builder<'a> {
 /// A specular reflectance that may be a texture ([`Builder::textured_slots`]).
 const SPECULAR: (&str, Slot, (f32, f32)) = ("specular_reflectance", Slot::Specular, (0.0, 1.0));
 
+/// A dielectric's specular transmittance that may be a texture.
+const TRANSMITTANCE: (&str, Slot, (f32, f32)) = ("specular_transmittance", Slot::Transmittance, (0.0, 1.0));
+
+/// A conductor's η and k, which may be textures; Mitsuba reads them unbounded (finite here).
+const ETA: (&str, Slot, (f32, f32)) = ("eta", Slot::Eta, (f32::MIN, f32::MAX));
+const K: (&str, Slot, (f32, f32)) = ("k", Slot::K, (f32::MIN, f32::MAX));
+
+/// Whether a conductor's η or k is a texture (then it is no perfect mirror, whatever their
+/// means).
+fn textured_ior(slots: &Option<Slots>) -> bool {
+    slots.as_ref().is_some_and(|t| t.get(Slot::Eta).is_some() || t.get(Slot::K).is_some())
+}
+
+/// A nested BSDF of a blend or mask, with its textures.
+fn part(bsdf: Bsdf, slots: Option<Slots>) -> Part {
+    Part { bsdf, textures: slots.map(std::sync::Arc::new) }
+}
+
+/// A composite's own textured slots (its weight's), and its map; present, if empty, where only
+/// a part is textured, so that the shape keeps its texture coordinates and
+/// [`Material::bsdf_at`] resolves the parts there.
+fn composite_slots(own: Option<Slots>, parts_textured: bool, map: Option<ShadingMap>) -> Option<Slots> {
+    if own.is_none() && !parts_textured && map.is_none() {
+        return None;
+    }
+    let mut slots = own.unwrap_or_else(|| Textured::new(Vec::new()));
+    slots.map = map;
+    Some(slots)
+}
+
 /// Two sets of textured slots as one (the second's map, if any, is dropped: callers give none).
 fn merge(a: Option<Slots>, b: Option<Slots>) -> Option<Slots> {
     match (a, b) {
@@ -890,25 +958,6 @@ fn merge(a: Option<Slots>, b: Option<Slots>) -> Option<Slots> {
             Some(a)
         }
         (a, b) => a.or(b),
-    }
-}
-
-/// A diffuse BSDF's reflectance (default 0.5).
-fn diffuse_albedo(p: &Params) -> Result<Vec3, SceneError> {
-    let albedo = p.colour("reflectance")?.unwrap_or(Vec3::splat(0.5));
-    reflectance(p.e, "reflectance", albedo)?;
-    Ok(albedo)
-}
-
-/// A blend's `roughconductor`, read as every `roughconductor` is ([`bsdfs::rough_conductor`]):
-/// of material none and GGX it is pir's glossy lobe without albedo, whose specular reflectance
-/// and alpha the blend weighs; with a Fresnel term or Beckmann normals it is refused.
-fn rough_mirror(e: &Element, p: &Params) -> Result<(Vec3, f32), SceneError> {
-    match bsdfs::rough_conductor(e, p)? {
-        Bsdf::Glossy { specular, roughness, .. } => Ok((specular, roughness)),
-        _ => Err(e.error(
-            "in a blendbsdf, a roughconductor must be of material none and distribution ggx (pir's glossy lobe)",
-        )),
     }
 }
 

@@ -36,6 +36,13 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
             m.name
         );
     }
+    if let Some(m) = scene.materials().iter().find(|m| matches!(m.bsdf, Bsdf::Composite { .. })) {
+        anyhow::bail!(
+            "{}: material \"{}\" is a blendbsdf or mask of nested BSDFs: pir convert does not write those",
+            scene.path().display(),
+            m.name
+        );
+    }
     let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
     let dir = out.parent().map(Path::to_path_buf).unwrap_or_default();
     if let Some(light) = scene.lights().first() {
@@ -243,6 +250,8 @@ fn bsdf_xml(m: &Material, pad: &str) -> String {
                 "{pad}<bsdf type=\"mask\"><float name=\"opacity\" value=\"{opacity:?}\"/>{inner}</bsdf>\n"
             );
         }
+        // Refused by `write` before any file is written.
+        Bsdf::Composite { .. } => String::new(),
         Bsdf::Glossy { albedo, specular, roughness } => {
             let (d, s) = (albedo.max_element(), specular.max_element());
             let spec = |scale: f32| {
