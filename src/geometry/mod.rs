@@ -9,6 +9,6 @@ mod vertex_buffer;
 
 pub use aabb::Aabb;
 pub use frame::Frame;
-pub use ray::{OffsetPoint, Ray, offset_origin};
+pub use ray::{OffsetPoint, Ray, offset_epsilon, offset_origin};
 pub use triangle::{TriangleHit, intersect_triangle};
 pub use vertex_buffer::VertexBuffer;

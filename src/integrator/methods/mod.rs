@@ -331,13 +331,11 @@ impl MethodConfig {
         self.params.validate()
     }
 
-    /// Whether the method renders `scene` as it should: `pir-mis` and `pir-vsl` do not yet
-    /// converge to the right image where a BSDF transmits through a rough surface (Mitsuba's
-    /// `roughdielectric`: `pir-mis` about 2 % dark, `pir-vsl` 2–3 % bright after 2,048
-    /// iterations on `tests/data/mitsuba-roughdielectric.xml`), so they refuse such a scene
-    /// rather than render it wrong.
-    /// The light tree's bounds (`--gather tree`) likewise assume that both ends of a
-    /// connection face each other, which such a material's do not.
+    /// Whether the method renders `scene` as it should: the light tree's bounds (`--gather
+    /// tree`) assume that both ends of a connection face each other, which those of a BSDF
+    /// that transmits through a rough surface (Mitsuba's `roughdielectric`) do not, so the
+    /// tree refuses such a scene rather than render it wrong. Every method renders it with
+    /// the other gathers.
     pub fn check_scene(&self, scene: &crate::scene::Scene) -> Result<()> {
         let Some(m) = scene.materials().iter().find(|m| {
             matches!(m.bsdf, crate::material::Bsdf::RoughDielectric { transmittance, .. }
@@ -346,14 +344,6 @@ impl MethodConfig {
             return Ok(());
         };
         let path = scene.path().display();
-        if matches!(self.method.name(), "pir-mis" | "pir-vsl") {
-            anyhow::bail!(
-                "{path}: --method {} does not render rough transmitting materials yet (material \"{}\"); \
-                 pt, pir-bdpt and pir-clamp do",
-                self.method,
-                m.name
-            );
-        }
         if self.method.uses(Parameter::Gather) && self.gather_parameters().0 == GatherKind::Tree {
             anyhow::bail!(
                 "{path}: --gather tree does not bound rough transmitting materials yet (material \"{}\"); \
