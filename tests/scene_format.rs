@@ -844,3 +844,26 @@ fn reflectances_above_one_are_refused_in_both_formats() {
         &["line 2", "Kd 1.08", "must not exceed 1"],
     );
 }
+
+/// A glossy material whose albedo and specular reflectance are each at most 1 but add up to
+/// more (the conference room's Kd 1 + Ks 0.2) is rendered as written, with one warning that
+/// names the file and the material; one that adds up to 1 gets none.
+#[test]
+fn glossy_reflectances_adding_up_above_one_are_warned_about() {
+    let m = |kd: &str| {
+        format!(
+            "{LIGHT}[[mesh]]\nobj = \"m.obj\"\n[materials.x]\nkind = \"glossy\"\nalbedo = [{kd}, 0.2, 0.2]\n\
+             specular = [0.2, 0.2, 0.2]\nroughness = 0.2\n"
+        )
+    };
+    let obj = ("m.obj", "mtllib q.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n");
+    let warnings = |kd: &str| {
+        let f = scene(&m(kd), &[obj]);
+        let (_, w) = pir::scene::load_with(&f.path("s.toml"), &Default::default()).unwrap();
+        w
+    };
+    let w = warnings("0.9");
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("s.toml") && w[0].contains("\"x\"") && w[0].contains("1.1"), "{w:?}");
+    assert!(warnings("0.8").is_empty());
+}

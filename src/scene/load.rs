@@ -47,7 +47,35 @@ pub fn load_with(path: &Path, options: &super::mitsuba::Options) -> Result<(Scen
             problem: "parameters (-D name=value) are for Mitsuba scene files (.xml)".into(),
         });
     }
-    load_toml(path).map(|s| (s, Vec::new()))
+    let scene = load_toml(path)?;
+    let warnings = energy_warnings(path, &scene);
+    Ok((scene, warnings))
+}
+
+/// A warning for each glossy material whose Lambertian and specular reflectances add up to
+/// more than 1 in some channel (legal in the scene format, whose fields are each at most 1):
+/// near the lobe's peak it reflects more light than it receives, and Mitsuba, which takes
+/// such a material as a blend of two BSDFs of reflectance at most 1, cannot load it.
+fn energy_warnings(path: &Path, scene: &Scene) -> Vec<String> {
+    scene
+        .materials()
+        .iter()
+        .filter_map(|m| match m.bsdf {
+            crate::material::Bsdf::Glossy { albedo, specular, .. } if (albedo + specular).max_element() > 1.0 => {
+                let sum = albedo + specular;
+                Some(format!(
+                    "{}: material {:?}: albedo + specular = {} {} {} exceeds 1: rendered as written, a material \
+                     that reflects more light than it receives near its lobe (Mitsuba cannot load it)",
+                    path.display(),
+                    m.name,
+                    sum.x,
+                    sum.y,
+                    sum.z
+                ))
+            }
+            _ => None,
+        })
+        .collect()
 }
 
 /// Loads pir's TOML scene file `path` and everything it names.
