@@ -138,6 +138,14 @@ impl Bsdf {
             (Bsdf::RoughConductor { specular, ior, microfacet }, Slot::Alpha) => {
                 Bsdf::RoughConductor { specular, ior, microfacet: Microfacet::new(microfacet.kind, value.x) }
             }
+            (Bsdf::RoughDielectric { eta, reflectance, transmittance, microfacet }, Slot::Alpha) => {
+                Bsdf::RoughDielectric {
+                    eta,
+                    reflectance,
+                    transmittance,
+                    microfacet: Microfacet::new(microfacet.kind, value.x),
+                }
+            }
             (Bsdf::Glossy { albedo, specular, .. }, Slot::Alpha) => {
                 Bsdf::Glossy { albedo, specular, roughness: value.x }
             }
@@ -255,6 +263,21 @@ mod tests {
                 Bsdf::RoughConductor {
                     specular: Vec3::ONE,
                     ior,
+                    microfacet: Microfacet::new(Distribution::Beckmann, 0.1),
+                },
+            ),
+            (
+                Bsdf::RoughDielectric {
+                    eta: 1.5,
+                    reflectance: Vec3::ONE,
+                    transmittance: Vec3::ONE,
+                    microfacet: mf,
+                },
+                Slot::Alpha,
+                Bsdf::RoughDielectric {
+                    eta: 1.5,
+                    reflectance: Vec3::ONE,
+                    transmittance: Vec3::ONE,
                     microfacet: Microfacet::new(Distribution::Beckmann, 0.1),
                 },
             ),

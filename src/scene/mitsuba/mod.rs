@@ -689,7 +689,8 @@ impl<'a> Builder<'a> {
                 (bsdfs::thin_dielectric(&p)?, false, slots)
             }
             "roughdielectric" => {
-                let slots = self.textured_slots(&p, &[SPECULAR, TRANSMITTANCE])?;
+                let alpha = ("alpha", Slot::Alpha, (0.0, super::format::MAX_ROUGHNESS));
+                let slots = self.textured_slots(&p, &[SPECULAR, TRANSMITTANCE, alpha])?;
                 (bsdfs::rough_dielectric(e, &p)?, false, slots)
             }
             "conductor" => {
