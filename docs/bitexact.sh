@@ -6,11 +6,14 @@
 #
 #     docs/bitexact.sh > before.txt; (change); docs/bitexact.sh > after.txt; diff before.txt after.txt
 #
+# PIR=BINARY measures another build (e.g. a copy of the binary from before the change) instead
+# of this checkout's.
+#
 # About 3 minutes on 2 cores. OUT (default a temporary folder) keeps the images.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet --bin pir --example exr_hash
-PIR=target/release/pir
+PIR=${PIR:-target/release/pir}
 OUT="${OUT:-$(mktemp -d)}"
 mkdir -p "$OUT"
 
