@@ -58,6 +58,16 @@ impl Slot {
     fn is_number(self) -> bool {
         matches!(self, Slot::Opacity | Slot::Alpha | Slot::Weight)
     }
+
+    /// The slot's value on average for a texture of mean `mean`: the mean itself, or for a
+    /// number slot its luminance (the mean luminance), unless it is grey already.
+    pub fn mean_value(self, mean: Vec3) -> Vec3 {
+        if self.is_number() && !(mean.x == mean.y && mean.y == mean.z) {
+            Vec3::splat(crate::texture::luminance(mean))
+        } else {
+            mean
+        }
+    }
 }
 
 /// The textures of a material, each with the slot it sets; every value of the material's
@@ -98,13 +108,7 @@ impl Textured {
     /// which is the mean luminance).
     pub fn apply_mean(&self, mut bsdf: Bsdf) -> Bsdf {
         for (slot, texture) in self.slots.iter().filter(|(s, _)| *s != Slot::Emission) {
-            let mean = texture.mean();
-            let value = if slot.is_number() && !(mean.x == mean.y && mean.y == mean.z) {
-                Vec3::splat(crate::texture::luminance(mean))
-            } else {
-                mean
-            };
-            bsdf = bsdf.with_slot(*slot, value);
+            bsdf = bsdf.with_slot(*slot, slot.mean_value(texture.mean()));
         }
         bsdf
     }

@@ -167,13 +167,13 @@ pub fn trace_light_paths(
 ) -> Traced {
     const CHUNK: usize = 64;
     let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
+    let depths = Depths::new(ctx, max_vpl_depth, to_camera);
     let chunks: Vec<Traced> = (0..paths.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let mut out = Traced::default();
             for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
                 let mut sampler = streams.sampler(k as u64);
-                let depths = Depths::new(ctx, max_vpl_depth, to_camera);
                 trace_path(ctx, &mut sampler, paths as f32, counts, depths, &mut out);
             }
             out

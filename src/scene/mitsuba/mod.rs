@@ -243,13 +243,7 @@ impl<'a> Params<'a> {
                 "{name}: the texture's values span {min} to {max}; they must lie between {lo} and {hi}"
             )));
         }
-        let mean = t.mean();
-        let mean = if matches!(slot, Slot::Opacity | Slot::Alpha) && !(mean.x == mean.y && mean.y == mean.z) {
-            Vec3::splat(crate::texture::luminance(mean))
-        } else {
-            mean
-        };
-        self.means.borrow_mut().push((name.to_string(), mean));
+        self.means.borrow_mut().push((name.to_string(), slot.mean_value(t.mean())));
         Ok(Some((slot, t)))
     }
 
