@@ -101,7 +101,9 @@ fn every_method_resumes_and_records_its_parameters() {
     let d = dir.path();
     let s = scene();
     let loaded = pir::scene::load(s.as_ref()).unwrap();
-    let renderer = pir::render::Renderer::new(&loaded, &Default::default()).unwrap();
+    // (At the renders' resolution: `pir-bdpt`'s pilot looks through the camera's frame.)
+    let options = pir::render::SceneOptions { resolution: Some(vec![20, 16]), ..Default::default() };
+    let renderer = pir::render::Renderer::new(&loaded, &options).unwrap();
     for m in common::methods() {
         let run = |extra: &[&str]| {
             let args =

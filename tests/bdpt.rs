@@ -23,19 +23,21 @@ use pir::scene::Scene;
 
 const Z: f64 = 4.5;
 
-/// Which camera vertices connect: each changes which techniques the weights count.
-const CONNECT: [Connect; 3] = [Connect::First, Connect::FirstTwo, Connect::All];
+/// Which camera vertices connect: each changes which techniques the weights count. (The
+/// test scenes' glossy material, α 0.15, is glossy for `Connect::Glossy`: in the mixed cube
+/// it connects after the glossy walls only.)
+const CONNECT: [Connect; 4] = [Connect::First, Connect::FirstTwo, Connect::All, Connect::Glossy];
 
 fn bdpt(clamping: Clamping, paths: usize) -> InstantRadiosity {
     bdpt_connecting(clamping, Connect::default(), paths)
 }
 
-/// With as many light samples at the first vertex as the default (`--connect first`), one
-/// (`first-two`) or three (`all`), so that every test covers a count other than one, whose
+/// With as many light samples at the first vertex as the default (`--connect first` and
+/// `glossy`), one (`first-two`) or three (`all`), so that every test covers a count other than one, whose
 /// weights count the light samples, and the count of one.
 fn bdpt_connecting(clamping: Clamping, connect: Connect, paths: usize) -> InstantRadiosity {
     let light_samples = match connect {
-        Connect::First => pir::integrator::DEFAULT_LIGHT_SAMPLES,
+        Connect::First | Connect::Glossy => pir::integrator::DEFAULT_LIGHT_SAMPLES,
         Connect::FirstTwo => 1,
         Connect::All => 3,
     };
@@ -344,4 +346,32 @@ fn light_samples_follow_the_emitters_visibility_unless_given() {
     assert_eq!(chosen(&slit_scene, Some(2)).0, 2);
     assert_eq!(chosen(&slit_scene, Some(3)).0, 3);
     assert_eq!(chosen(&cube_scene, None).0, DEFAULT_LIGHT_SAMPLES);
+}
+
+/// `--connect` not given: the scene's view chooses (`view_pilot`): connections after glossy
+/// vertices too where the camera sees mostly points the emitters do not light (the slit room,
+/// lit through an opening), the first vertex only where it sees them lit (the emitting cube);
+/// a given rule is kept; the same seed chooses the same.
+#[test]
+fn connections_after_glossy_vertices_follow_the_cameras_view_unless_given() {
+    let (slit_scene, cube_scene) = (slit_room(), closed_cube(diffuse(0.5, 1.0)));
+    let chosen = |scene: &Scene, given: Option<Connect>| {
+        let mut config = MethodConfig::new(Method::new(&PirBdpt));
+        config.params.connect = given;
+        let mut integrator = config.integrator(scene.bounds().diagonal());
+        integrator.set_camera(scene.camera().with_resolution(32, 32).rays());
+        pilot_job(SamplerKind::Sobol)
+            .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
+        let p = config.report(scene.bounds().diagonal(), integrator.measured());
+        let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+        let share = value("lit-share").map(|v| v.parse::<f32>().unwrap());
+        (value("connect").unwrap(), share)
+    };
+    let (slit, share) = chosen(&slit_scene, None);
+    assert!(slit == "glossy" && share.is_some_and(|s| s < 0.2), "slit room: {slit} at {share:?}");
+    assert_eq!(chosen(&slit_scene, None), (slit, share));
+    let (cube, share) = chosen(&cube_scene, None);
+    assert!(cube == "first" && share.is_some_and(|s| s > 0.5), "emitting cube: {cube} at {share:?}");
+    assert_eq!(chosen(&slit_scene, Some(Connect::All)), ("all".to_string(), None));
+    assert_eq!(chosen(&cube_scene, Some(Connect::Glossy)), ("glossy".to_string(), None));
 }

@@ -59,6 +59,7 @@ const EXTRA: &[&str] = &[
     "pir-bdpt --connect first-two --vpls 16",
     "pir-bdpt --sampler independent",
     "pir-bdpt --scene scenes/stress/slit/scene.toml",
+    "pir-bdpt --connect glossy --scene scenes/stress/corner/scene.toml",
 ];
 
 /// What is rendered, as `pir render` flags (and `--scene`): every method at its defaults on

@@ -324,6 +324,12 @@ fn print_summary(
             "pir: {n} light samples at the first vertex; the emitters are in view of {percent} of the light samples from the points they light"
         );
     }
+    if let (Some(c), Some(v)) = (param("connect"), param("lit-share")) {
+        let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
+        eprintln!(
+            "pir: --connect {c}: the emitters light {percent} of the points the camera sees (glossy below 50 %)"
+        );
+    }
     if stats.dropped > 0 {
         let (x, y, it) = stats.first_dropped.unwrap_or_default();
         eprintln!(

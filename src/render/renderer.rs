@@ -130,11 +130,13 @@ impl<'s> Renderer<'s> {
         self.pool.install(op)
     }
 
-    /// The integrator of a method for this scene, prepared ([`Integrator::prepare`]: the
-    /// render's pilot of light paths, run at the first call only, for the methods that use
-    /// it).
+    /// The integrator of a method for this scene, given the camera and prepared
+    /// ([`Integrator::prepare`]: the render's pilot of light paths, run at the first call only,
+    /// for the methods that use it, and what a method chooses by the camera's view).
     pub fn integrator(&self, config: &MethodConfig) -> Box<dyn Integrator> {
         let mut integrator = config.integrator(self.scene.bounds().diagonal());
+        // The camera first: a pilot may look through it.
+        integrator.set_camera(self.scene.camera().with_resolution(self.width, self.height).rays());
         let ctx = self.context();
         // (What a pilot run here traces is not a render's: its count is dropped.)
         self.pool.install(|| integrator.prepare(&ctx, &mut Counters::default()));

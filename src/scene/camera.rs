@@ -200,6 +200,11 @@ impl CameraRays {
         self.lens.is_some()
     }
 
+    /// The film's width and height in pixels.
+    pub fn film_size(&self) -> Vec2 {
+        Vec2::new(self.width, self.height)
+    }
+
     /// The ray through the image-plane position `film` (see [`Camera::generate_ray`]; shifted
     /// by the principal point offset) from the lens point of the uniform `aperture` sample in `[0, 1)²` (a pinhole ignores it), as
     /// Mitsuba 3's `thinlens` samples it: the sample mapped to the disk by the concentric

@@ -6,7 +6,7 @@
 use glam::Vec3;
 
 use super::bidirectional::{CameraEnd, escape_weight, hit_weight, light_weight};
-use super::config::Connect;
+use super::config::{Connect, Connecting};
 use super::light_set::LightSet;
 use super::mis::{Technique, Weighing};
 use super::points::PointLights;
@@ -45,9 +45,9 @@ pub struct CameraPath {
     previous: Option<Bsdf>,
     /// The segments from the camera to the vertex the current ray left (0 at the camera).
     depth: u32,
-    /// The non-delta vertices the path has passed (its last one's rank: 1 for the first
-    /// non-delta vertex, whatever delta vertices came before it; 0 before any).
-    rank: u32,
+    /// The non-delta vertices the path has passed, and which of them connect (the last
+    /// one's rank: 1 for the first non-delta vertex, whatever delta vertices came before it).
+    connecting: Connecting,
 }
 
 impl Estimator for Bidirectional<'_> {
@@ -57,7 +57,7 @@ impl Estimator for Bidirectional<'_> {
     #[inline]
     fn start(&self, ray: &Ray) -> CameraPath {
         let mis = self.camera.map_or(MisState::CAMERA, |c| MisState::from_camera(c.direction_pdf(ray.dir)));
-        CameraPath { mis, from: ray.origin, previous: None, depth: 0, rank: 0 }
+        CameraPath { mis, from: ray.origin, previous: None, depth: 0, connecting: Connecting::CAMERA }
     }
 
     /// The environments found by a ray that leaves the scene, each weighed against
@@ -77,7 +77,7 @@ impl Estimator for Bidirectional<'_> {
         let radius = ctx.scene.bounding_sphere().1;
         // (`rank` is the vertex the ray left where that one was not delta; after a delta one
         // next-event estimation there is no technique, and the count is not used.)
-        let left_samples = if path.rank == 1 { self.light_samples as f32 } else { 1.0 };
+        let left_samples = if path.connecting.rank() == 1 { self.light_samples as f32 } else { 1.0 };
         for &k in ctx.emitters.environments() {
             let light = &ctx.emitters.lights()[k];
             let le = light.environment(dir);
@@ -120,7 +120,7 @@ impl Estimator for Bidirectional<'_> {
                 None => pdf_area,
             };
             // Light samples at the vertex the ray left: `light_samples` at the first.
-            let left_samples = if path.rank == 1 { self.light_samples as f32 } else { 1.0 };
+            let left_samples = if path.connecting.rank() == 1 { self.light_samples as f32 } else { 1.0 };
             let w = match path.depth {
                 0 => 1.0,
                 _ => hit_weight(&path.mis, pdf_nee, pdf_area, cos_in, self.counts.paths, left_samples),
@@ -143,8 +143,8 @@ impl Estimator for Bidirectional<'_> {
     ) {
         let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
         let (counts, connect, state) = (self.counts, self.connect, path.mis);
-        path.rank += 1;
-        let rank = path.rank;
+        let connects = path.connecting.pass(connect, bsdf);
+        let rank = path.connecting.rank();
         let geometry = sp.geometry();
         // The count of the connection from the previous camera vertex to this one.
         let count_in = counts.between(path.previous.as_ref(), bsdf);
@@ -153,7 +153,8 @@ impl Estimator for Bidirectional<'_> {
         // The samples' points: one block of the sequence, stratified among themselves.
         let u_select = sampler.next_f32();
         let mut direct = Vec3::ZERO;
-        let count_previous = if connect.at(rank - 1) { count_in } else { 0.0 };
+        // (0 where the camera vertex before this one does not connect to VPLs.)
+        let count_previous = if path.connecting.previous_connects() { count_in } else { 0.0 };
         for u in sampler.next_2d_block(n) {
             direct += sample_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters, |l| {
                 let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
@@ -162,8 +163,9 @@ impl Estimator for Bidirectional<'_> {
         }
         *radiance += beta * (direct / count);
         // ---- The connections to the VPLs.
-        if connect.at(rank) {
+        if connects {
             let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
+            let count_in = count_previous;
             let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, counts, count_in };
             let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
             let max_vpl_depth = ctx.max_depth - depth - 1;
@@ -183,15 +185,9 @@ impl Estimator for Bidirectional<'_> {
             (false, false) => 0.0,
         };
         let cos_out = sp.ng.dot(s.wi).abs();
-        path.mis.scatter(Scatter::camera(
-            s.pdf,
-            pdf_rev,
-            cos_out,
-            s.delta,
-            self.connect,
-            path.rank,
-            count_in,
-        ));
+        // (At a delta vertex nothing is folded in, whatever `fold` says.)
+        let fold = path.connecting.previous_connects();
+        path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, fold, count_in));
         path.previous = Some(*bsdf);
         path.from = sp.p;
         path.depth = v.depth;

@@ -52,7 +52,8 @@
 //! hit finishes the sum with its own end's densities. pir's changes: the camera subpath starts
 //! at 1 / the camera's direction density (light tracing's N over N, in sums relative to N;
 //! zero without light tracing, which the camera path then leaves out too), the light subpath
-//! carries a third sum for `--connect first-two` ([`MisState::dvc_two`]), and the counts n_u:
+//! carries its sums by which camera vertices `--connect` lets connect ([`MisState::beyond`]:
+//! the connection folded in last, and those after a glossy vertex), and the counts n_u:
 //! the light subpath's sums
 //! start divided by N (the two emitter techniques it carries count once, not N times), and
 //! the camera subpath's sums count N when next-event estimation or a hit weighs them. A
@@ -88,7 +89,7 @@
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use super::config::Connect;
+use super::config::{Connect, glossy_vertex};
 use super::light_paths::Vpl;
 use super::subpath::{Counts, MisState};
 use crate::integrator::direct::LightSample;
@@ -226,8 +227,8 @@ pub struct CameraEnd<'a> {
     pub connect: Connect,
     pub rank: u32,
     /// The connections' counts, and the count of the connection from the camera vertex
-    /// before this one to this one (relative to [`Counts::paths`]; any value where the
-    /// sums are zero).
+    /// before this one to this one (relative to [`Counts::paths`]; 0 where that vertex does
+    /// not connect; any value where the sums are zero).
     pub counts: Counts,
     pub count_in: f32,
 }
@@ -248,7 +249,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let camera_pdf = x.fx.pdf(w) * cos_y / dist2;
     // The reverse densities only where their factors are not zero (at the camera's first
     // vertex its sums are, so the light subpath extended to x has no competitor to weigh).
-    let more = if x.connect == Connect::All { vpl.mis.dvc } else { vpl.mis.dvc_emitter };
+    let more = vpl.mis.beyond(x.connect, x.rank + 1, glossy_vertex(bsdf_y));
     let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 };
     let w_camera = if x.state.dvcm > 0.0 || x.state.dvc > 0.0 {
         let camera_rev = if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 };
@@ -260,7 +261,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
     let one = match vpl.depth {
         1 => vpl.mis.dvcm,
-        _ if x.connect.at(x.rank + 1) => vpl.mis.dvcm * vpl.count_out,
+        _ if x.connect.at(x.rank + 1, glossy_vertex(x.bsdf)) => vpl.mis.dvcm * vpl.count_out,
         _ => 0.0,
     };
     let w_light = camera_pdf * (one + more * light_rev);
@@ -269,7 +270,8 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
 }
 
 /// The weight of light tracing to the camera from the light subpath's vertex `y`: `mis` its
-/// sums on arriving there, `depth` its segments from the emitter, `count_out` the count of the
+/// sums on arriving there, `depth` its segments from the emitter, `glossy` whether it is
+/// glossy ([`super::config::glossy_vertex`]), `count_out` the count of the
 /// connection from it (as the camera's first vertex) to the light subpath's previous vertex
 /// ([`Vpl::count_out`]); `pdf_camera` the camera's density of `y` per unit area (its direction
 /// density, [`crate::scene::CameraRays::direction_pdf`], times cos θ_y / d²), `light_rev` the
@@ -279,13 +281,15 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
 /// The others, relative to light tracing (which counts N, each light path splatting once):
 /// the camera path ending at `y` (next-event estimation there if it is lit directly, else
 /// the connection to the previous vertex's VPL; `dvcm`) and further on (`dvc`, only the
-/// emitter techniques where the camera connects at its first vertex only, and the connection
-/// at the second vertex too with `first-two`), all behind the camera's density of `y`.
+/// emitter techniques where the camera connects at its first vertex only, and the connections
+/// that `connect` allows at the vertices after the first, [`MisState::beyond`]), all behind
+/// the camera's density of `y`.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn camera_weight(
     mis: &MisState,
     depth: u32,
+    glossy: bool,
     count_out: f32,
     pdf_camera: f32,
     light_rev: f32,
@@ -293,11 +297,7 @@ pub fn camera_weight(
     light_samples: f32,
 ) -> f32 {
     let one = if depth == 1 { mis.dvcm * light_samples } else { mis.dvcm * count_out };
-    let more = match connect {
-        Connect::First => mis.dvc_emitter,
-        Connect::FirstTwo => mis.dvc_two,
-        Connect::All => mis.dvc,
-    };
+    let more = mis.beyond(connect, 1, glossy);
     weight(pdf_camera * (one + more * light_rev))
 }
 
@@ -305,6 +305,7 @@ pub fn camera_weight(
 mod tests {
     use super::*;
     use crate::geometry::Frame;
+    use crate::integrator::many_light::config::Connecting;
     use crate::integrator::many_light::config::Gather;
     use crate::integrator::many_light::subpath::Scatter;
     use crate::material::TransportMode;
@@ -371,13 +372,25 @@ mod tests {
         camera_pdf_dir(z, &z[1]) * z[1].cos(&z[0]) / dist2(&z[0], &z[1])
     }
 
-    /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
+    /// Which camera vertices connect, the walk having passed the non-delta ones of z[1..=t]
+    /// (z[0] is the camera).
+    fn walk(z: &[Node], t: usize, connect: Connect) -> Connecting {
+        let mut c = Connecting::CAMERA;
+        for n in &z[1..=t] {
+            if let Some(b) = &n.bsdf {
+                c.pass(connect, b);
+            }
+        }
+        c
+    }
+
     /// The rank of the camera vertex z[t] among the path's non-delta vertices z[1..=t]
     /// ([`Connect::at`]).
     fn rank(z: &[Node], t: usize) -> u32 {
-        z[1..=t].iter().filter(|n| n.bsdf.is_some()).count() as u32
+        walk(z, t, Connect::First).rank()
     }
 
+    /// The camera subpath's sums on arriving at z[t] (z[0] is the camera).
     fn camera_state(z: &[Node], t: usize, connect: Connect, counts: Counts) -> MisState {
         camera_state_to(z, t, connect, counts, true)
     }
@@ -395,8 +408,8 @@ mod tests {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
                 let delta = z[j].bsdf.is_none();
                 let count = factor(counts, (j > 1).then(|| &z[j - 1]), &z[j]);
-                let scatter =
-                    Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, connect, rank(z, j), count);
+                let fold = walk(z, j, connect).previous_connects();
+                let scatter = Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, fold, count);
                 s.scatter(scatter);
             }
         }
@@ -428,7 +441,9 @@ mod tests {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
                 let count = factor(counts, (j + 1 < k).then(|| &z[j + 1]), &z[j]);
-                s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, (k - j) as u32, count));
+                let glossy = z[j].bsdf.is_some_and(|b| glossy_vertex(&b));
+                let depth = (k - j) as u32;
+                s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, depth, count, glossy));
             }
         }
         s
@@ -466,7 +481,9 @@ mod tests {
             let count_out = factor(counts, (2 < k).then(|| &z[2]), &z[1]);
             let light_rev = z[1].pdf(&z[0], &z[2]);
             let pdf_camera = camera_pdf_area(z);
-            camera_weight(&mis, (k - 1) as u32, count_out, pdf_camera, light_rev, connect, samples_at(1))
+            let glossy = z[1].bsdf.is_some_and(|b| glossy_vertex(&b));
+            let depth = (k - 1) as u32;
+            camera_weight(&mis, depth, glossy, count_out, pdf_camera, light_rev, connect, samples_at(1))
         })];
         for t in 1..=k {
             let x = &z[t];
@@ -486,7 +503,7 @@ mod tests {
                 continue;
             }
             let cam = camera_state(z, t, connect, counts);
-            let possible = t + 1 == k || (z[t + 1].bsdf.is_some() && connect.at(rank(z, t)));
+            let possible = t + 1 == k || (z[t + 1].bsdf.is_some() && walk(z, t, connect).connects());
             let Some(bx) = x.bsdf.filter(|_| possible) else {
                 w.push(None);
                 continue;
@@ -526,7 +543,7 @@ mod tests {
                         emission: Some(disk),
                     },
                 };
-                let previous = if connect.at(rank(z, t) - 1) { count_in } else { 0.0 };
+                let previous = if walk(z, t, connect).previous_connects() { count_in } else { 0.0 };
                 let n = samples_at(t);
                 Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, n))
             } else {
@@ -551,7 +568,7 @@ mod tests {
                     connect,
                     rank: rank(z, t),
                     counts,
-                    count_in,
+                    count_in: if walk(z, t, connect).previous_connects() { count_in } else { 0.0 },
                 };
                 Some(connection_weight(&end, x.p, &vpl, &by, &emitting))
             });
@@ -770,8 +787,10 @@ mod tests {
                 (Connect::First, 1),
                 (Connect::FirstTwo, 1),
                 (Connect::All, 1),
+                (Connect::Glossy, 1),
                 (Connect::First, 4),
                 (Connect::All, 3),
+                (Connect::Glossy, 2),
             ] {
                 // Every connection counted alike, and a glossy end counted a quarter.
                 for counts in [
@@ -824,7 +843,7 @@ mod tests {
             ];
             for (i, source) in sources.into_iter().enumerate() {
                 for (connect, light_samples) in
-                    [(Connect::First, 1), (Connect::All, 1), (Connect::FirstTwo, 4)]
+                    [(Connect::First, 1), (Connect::All, 1), (Connect::FirstTwo, 4), (Connect::Glossy, 1)]
                 {
                     for counts in
                         [Counts::uniform(32.0), Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 }]

@@ -4,6 +4,7 @@
 //! The method registry builds its integrators from these.
 
 use super::schedule::{self, clamp_bound};
+use crate::material::Bsdf;
 
 /// Light paths per iteration when `--vpls` is not given. An iteration costs pixels × VPLs
 /// shadow rays and the progressive schedules advance once per iteration, so many cheap
@@ -85,9 +86,20 @@ pub enum Gather {
     Resampled { candidates: usize, samples: usize },
 }
 
-/// Which camera vertices connect to the VPLs (`--connect`): the first, the first two, or
-/// every non-delta one. The weights know it: a technique that connects deeper cannot make
-/// the path. (Limits between 2 and all would need the light subpath's sums split by length.)
+/// Which camera vertices connect to the VPLs (`--connect`): the first, the first two, every
+/// non-delta one, or the first and every one whose previous non-delta vertex is glossy
+/// ([`glossy_vertex`]). The weights know it: a technique that connects where the rule says
+/// no cannot make the path. (Limits between 2 and all would need the light subpath's sums
+/// split by length.)
+///
+/// Why `glossy`: at a glossy vertex (a rough metal floor) few VPLs lie in the narrow lobe, so
+/// the light it reflects is the BSDF sample's to find, and the vertex that sample reaches
+/// (the wall seen in the floor) is where connections pay off again; elsewhere one connecting
+/// vertex is enough ([`Connect::First`] against [`Connect::All`] on pir's scenes,
+/// `docs/measurements.md`). A rule that depends only on the connecting vertex's camera-side
+/// neighbour keeps the weights summing to one: the light subpath carries its connections
+/// by whether their camera-side neighbour is glossy ([`super::subpath::MisState::dvc_glossy`],
+/// [`super::subpath::MisState::dvc_last`]).
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize, serde::Deserialize,
 )]
@@ -97,19 +109,94 @@ pub enum Connect {
     First,
     FirstTwo,
     All,
+    Glossy,
+}
+
+/// The widest microfacet roughness (α) at which a vertex is glossy for `--connect glossy`
+/// ([`glossy_vertex`]).
+pub const GLOSSY_ALPHA: f32 = 0.15;
+
+/// Whether a non-delta vertex of this BSDF makes the next one connect with `--connect
+/// glossy`: a microfacet lobe of α at most [`GLOSSY_ALPHA`] ([`Bsdf::glossy_alpha`]). A
+/// function of the vertex alone, so that both subpaths agree on it.
+#[inline]
+pub fn glossy_vertex(b: &Bsdf) -> bool {
+    b.glossy_alpha().is_some_and(|a| a <= GLOSSY_ALPHA)
 }
 
 impl Connect {
+    /// The name `--connect` takes for it (clap's, from the enum).
+    pub fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self).map(|v| v.get_name().to_string()).unwrap_or_default()
+    }
+
     /// Whether the camera vertex of rank `rank` among its path's non-delta vertices connects
     /// (1: the first non-delta vertex, after any mirror or glass the camera ray met first,
     /// so that a wall seen in a mirror connects as one seen directly; 0: the camera itself,
-    /// which light tracing always reaches).
+    /// which light tracing always reaches), `after_glossy` saying whether the non-delta
+    /// camera vertex before it is glossy ([`glossy_vertex`]).
     #[inline]
-    pub fn at(self, rank: u32) -> bool {
+    pub fn at(self, rank: u32, after_glossy: bool) -> bool {
         match self {
             Connect::First => rank <= 1,
             Connect::FirstTwo => rank <= 2,
             Connect::All => true,
+            Connect::Glossy => rank <= 1 || after_glossy,
         }
+    }
+}
+
+/// Which vertices of one camera path connect to the VPLs, as its walk passes its non-delta
+/// vertices one by one ([`Connect::at`]): what the camera path's weights need to know of the
+/// vertices behind it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Connecting {
+    /// The non-delta vertices passed: the last one's rank.
+    rank: u32,
+    /// Whether the last one connects, and the one before it (the camera, before any, does:
+    /// light tracing reaches it).
+    last: bool,
+    before_last: bool,
+    /// Whether the last one is glossy ([`glossy_vertex`]).
+    glossy: bool,
+}
+
+impl Connecting {
+    /// At the camera, before any vertex.
+    pub const CAMERA: Connecting = Connecting { rank: 0, last: true, before_last: true, glossy: false };
+
+    /// Passes the next non-delta vertex, of BSDF `b`: whether it connects.
+    #[inline]
+    pub fn pass(&mut self, connect: Connect, b: &Bsdf) -> bool {
+        self.rank += 1;
+        self.before_last = self.last;
+        self.last = connect.at(self.rank, self.glossy);
+        self.glossy = glossy_vertex(b);
+        self.last
+    }
+
+    /// The last non-delta vertex's rank (0 before any).
+    #[inline]
+    pub fn rank(&self) -> u32 {
+        self.rank
+    }
+
+    /// Whether the last non-delta vertex (or the camera, before any) connects.
+    #[inline]
+    pub fn connects(&self) -> bool {
+        self.last
+    }
+
+    /// Whether the non-delta vertex before the last one (or the camera) connects: whether the
+    /// connection from it to the last one is a technique.
+    #[inline]
+    pub fn previous_connects(&self) -> bool {
+        self.before_last
+    }
+}
+
+impl Default for Connecting {
+    fn default() -> Self {
+        Connecting::CAMERA
     }
 }

@@ -16,6 +16,7 @@ use super::points::PointLights;
 use super::spheres::SphereLights;
 use super::subpath::Counts;
 use super::to_camera::ToCamera;
+use super::view_pilot;
 use crate::geometry::Ray;
 use crate::integrator::walker::walk;
 use crate::integrator::{Counters, FilmSplat, Integrator, RenderContext};
@@ -37,6 +38,11 @@ pub struct InstantRadiosity {
     /// Whether [`Integrator::prepare`] chooses `light_samples` by the pilot's visibility of
     /// the emitters ([`bidirectional::light_samples_for`], with `light_samples` the base).
     auto_light_samples: bool,
+    /// Whether [`Integrator::prepare`] chooses which camera vertices of
+    /// [`VirtualLights::Bidirectional`] connect ([`view_pilot`]), and the share of lit points
+    /// its pilot found.
+    auto_connect: bool,
+    lit_share: Option<f32>,
     /// The camera at the film's resolution ([`Integrator::set_camera`]): `pir-bdpt` traces
     /// light to it (none given: no light tracing to the camera, which the weights then leave
     /// out).
@@ -69,6 +75,8 @@ impl InstantRadiosity {
             gather: Gather::All,
             light_samples: 1,
             auto_light_samples: false,
+            auto_connect: false,
+            lit_share: None,
             camera: None,
             set: IterationLights::None,
             splats: Vec::new(),
@@ -101,6 +109,12 @@ impl InstantRadiosity {
         InstantRadiosity { auto_light_samples: true, ..self.with_light_samples(base) }
     }
 
+    /// Which camera vertices connect ([`VirtualLights::Bidirectional`]) chosen by the share
+    /// of the points the camera sees that the emitters light directly ([`view_pilot`]).
+    pub fn with_auto_connect(self) -> Self {
+        InstantRadiosity { auto_connect: true, ..self }
+    }
+
     /// Point lights with the given clamping.
     pub fn points(clamping: Clamping, paths: usize) -> Self {
         Self::new(VirtualLights::Points(clamping), paths)
@@ -118,6 +132,12 @@ impl Integrator for InstantRadiosity {
     fn measured(&self) -> Vec<(String, String)> {
         let mut m = vec![("vpls".to_string(), self.paths.to_string())];
         if matches!(self.lights, VirtualLights::Bidirectional(..)) {
+            if let VirtualLights::Bidirectional(_, connect) = self.lights {
+                m.push(("connect".into(), connect.name()));
+            }
+            if let Some(share) = self.lit_share {
+                m.push(("lit-share".into(), format!("{share:.3}")));
+            }
             m.push(("light-samples".into(), self.light_samples.to_string()));
             if let Some(pilot) = self.pilot {
                 m.push(("emitter-visibility".into(), format!("{:.3}", pilot.visibility)));
@@ -128,6 +148,13 @@ impl Integrator for InstantRadiosity {
 
     /// The pilot, once, for counts chosen by the scene or the bidirectional weights.
     fn prepare(&mut self, ctx: &RenderContext, counters: &mut Counters) {
+        if let (VirtualLights::Bidirectional(clamping, _), Some(camera)) = (self.lights, self.camera)
+            && std::mem::take(&mut self.auto_connect)
+        {
+            let share = view_pilot::lit_share(ctx, &camera, counters);
+            self.lights = VirtualLights::Bidirectional(clamping, view_pilot::connect_for(share));
+            self.lit_share = Some(share);
+        }
         let bidirectional = matches!(self.lights, VirtualLights::Bidirectional(..));
         if self.pilot.is_some() || !(bidirectional || self.auto.is_some()) {
             return;

@@ -33,6 +33,7 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::config::glossy_vertex;
 use super::subpath::{Counts, MisState, Scatter};
 use super::to_camera::{LightVertex, ToCamera};
 use crate::geometry::{Frame, Ray, offset_origin};
@@ -400,7 +401,8 @@ fn follow(
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
-        mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count));
+        let glossy = glossy_vertex(bsdf);
+        mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count, glossy));
         previous = Some(*bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;

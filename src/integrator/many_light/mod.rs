@@ -68,6 +68,7 @@ pub mod spheres;
 pub mod subpath;
 pub mod to_camera;
 pub mod tree_gather;
+pub mod view_pilot;
 pub mod virtual_light;
 
 pub use config::{Clamping, Connect, DEFAULT_PATHS, Gather, Radius, VirtualLights};

@@ -36,7 +36,8 @@ use super::subpath::Counts;
 use crate::integrator::direct::{light_occluded, occluded};
 use crate::integrator::{Counters, RenderContext};
 use crate::light::Choice;
-use crate::sampling::Streams;
+use crate::sampling::{Sampler, Streams};
+use glam::Vec3;
 
 /// Light paths of the pilot that measures the yield of VPLs per path (no more than the most
 /// an iteration of `pir-bdpt` traces, which the memory estimate counts).
@@ -115,35 +116,9 @@ impl Pilot {
         for (j, vpl) in vpls.iter().enumerate().filter(|(_, v)| v.depth == 1) {
             let mut sampler = streams.sampler(j as u64);
             for _ in 0..PILOT_LIGHT_SAMPLES {
-                let u_select = sampler.next_f32();
-                let u = sampler.next_2d();
-                // (A sphere's points by area: the pilot measures visibility, not variance.)
-                let es = if !ctx.emitters.is_plain() {
-                    match ctx.emitters.choose(ctx.scene, u_select, u) {
-                        Choice::Area(es) => es,
-                        Choice::Light { index, u, .. } => {
-                            // A light that is not a triangle: its own sample from the VPL.
-                            let Some(ls) = ctx.emitters.lights()[index].sample(vpl.p, u) else { continue };
-                            if vpl.ng.dot(ls.wi) <= 0.0 {
-                                continue;
-                            }
-                            tried += 1;
-                            if !light_occluded(ctx, vpl.p, vpl.ng, &ls, &mut samples) {
-                                visible += 1;
-                            }
-                            continue;
-                        }
-                    }
-                } else {
-                    ctx.emitters.sample(ctx.scene, u_select, u)
-                };
-                let d = es.point.p - vpl.p;
-                if es.point.ng.dot(d) >= 0.0 || vpl.ng.dot(d) <= 0.0 {
-                    continue;
-                }
-                tried += 1;
-                if !occluded(ctx, vpl.p, vpl.ng, es.point.p, es.point.ng, &mut samples) {
-                    visible += 1;
+                if let Some(seen) = emitter_in_view(ctx, vpl.p, vpl.ng, &mut sampler, &mut samples) {
+                    tried += 1;
+                    visible += u32::from(seen);
                 }
             }
         }
@@ -153,6 +128,41 @@ impl Pilot {
             visibility: if tried == 0 { 1.0 } else { visible as f32 / tried as f32 },
         }
     }
+}
+
+/// One light sample from the point `p` of normal `ng`, drawn as next-event estimation draws
+/// it (a sphere's point by area: this measures visibility, not variance): whether no surface
+/// blocks it; `None` where the point drawn is behind the emitter's front side or the
+/// surface at `p`. Two numbers and a light's own sample from `sampler`.
+pub fn emitter_in_view(
+    ctx: &RenderContext,
+    p: Vec3,
+    ng: Vec3,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+) -> Option<bool> {
+    let u_select = sampler.next_f32();
+    let u = sampler.next_2d();
+    let es = if !ctx.emitters.is_plain() {
+        match ctx.emitters.choose(ctx.scene, u_select, u) {
+            Choice::Area(es) => es,
+            Choice::Light { index, u, .. } => {
+                // A light that is not a triangle: its own sample from the point.
+                let ls = ctx.emitters.lights()[index].sample(p, u)?;
+                if ng.dot(ls.wi) <= 0.0 {
+                    return None;
+                }
+                return Some(!light_occluded(ctx, p, ng, &ls, counters));
+            }
+        }
+    } else {
+        ctx.emitters.sample(ctx.scene, u_select, u)
+    };
+    let d = es.point.p - p;
+    if es.point.ng.dot(d) >= 0.0 || ng.dot(d) <= 0.0 {
+        return None;
+    }
+    Some(!occluded(ctx, p, ng, es.point.p, es.point.ng, counters))
 }
 
 #[cfg(test)]

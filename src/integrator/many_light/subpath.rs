@@ -125,17 +125,22 @@ pub struct MisState {
     /// what is left of `dvc` when the camera may not connect further along the path
     /// ([`Connect`]).
     pub dvc_emitter: f32,
-    /// The part of `dvc` that the emitter techniques and the technique folded in last (the
-    /// camera connecting at the light subpath's previous vertex) contribute (light subpaths
-    /// only): what light tracing to the camera weighs against with `--connect first-two`,
-    /// where the camera connects at its first two vertices only.
-    pub dvc_two: f32,
+    /// The part of `dvc` that the connection folded in last contributes (light subpaths
+    /// only): the camera connecting at the light subpath's previous non-delta vertex, which
+    /// `--connect first-two` allows where light tracing makes the camera's first vertex here,
+    /// and `--connect glossy` where the camera's vertex here is glossy.
+    pub dvc_last: f32,
+    /// The part of `dvc` that the connections before it contribute whose camera-side
+    /// neighbour (the next non-delta vertex towards here) is glossy
+    /// ([`super::config::glossy_vertex`]; light subpaths only): those `--connect glossy` allows.
+    pub dvc_glossy: f32,
 }
 
 impl MisState {
     /// A camera subpath without light tracing to the camera: no technique reaches the
     /// camera from the light side.
-    pub const CAMERA: MisState = MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0, dvc_two: 0.0 };
+    pub const CAMERA: MisState =
+        MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0, dvc_last: 0.0, dvc_glossy: 0.0 };
 
     /// A camera subpath whose first ray's direction the camera sampled with density `pdf_dir`
     /// per unit solid angle, a pixel the unit of the film's area
@@ -153,7 +158,7 @@ impl MisState {
     /// emitter hit, `dvc`) count once against the connections' N.
     pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
         let dvc = PI / (pdf_area * paths);
-        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc, dvc_two: dvc }
+        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc, dvc_last: 0.0, dvc_glossy: 0.0 }
     }
 
     /// A light subpath of `paths` per iteration, started at a light that is not a triangle
@@ -169,7 +174,13 @@ impl MisState {
     /// unit area.
     pub fn light_source(nee: f32, emission: f32, paths: f32) -> MisState {
         let dvc = if nee.is_infinite() { 0.0 } else { finite(1.0 / (nee * emission * paths)) };
-        MisState { dvcm: finite(1.0 / (emission * paths)), dvc, dvc_emitter: dvc, dvc_two: dvc }
+        MisState {
+            dvcm: finite(1.0 / (emission * paths)),
+            dvc,
+            dvc_emitter: dvc,
+            dvc_last: 0.0,
+            dvc_glossy: 0.0,
+        }
     }
 
     /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
@@ -179,7 +190,25 @@ impl MisState {
         self.dvcm = finite(self.dvcm * dist2 / cos);
         self.dvc = finite(self.dvc / cos);
         self.dvc_emitter = finite(self.dvc_emitter / cos);
-        self.dvc_two = finite(self.dvc_two / cos);
+        self.dvc_last = finite(self.dvc_last / cos);
+        self.dvc_glossy = finite(self.dvc_glossy / cos);
+    }
+
+    /// The part of a light subpath's `dvc` at its vertex y (the techniques that extend the
+    /// camera subpath two or more vertices into the light subpath, past y) whose techniques
+    /// `connect` lets make the path, where y is the camera's vertex of rank `rank`
+    /// ([`Connect::at`]; 1 for light tracing to the camera) and `glossy` says whether y is
+    /// glossy ([`super::config::glossy_vertex`]).
+    #[inline]
+    pub fn beyond(&self, connect: Connect, rank: u32, glossy: bool) -> f32 {
+        match connect {
+            Connect::First => self.dvc_emitter,
+            Connect::FirstTwo if rank <= 1 => self.dvc_emitter + self.dvc_last,
+            Connect::FirstTwo => self.dvc_emitter,
+            Connect::All => self.dvc,
+            Connect::Glossy if glossy => self.dvc_emitter + self.dvc_glossy + self.dvc_last,
+            Connect::Glossy => self.dvc_emitter + self.dvc_glossy,
+        }
     }
 
     /// The subpath continues from a vertex by BSDF sampling: density `pdf` (per solid angle;
@@ -192,18 +221,23 @@ impl MisState {
     pub fn scatter(&mut self, s: Scatter) {
         if s.delta {
             // (Nothing is folded in: a delta vertex connects to nothing. The camera's next
-            // connecting vertex is the next non-delta one, [`Connect::at`], so `dvc_two`
-            // passes through.)
-            self.dvc_two = finite(self.dvc_two * s.cos_out);
+            // connecting vertex is the next non-delta one, [`Connect::at`], so the connection
+            // folded in last waits for it.)
             self.dvcm = 0.0;
             self.dvc = finite(self.dvc * s.cos_out);
             self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
+            self.dvc_last = finite(self.dvc_last * s.cos_out);
+            self.dvc_glossy = finite(self.dvc_glossy * s.cos_out);
         } else {
             let k = s.cos_out / s.pdf;
             let dvcm = if s.fold { self.dvcm * s.count } else { 0.0 };
             let emitter = if s.emitter { self.dvcm } else { 0.0 };
             self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
-            self.dvc_two = finite(k * (self.dvc_emitter * s.pdf_rev + dvcm));
+            // The connection folded in last has this vertex as its camera-side neighbour.
+            let glossy = self.dvc_glossy + if s.glossy { self.dvc_last } else { 0.0 };
+            self.dvc_glossy = finite(k * glossy * s.pdf_rev);
+            let connection = if s.emitter { 0.0 } else { dvcm };
+            self.dvc_last = finite(k * connection);
             self.dvc_emitter = finite(k * (self.dvc_emitter * s.pdf_rev + emitter));
             self.dvcm = finite(1.0 / s.pdf);
         }
@@ -222,43 +256,37 @@ pub struct Scatter {
     /// The count of the technique `dvcm` stands for, relative to [`Counts::paths`] (1 for
     /// next-event estimation): what it is weighed with once folded into `dvc`.
     pub count: f32,
+    /// Whether the vertex is glossy ([`super::config::glossy_vertex`]; light subpaths only).
+    pub glossy: bool,
 }
 
 impl Scatter {
-    /// A camera subpath's sample at its non-delta vertex of rank `rank` among the path's
-    /// non-delta vertices ([`Connect::at`]; for a delta vertex, whose sample folds nothing
-    /// in, any), `connect` saying which vertices connect: the previous non-delta vertex's
-    /// connection counts if that vertex connects, `count` times ([`Counts::factor`] of the
-    /// previous vertex and this one); at the first, light tracing to the camera.
+    /// A camera subpath's sample at a vertex: `fold` says whether the camera vertex before it
+    /// (its previous non-delta one, or the camera, which light tracing reaches) connects
+    /// ([`Connect::at`]; any for a delta vertex, whose sample folds nothing in), and then its
+    /// connection to this vertex counts `count` times ([`Counts::factor`] of the two).
     #[inline]
-    pub fn camera(
-        pdf: f32,
-        pdf_rev: f32,
-        cos_out: f32,
-        delta: bool,
-        connect: Connect,
-        rank: u32,
-        count: f32,
-    ) -> Self {
-        Scatter {
-            pdf,
-            pdf_rev,
-            cos_out,
-            delta,
-            fold: connect.at(rank.saturating_sub(1)),
-            emitter: false,
-            count,
-        }
+    pub fn camera(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, fold: bool, count: f32) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold, emitter: false, count, glossy: false }
     }
 
     /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
     /// first, the technique `dvcm` stands for is next-event estimation; further on, the
     /// connection of this vertex (as a camera vertex) to the previous one's VPL, which counts
     /// `count` times ([`Counts::between`] this vertex and the previous one, which is 1 at
-    /// the first vertex, whose previous one is the emitter).
+    /// the first vertex, whose previous one is the emitter); `glossy` whether the vertex is
+    /// glossy ([`super::config::glossy_vertex`]).
     #[inline]
-    pub fn light(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, depth: u32, count: f32) -> Self {
-        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count }
+    pub fn light(
+        pdf: f32,
+        pdf_rev: f32,
+        cos_out: f32,
+        delta: bool,
+        depth: u32,
+        count: f32,
+        glossy: bool,
+    ) -> Self {
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count, glossy }
     }
 }
 

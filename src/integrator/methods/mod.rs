@@ -104,8 +104,8 @@ pub struct Defaults {
     pub paths: Paths,
     /// `--gather`, `--gather-samples` (k), `--gather-candidates` (m).
     pub gather: (GatherKind, usize, usize),
-    /// `--connect`.
-    pub connect: Connect,
+    /// `--connect`; none: chosen by the scene ([`crate::integrator::many_light::view_pilot`]).
+    pub connect: Option<Connect>,
     /// `--light-samples`: the count where the emitters are in view, more where a pilot finds
     /// them hidden.
     pub light_samples: u32,
@@ -113,11 +113,12 @@ pub struct Defaults {
 
 impl Defaults {
     /// The thesis' methods': [`DEFAULT_PATHS`] light paths, every VPL gathered (k = 8, m = 128
-    /// for the sampled gathers), the first vertex connecting, [`DEFAULT_LIGHT_SAMPLES`].
+    /// for the sampled gathers), the connecting vertices chosen by the scene,
+    /// [`DEFAULT_LIGHT_SAMPLES`].
     pub const COMMON: Defaults = Defaults {
         paths: Paths::Fixed(DEFAULT_PATHS),
         gather: (GatherKind::All, DEFAULT_GATHER_SAMPLES, DEFAULT_GATHER_CANDIDATES),
-        connect: Connect::First,
+        connect: None,
         light_samples: DEFAULT_LIGHT_SAMPLES,
     };
 }
@@ -149,7 +150,8 @@ pub struct Settings {
     pub paths: usize,
     pub auto_paths: Option<AutoPaths>,
     pub gather: Gather,
-    pub connect: Connect,
+    /// The connecting camera vertices; none: chosen by the scene.
+    pub connect: Option<Connect>,
     pub light_samples: LightSamples,
     /// The bound b, or b_1 of a progressive schedule.
     pub clamp: f32,
@@ -170,6 +172,7 @@ impl Settings {
             LightSamples::Given(n) => ir.with_light_samples(n),
             LightSamples::ByScene { base } => ir.with_auto_light_samples(base),
         };
+        let ir = if self.connect.is_none() { ir.with_auto_connect() } else { ir };
         Box::new(match self.auto_paths {
             Some(auto) => ir.with_auto_paths(auto),
             None => ir,
@@ -407,7 +410,7 @@ impl MethodConfig {
             paths: self.paths(),
             auto_paths: self.auto_paths(),
             gather: self.gather(),
-            connect: p.connect.unwrap_or(defaults.connect),
+            connect: p.connect.or(defaults.connect),
             light_samples: match p.light_samples {
                 Some(n) => LightSamples::Given(n),
                 None => LightSamples::ByScene { base: defaults.light_samples },
@@ -442,7 +445,8 @@ impl MethodConfig {
                 gather_samples: (uses(Parameter::GatherSamples) && kind != GatherKind::All).then_some(k),
                 gather_candidates: (uses(Parameter::GatherCandidates) && kind == GatherKind::Resample)
                     .then_some(cands),
-                connect: uses(Parameter::Connect).then_some(s.connect),
+                // Chosen by the scene when not given, like the light samples.
+                connect: if uses(Parameter::Connect) { s.connect } else { None },
                 // Chosen by the scene when not given, like the light paths.
                 light_samples: if uses(Parameter::LightSamples) { p.light_samples } else { None },
             },

@@ -62,8 +62,10 @@ pub struct MethodParams {
     #[serde(default)]
     pub gather_candidates: Option<usize>,
     /// pir-bdpt: which vertices of the camera path connect to the VPLs: first (the first
-    /// non-delta vertex), first-two or all (every non-delta vertex); the path tracer's
-    /// techniques run at every vertex either way [default: first].
+    /// non-delta vertex), first-two, all (every non-delta vertex) or glossy (the first, and
+    /// each one after a glossy vertex, GGX alpha at most 0.15, whose narrow lobe few VPLs
+    /// reach); the path tracer's techniques run at every vertex either way [default: glossy
+    /// where fewer than half of the points the camera sees are lit directly, else first].
     #[arg(long, value_enum, value_name = "WHICH")]
     #[serde(default)]
     pub connect: Option<crate::integrator::many_light::Connect>,
@@ -313,9 +315,10 @@ impl Parameter {
                 Gather::Tree { samples } | Gather::Resampled { samples, .. } => samples.to_string(),
             },
             // The name `--connect` takes (clap's, from the enum).
-            Parameter::Connect => clap::ValueEnum::to_possible_value(&s.connect)
-                .map(|v| v.get_name().to_string())
-                .unwrap_or_default(),
+            Parameter::Connect => match s.connect {
+                Some(c) => c.name(),
+                None => "by the scene".into(),
+            },
             Parameter::LightSamples => s.light_samples.first().to_string(),
             Parameter::Clamp => s.clamp.to_string(),
             Parameter::Radius => match s.radius {

@@ -1,5 +1,5 @@
 //! `pir-bdpt`: bidirectional. A full path tracer's camera path connects to the VPLs at its
-//! first non-delta vertex (`--connect first-two`, `all`: at more of them), the light paths
+//! first non-delta vertex (`--connect first-two`, `all`, `glossy`: at more of them), the light paths
 //! splat into the film through the lens (light tracing to the camera), and every
 //! technique (the path tracer's two, each connection, light tracing) is weighed against the others by
 //! the balance heuristic (the two emitter techniques among themselves by the power
@@ -54,6 +54,8 @@ impl MethodSpec for PirBdpt {
         Defaults { paths: Paths::ByScene(BDPT_AUTO_PATHS), gather: BDPT_GATHER, ..Defaults::COMMON }
     }
     fn integrator(&self, s: &Settings) -> Box<dyn Integrator> {
-        s.instant_radiosity(VirtualLights::Bidirectional(s.progressive_clamping(), s.connect))
+        // (A rule chosen by the scene replaces this one before the first iteration.)
+        let connect = s.connect.unwrap_or_default();
+        s.instant_radiosity(VirtualLights::Bidirectional(s.progressive_clamping(), connect))
     }
 }

@@ -114,7 +114,7 @@ fn identities_are_the_stored_ones() {
         ),
         (
             "pir-bdpt",
-            r#"{"method":"pir-bdpt","vpls":null,"clamp":25.0,"radius":null,"alpha":0.6,"gather":"resample","gather_samples":4,"gather_candidates":128,"connect":"first","light_samples":null}"#,
+            r#"{"method":"pir-bdpt","vpls":null,"clamp":25.0,"radius":null,"alpha":0.6,"gather":"resample","gather_samples":4,"gather_candidates":128,"connect":null,"light_samples":null}"#,
             r#"{"method":"pir-bdpt","vpls":7,"clamp":3.5,"radius":null,"alpha":0.3,"gather":"tree","gather_samples":5,"gather_candidates":null,"connect":"all","light_samples":3}"#,
         ),
     ];
@@ -152,12 +152,18 @@ fn reports_are_the_recorded_ones() {
         text(c("pir-mis").report(2.0, Vec::new())),
         "vpls=32;gather=resample;gather-candidates=64;gather-samples=4;clamp=25;alpha=0.6"
     );
-    let measured = [("vpls", "525"), ("light-samples", "4"), ("emitter-visibility", "0.120")];
+    let measured = [
+        ("vpls", "525"),
+        ("connect", "glossy"),
+        ("lit-share", "0.040"),
+        ("light-samples", "4"),
+        ("emitter-visibility", "0.120"),
+    ];
     let measured = measured.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
     assert_eq!(
         text(c("pir-bdpt").report(2.0, measured)),
-        "vpls=525;gather=resample;gather-candidates=128;gather-samples=4;connect=first;light-samples=4;\
-         emitter-visibility=0.120;clamp=25;alpha=0.6"
+        "vpls=525;gather=resample;gather-candidates=128;gather-samples=4;connect=glossy;lit-share=0.040;\
+         light-samples=4;emitter-visibility=0.120;clamp=25;alpha=0.6"
     );
 }
 
