@@ -31,6 +31,13 @@
 #                   "default" passes no --sampler, for a pir older than that option).
 #   PIR             a pir binary to measure instead of this checkout's (e.g. an older build, for
 #                   before/after figures); by default the script builds and uses target/release/pir.
+#   PIR_ARGS        more options for every pir render (e.g. "--threads 1"), word-split.
+#   SCENES          the scenes to measure, by name (default "cornell-box mirror-glass bunny").
+#
+# The first lines say which vector width each renderer runs at: the CPU's widest vector ISA
+# (from /proc/cpuinfo's flags), the packet width pir's Embree wrapper picks for its batch
+# queries (from pir's render summary), and the lane count of Mitsuba's LLVM backend (Dr.Jit's
+# `jit_llvm_vector_width`).
 #
 # Timings need an otherwise idle machine: run it alone. Both renderers use every core.
 set -euo pipefail
@@ -40,6 +47,8 @@ spp=${1:-512}
 runs=${RUNS:-1}
 seed=${SEED:-1}
 samplers=${SAMPLERS:-sobol independent}
+read -r -a pir_args <<<"${PIR_ARGS:-}"
+wanted=${SCENES:-cornell-box mirror-glass bunny}
 shared=${SHARED:-../shared}
 py=${MITSUBA_PYTHON:-}
 if [[ -z $py && -x /tmp/mi/bin/python ]]; then py=/tmp/mi/bin/python; fi
@@ -56,7 +65,8 @@ fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-bunny_ref=$(docs/bunny-reference.sh "$shared" "$py")
+bunny_ref=
+if [[ " $wanted " == *" bunny "* ]]; then bunny_ref=$(docs/bunny-reference.sh "$shared" "$py"); fi
 
 # name scene reference
 scenes=(
@@ -88,11 +98,43 @@ eff() { awk -v t="$1" -v e="$2" 'BEGIN { printf "%.4g", 1 / (t * e) }'; }
 # e_pir and e_mi of the scene being measured
 ratio() { awk -v a="$1" -v b="$2" -v x="$e_pir" -v y="$e_mi" 'BEGIN { printf "%.2f", (b * y) / (a * x) }'; }
 
+# The CPU's widest vector ISA, from its flags.
+cpu_isa() {
+    local flags
+    flags=" $(grep -m1 '^flags' /proc/cpuinfo | cut -d: -f2) "
+    for isa in avx512f:AVX-512 avx2:AVX2 avx:AVX sse4_2:SSE4.2; do
+        if [[ $flags == *" ${isa%%:*} "* ]]; then
+            echo "${isa#*:}"
+            return
+        fi
+    done
+    echo "SSE2 or other"
+}
+cpu_model=$(grep -m1 '^model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')
+# pir's accelerator line of a one-sample render: its ISA, native packets and batch width.
+pir_accel=$("$pir" render "$shared/scenes/cornell-box/original.toml" --method pt --spp 1 --no-preview \
+    --resolution 8 8 -o "$tmp/probe.exr" 2>&1 | sed -n 's/^pir: accelerator //p')
+pir_packets=$(sed -n 's/.*batches in \([0-9]*\)-wide packets.*/\1/p' <<<"$pir_accel")
+mi_width=
+if [[ -n $py ]]; then
+    mi_width=$("$py" -c '
+import ctypes, os, drjit as dr, mitsuba as mi
+mi.set_variant("llvm_ad_rgb")
+dr.eval(dr.llvm.Float(1) + 1)
+lib = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+f = getattr(lib, "_Z21jit_llvm_vector_widthv")
+f.restype = ctypes.c_uint32
+print(f())' 2>/dev/null || echo "?")
+fi
+echo "cpu: $cpu_model, vector ISA $(cpu_isa), $(nproc) threads"
+echo "pir: ${pir_packets:-?}-wide Embree packets for batch queries (accelerator: ${pir_accel:-unknown})${PIR_ARGS:+, options: $PIR_ARGS}"
+[[ -n $py ]] && echo "mitsuba: llvm_ad_rgb, ${mi_width:-?}-wide LLVM vectors"
 echo "pir pt vs Mitsuba 3 path, $spp spp, seed $seed, $(nproc) threads, $(date -u +%Y-%m-%d), load average $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-13s %-17s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
     "pir/Mi wall" "pir/Mi cpu"
 for entry in "${scenes[@]}"; do
     read -r name scene ref <<<"$entry"
+    [[ " $wanted " == *" $name "* ]] || continue
     if [[ ! -f $ref ]]; then
         echo "$name: no reference ($ref); skipped" >&2
         continue
@@ -106,7 +148,8 @@ for entry in "${scenes[@]}"; do
         choice=(--sampler "$sampler")
         [[ $sampler == default ]] && choice=()
         read -r w_pir c_pir e_pir < <(measure "$ref" "$tmp/pir.exr" \
-            "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" "${choice[@]}" -o "$tmp/pir.exr")
+            "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" "${choice[@]}" "${pir_args[@]}" \
+            -o "$tmp/pir.exr")
         row=$(printf '%-13s %-17s %8s %8s %12s %11s' "$name" "pir ($sampler)" "$w_pir" "$c_pir" "$e_pir" \
             "$(eff "$w_pir" "$e_pir")")
         if [[ -n $py ]]; then

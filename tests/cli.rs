@@ -153,6 +153,7 @@ fn bad_arguments_fail_cleanly_before_any_output() {
         (&["render", s, "--out", "no/such/dir/x.exr"], &["no/such/dir", "does not exist"]),
         (&["render", s, "--out", "x.png"], &["x.png", ".exr"]),
         (&["render", s, "--accel", "optix"], &["optix"]),
+        (&["render", s, "--walker", "simd"], &["simd", "batched or scalar"]),
         (
             &["render", s, "--resolution", "8192", "8192", "--max-memory", "1"],
             &["would need about", "--max-memory"],

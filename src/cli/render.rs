@@ -215,7 +215,7 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &
         );
     }
     eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
-    eprintln!("pir: accelerator {}", renderer.accel_description());
+    eprintln!("pir: accelerator {}, {} walker", renderer.accel_description(), renderer.walker());
     eprintln!("pir: estimated peak memory {memory} (see --max-memory)");
     if !Backend::Embree.is_available() {
         eprintln!("pir: {}", embree_status());

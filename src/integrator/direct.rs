@@ -114,6 +114,54 @@ pub fn sample_emitters_at(
     counters: &mut Counters,
     weight: impl FnOnce(LightSample) -> f32,
 ) -> Vec3 {
+    let Some(c) = connect_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters) else {
+        return Vec3::ZERO;
+    };
+    if c.shadow.is_some_and(|ray| ctx.accel.occluded(&ray)) {
+        return Vec3::ZERO;
+    }
+    c.value(weight)
+}
+
+/// A light sample connected to a receiver, its visibility not yet known: what next-event
+/// estimation adds unless something blocks [`Connection::shadow`]. Split from the test so
+/// that a batched walker may trace the shadow rays of many paths together
+/// ([`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch)) and add the
+/// same values as [`sample_emitters_at`], which tests its one ray at once.
+#[derive(Clone, Copy, Debug)]
+pub struct Connection {
+    /// The segment whose occlusion hides the sample; `None` where its visibility was settled
+    /// already (a sphere's cone sample, found by a closest-hit query).
+    pub shadow: Option<Ray>,
+    /// What the MIS weight may depend on.
+    pub sample: LightSample,
+    /// The unweighted contribution is `scale / over`: f · Le over the light's density, or for
+    /// a light other than a triangle f · (its sample's weight) over the light's pmf.
+    scale: Vec3,
+    over: f32,
+}
+
+impl Connection {
+    /// The contribution of an unoccluded sample under the MIS weight `weight`.
+    #[inline]
+    pub fn value(&self, weight: impl FnOnce(LightSample) -> f32) -> Vec3 {
+        self.scale * (weight(self.sample) / self.over)
+    }
+}
+
+/// The light sample of [`sample_emitters_at`] up to its shadow ray: `None` where it
+/// contributes nothing whether or not it is occluded (no point, a back face, a BSDF that is
+/// zero towards it). Counts the shadow ray it returns (which its caller traces) and a cone
+/// sample's closest-hit query (which it makes).
+#[inline(always)]
+pub fn connect_emitters_at(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    (u_select, u): (f32, Vec2),
+    counters: &mut Counters,
+) -> Option<Connection> {
     let es = if ctx.emitters.is_plain() {
         ctx.emitters.sample(ctx.scene, u_select, u)
     } else {
@@ -121,73 +169,78 @@ pub fn sample_emitters_at(
             NeeChoice::Choice(Choice::Area(es)) => es,
             NeeChoice::Choice(Choice::Light { index, pmf, u }) => {
                 let light = &ctx.emitters.lights()[index];
-                return sample_light(ctx, sp, bsdf, wo, light, pmf, u, counters, weight);
+                return connect_light(ctx, sp, bsdf, wo, light, pmf, u, counters);
             }
-            NeeChoice::Cone(cone) => return sample_cone(ctx, sp, bsdf, wo, cone, counters, weight),
+            NeeChoice::Cone(cone) => return connect_cone(ctx, sp, bsdf, wo, cone, counters),
         }
     };
     let d = es.point.p - sp.p;
     let dist2 = d.length_squared();
     if dist2 <= 0.0 || !dist2.is_finite() {
-        return Vec3::ZERO;
+        return None;
     }
     let wi = d / dist2.sqrt();
     let cos_light = es.point.ng.dot(-wi);
     if cos_light <= 0.0 {
-        return Vec3::ZERO;
+        return None;
     }
     let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
     let (f, pdf_bsdf) = PreparedBsdf::new(*bsdf, g, wo, TransportMode::Radiance).eval_pdf(wi);
     if f == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
-    if occluded(ctx, sp.p, sp.ng, es.point.p, es.point.ng, counters) {
-        return Vec3::ZERO;
-    }
+    counters.shadow_rays += 1;
     let pdf_light = es.pdf_area * dist2 / cos_light;
-    f * es.radiance
-        * (weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission: None }) / pdf_light)
+    Some(Connection {
+        shadow: Some(shadow_ray(sp.p, sp.ng, es.point.p, es.point.ng)),
+        sample: LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission: None },
+        scale: f * es.radiance,
+        over: pdf_light,
+    })
 }
 
-/// [`sample_emitters_at`] for a direction in the cone of an emitting sphere: the ray along it
-/// counts where its first hit is one of the sphere's triangles, seen from the front, and is
-/// wasted (zero) where it misses them or hits anything else first (another emitter's light is
-/// its own technique's). Its density is the cone's for every direction that reaches the
+/// [`connect_emitters_at`] for a direction in the cone of an emitting sphere: the ray along
+/// it counts where its first hit is one of the sphere's triangles, seen from the front, and is
+/// wasted (`None`) where it misses them or hits anything else first (another emitter's light
+/// is its own technique's). Its density is the cone's for every direction that reaches the
 /// triangles, as [`Emitters::cone_pdf`](crate::light::Emitters::cone_pdf) gives it to the
-/// emission that BSDF sampling finds there.
+/// emission that BSDF sampling finds there. The closest-hit query settles its visibility here.
 #[inline(never)]
-fn sample_cone(
+fn connect_cone(
     ctx: &RenderContext,
     sp: &SurfacePoint,
     bsdf: &Bsdf,
     wo: Vec3,
     cone: ConeSample,
     counters: &mut Counters,
-    weight: impl FnOnce(LightSample) -> f32,
-) -> Vec3 {
+) -> Option<Connection> {
     let wi = cone.wi;
     let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
     let (f, pdf_bsdf) = PreparedBsdf::new(*bsdf, g, wo, TransportMode::Radiance).eval_pdf(wi);
     if f == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
     counters.shadow_rays += 1;
     let ray = Ray::new(offset_origin(sp.p, sp.ng, wi), wi);
-    let Some(hit) = ctx.accel.intersect(&ray) else { return Vec3::ZERO };
+    let hit = ctx.accel.intersect(&ray)?;
     if !ctx.emitters.in_group(cone.group, hit.prim) {
-        return Vec3::ZERO;
+        return None;
     }
     let e = ctx.scene.surface_of_hit(&hit, ray.dir);
     let le = e.emitted(ctx.scene.material(e.material).emission_at(e.uv), -wi);
     let cos_light = e.ng.dot(-wi);
     let dist2 = (e.p - sp.p).length_squared();
     if le == Vec3::ZERO || cos_light <= 0.0 || dist2.is_nan() || dist2 <= 0.0 {
-        return Vec3::ZERO;
+        return None;
     }
     let pdf_light = cone.pdf;
     let emission = Some(cone_emission(ctx.emitters.pdf_area(hit.prim), pdf_light));
-    let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission });
-    f * le * (w / pdf_light)
+    Some(Connection {
+        shadow: None,
+        sample: LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission },
+        scale: f * le,
+        over: pdf_light,
+    })
 }
 
 /// [`LightSample::emission`] of a point of area density `pdf_area` (where light paths start)
@@ -200,13 +253,13 @@ fn cone_emission(pdf_area: f32, pdf_light: f32) -> f32 {
     pdf_area * FRAC_1_PI / pdf_light
 }
 
-/// [`sample_emitters_at`] for a light other than a triangle, chosen with probability `pmf`.
+/// [`connect_emitters_at`] for a light other than a triangle, chosen with probability `pmf`.
 /// A delta light's sample has an infinite density (`pdf_light`: the power heuristic gives it
 /// full weight, as no BSDF sample finds it); an infinite light's its solid-angle density,
 /// with `cos_light` 1 and `dist2` infinite.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn sample_light(
+fn connect_light(
     ctx: &RenderContext,
     sp: &SurfacePoint,
     bsdf: &Bsdf,
@@ -215,27 +268,27 @@ fn sample_light(
     pmf: f32,
     u: Vec2,
     counters: &mut Counters,
-    weight: impl FnOnce(LightSample) -> f32,
-) -> Vec3 {
-    let Some(ls) = light.sample(sp.p, u) else { return Vec3::ZERO };
+) -> Option<Connection> {
+    let ls = light.sample(sp.p, u)?;
     let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
     let (f, pdf_bsdf) = PreparedBsdf::new(*bsdf, g, wo, TransportMode::Radiance).eval_pdf(ls.wi);
     if f == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
-    if light_occluded(ctx, sp.p, sp.ng, &ls, counters) {
-        return Vec3::ZERO;
-    }
+    counters.shadow_rays += 1;
     let dist2 = ls.position.map_or(f32::INFINITY, |q| (q - sp.p).length_squared());
     let pdf_light = ls.pdf * pmf;
     let emission = Some(light.emission_density(dist2, ctx.scene.bounding_sphere().1));
-    let w = weight(LightSample { pdf_light, pdf_bsdf, cos_light: 1.0, dist2, wi: ls.wi, emission });
-    f * ls.weight * (w / pmf)
+    Some(Connection {
+        shadow: Some(light_shadow_ray(sp.p, sp.ng, &ls)),
+        sample: LightSample { pdf_light, pdf_bsdf, cos_light: 1.0, dist2, wi: ls.wi, emission },
+        scale: f * ls.weight,
+        over: pmf,
+    })
 }
 
 /// Whether something hides the light sample `ls` (of a light that is not a triangle) from
-/// the point `p` of geometric normal `ng`: a shadow ray up to the light's position (which no
-/// surface around it occludes), or out of the scene for a light at infinity. Counts the ray.
+/// the point `p` of geometric normal `ng` ([`light_shadow_ray`]). Counts the ray.
 pub fn light_occluded(
     ctx: &RenderContext,
     p: Vec3,
@@ -244,12 +297,19 @@ pub fn light_occluded(
     counters: &mut Counters,
 ) -> bool {
     counters.shadow_rays += 1;
+    ctx.accel.occluded(&light_shadow_ray(p, ng, ls))
+}
+
+/// The shadow ray of the light sample `ls` (of a light that is not a triangle) from the point
+/// `p` of geometric normal `ng`: up to the light's position (which no surface around it
+/// occludes), or out of the scene for a light at infinity.
+#[inline]
+pub fn light_shadow_ray(p: Vec3, ng: Vec3, ls: &crate::light::LightSample) -> Ray {
     let origin = offset_origin(p, ng, ls.wi);
-    let shadow = match ls.position {
+    match ls.position {
         Some(q) => Ray { origin, dir: q - origin, tmin: 0.0, tmax: 1.0 },
         None => Ray::new(origin, ls.wi),
-    };
-    ctx.accel.occluded(&shadow)
+    }
 }
 
 /// Radiance of the environments arriving along the unit direction `dir` of a ray that left

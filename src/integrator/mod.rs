@@ -14,6 +14,8 @@
 //!   camera and light paths alike;
 //! - [`direct`]: direct light from the real emitters (light sampling, MIS weights);
 //! - `path.rs`: `pt`, whose estimator is next-event estimation and BSDF sampling under MIS;
+//! - [`wavefront`]: `pt`'s batched walker, many camera paths bounce by bounce with batched
+//!   queries, the same estimates as the scalar walker's;
 //! - [`many_light`]: the VPL methods, whose estimators add the gather from the virtual lights;
 //! - [`methods`]: the methods by name, one type each in a registry ([`methods::MethodSpec`],
 //!   [`Method`]), the parameter table ([`methods::params`]) and a method's one configuration
@@ -26,6 +28,7 @@ pub mod methods;
 mod path;
 pub mod scatter;
 pub mod walker;
+pub mod wavefront;
 
 pub use direct::{Sampled, emission, occluded, power_heuristic, sample_emitters, shadow_ray};
 pub use many_light::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Radius, VirtualLights, schedule};
@@ -37,6 +40,7 @@ pub use methods::pir_bdpt::{BDPT_AUTO_PATHS, BDPT_GATHER, BDPT_MAX_PATHS, BDPT_P
 pub use methods::pir_mis::MIS_GATHER;
 pub use methods::{Method, MethodConfig, MethodSpec, register};
 pub use path::PathTracer;
+pub use wavefront::{RayByRay, Walker};
 
 use glam::Vec3;
 
@@ -137,4 +141,24 @@ pub trait Integrator: Send + Sync {
     /// Radiance arriving along the camera ray `ray` (unit direction).
     fn radiance(&self, ctx: &RenderContext, ray: Ray, sampler: &mut Sampler, counters: &mut Counters)
     -> Vec3;
+
+    /// Radiance arriving along each camera ray of `rays` (unit directions) into `out`, ray `i`
+    /// drawing from `samplers[i]` (all three of one length): what the driver calls, once per
+    /// chunk of a tile's pixels. Each `out[i]` must be what [`Integrator::radiance`] gives for
+    /// `rays[i]` and `samplers[i]` (up to the last bits where an accelerator's batch queries
+    /// differ from its single-ray ones), so that an integrator may trace the batch's paths
+    /// together. By default ray by ray.
+    fn radiance_batch(
+        &self,
+        ctx: &RenderContext,
+        rays: &[Ray],
+        samplers: &mut [Sampler],
+        counters: &mut Counters,
+        out: &mut [Vec3],
+    ) {
+        assert!(rays.len() == samplers.len() && rays.len() == out.len());
+        for ((ray, sampler), o) in rays.iter().zip(samplers.iter_mut()).zip(out.iter_mut()) {
+            *o = self.radiance(ctx, *ray, sampler, counters);
+        }
+    }
 }

@@ -9,6 +9,7 @@ use glam::Vec3;
 
 use super::direct::sample_emitters;
 use super::walker::{Estimator, Vertex, walk};
+use super::wavefront::walk_batch;
 use super::{Counters, Integrator, RenderContext};
 use crate::geometry::Ray;
 use crate::sampling::Sampler;
@@ -60,5 +61,18 @@ impl Integrator for PathTracer {
         counters: &mut Counters,
     ) -> Vec3 {
         walk(ctx, ray, self, sampler, counters)
+    }
+
+    /// The paths of the batch together ([`super::wavefront`]), each the same as
+    /// [`PathTracer::radiance`]'s.
+    fn radiance_batch(
+        &self,
+        ctx: &RenderContext,
+        rays: &[Ray],
+        samplers: &mut [Sampler],
+        counters: &mut Counters,
+        out: &mut [Vec3],
+    ) {
+        walk_batch(ctx, rays, samplers, counters, out);
     }
 }

@@ -1,8 +1,9 @@
 //! The progressive loop.
 //!
 //! Iteration i (from 1) lets the integrator prepare (e.g. trace its VPLs), then renders one
-//! sample in every pixel, tiles spread over rayon's pool. The sample of pixel p in iteration
-//! i uses sampler p of `Streams::camera(sampler, seed, i)` (with Sobol points,
+//! sample in every pixel, tiles spread over rayon's pool, each tile's camera rays handed to
+//! the integrator in batches ([`Integrator::radiance_batch`], [`BATCH`] rays at most). The
+//! sample of pixel p in iteration i uses sampler p of `Streams::camera(sampler, seed, i)` (with Sobol points,
 //! point i − 1 of the pixel's own scrambled sequence): its first dimension is the position in
 //! the pixel, its second the point on a thin lens's aperture (a pinhole draws none), the rest
 //! the integrator's. Each pixel's sum is accumulated in iteration order, so the image depends
@@ -41,6 +42,10 @@ pub struct Budget {
 
 /// Square tile edge in pixels: the unit of work spread over the threads.
 pub const TILE_SIZE: usize = 16;
+
+/// Most camera rays per [`Integrator::radiance_batch`] call: a tile's pixels go in chunks of
+/// this many, in rows (a whole 16 × 16 tile in one).
+pub const BATCH: usize = 256;
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -160,22 +165,30 @@ pub fn render_from(
             .par_iter()
             .map(|t| {
                 let mut counters = Counters::default();
-                let n = (t.x1 - t.x0) * (t.y1 - t.y0);
-                let mut out = Vec::with_capacity(n);
+                let tw = t.x1 - t.x0;
+                let n = tw * (t.y1 - t.y0);
+                let mut out = vec![glam::Vec3::ZERO; n];
                 let mut offsets = Vec::with_capacity(if splat.is_some() { n } else { 0 });
-                for y in t.y0..t.y1 {
-                    for x in t.x0..t.x1 {
+                let mut rays = Vec::with_capacity(n.min(BATCH));
+                let mut samplers = Vec::with_capacity(n.min(BATCH));
+                // The tile's pixels in rows, a batch at a time.
+                for (c, out) in out.chunks_mut(BATCH).enumerate() {
+                    rays.clear();
+                    samplers.clear();
+                    for k in c * BATCH..c * BATCH + out.len() {
+                        let (x, y) = (t.x0 + k % tw, t.y0 + k / tw);
                         let mut sampler = streams.sampler((y * w + x) as u64);
                         let offset = sampler.next_2d();
                         // A thin lens's point on the aperture is the camera sample's second
                         // dimension; a pinhole draws none, so that its images stay as they were.
                         let aperture = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
-                        let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + offset, aperture);
-                        out.push(integ.radiance(ctx, ray, &mut sampler, &mut counters));
+                        rays.push(camera.generate_ray(Vec2::new(x as f32, y as f32) + offset, aperture));
+                        samplers.push(sampler);
                         if splat.is_some() {
                             offsets.push(offset);
                         }
                     }
+                    integ.radiance_batch(ctx, &rays, &mut samplers, &mut counters, out);
                 }
                 (out, offsets, counters)
             })

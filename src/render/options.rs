@@ -1,11 +1,12 @@
 //! The options every rendering command takes (`--seed`, `--threads`, `--max-depth`,
-//! `--resolution`, `--accel`, `--sampler`), each defaulting to the scene file's value, and the resolution
+//! `--resolution`, `--accel`, `--sampler`, `--walker`), each defaulting to the scene file's value, and the resolution
 //! limit.
 
 use anyhow::{Result, bail};
 use clap::Args;
 
 use crate::accel::Backend;
+use crate::integrator::Walker;
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
@@ -45,6 +46,12 @@ pub struct SceneOptions {
     /// every `$NAME`), as Mitsuba's `-D`. Repeatable.
     #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
+    /// How camera paths are traced: batched (pt: a tile's paths bounce by bounce together, each
+    /// bounce's rays and shadow rays in Embree packets) or scalar (one path at a time, the
+    /// reference); the same image either way. Methods without a batched walker trace one path
+    /// at a time under both [default: batched].
+    #[arg(long, value_name = "WALKER")]
+    pub walker: Option<Walker>,
 }
 
 /// `NAME=VALUE` of `-D`.
@@ -108,6 +115,10 @@ impl SceneOptions {
 
     pub fn sampler(&self) -> SamplerKind {
         self.sampler.unwrap_or_default()
+    }
+
+    pub fn walker(&self) -> Walker {
+        self.walker.unwrap_or_default()
     }
 
     pub fn backend(&self) -> Backend {

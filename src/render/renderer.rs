@@ -31,7 +31,7 @@ use super::state::{Job, Shard, write_state};
 use super::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
 use crate::accel::{Accelerator, build_accelerator, set_flush_denormals};
 use crate::image::{RgbImage, write_exr, write_preview};
-use crate::integrator::{Counters, Integrator, MethodConfig, RenderContext};
+use crate::integrator::{Counters, Integrator, MethodConfig, RayByRay, RenderContext, Walker};
 use crate::light::Emitters;
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
@@ -48,6 +48,7 @@ pub struct Renderer<'s> {
     seed: u64,
     sampler: SamplerKind,
     max_depth: u32,
+    walker: Walker,
     /// The pilot of the methods that run one, once for the render ([`Integrator::prepare`]).
     pilot: std::sync::OnceLock<crate::integrator::many_light::Pilot>,
 }
@@ -86,6 +87,7 @@ impl<'s> Renderer<'s> {
             seed: options.seed(scene),
             sampler: options.sampler(),
             max_depth: options.max_depth(scene),
+            walker: options.walker(),
             pilot: std::sync::OnceLock::new(),
         })
     }
@@ -113,6 +115,11 @@ impl<'s> Renderer<'s> {
 
     pub fn max_depth(&self) -> u32 {
         self.max_depth
+    }
+
+    /// How the camera paths are traced (the same image either way).
+    pub fn walker(&self) -> Walker {
+        self.walker
     }
 
     /// Worker threads.
@@ -189,6 +196,9 @@ impl<'s> Renderer<'s> {
         // Prepared by the driver, which counts the pilot's time in the statistics (unless an
         // earlier call already ran the render's pilot).
         let mut integrator = config.integrator(self.scene.bounds().diagonal());
+        if self.walker == Walker::Scalar {
+            integrator = Box::new(RayByRay(integrator));
+        }
         self.pool.install(|| render_from(&ctx, integrator.as_mut(), &settings, film, shard, on_iteration))
     }
 

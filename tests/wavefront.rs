@@ -1,0 +1,232 @@
+//! `pt`'s batched walker (`src/integrator/wavefront.rs`) against its scalar walker, the
+//! reference: the same estimate for every camera path, bit for bit (on the BVH and the
+//! brute-force backends, whose batch queries are their single-ray queries, and on Embree,
+//! whose packet kernels measured the same as its single-ray kernel), the same draws from
+//! every path's sampler and the same ray counts, on scenes that take every branch of the
+//! walk (glass and mirrors, glossy surfaces, an environment, a point light, emitting spheres
+//! sampled by their cones, textures, a thin lens, a short `max_depth`); and the driver's
+//! batches: the same film as ray by ray for image sizes whose edge tiles are not square, on
+//! any number of threads.
+
+mod common;
+
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+use pir::accel::{Backend, build_accelerator};
+use pir::geometry::Ray;
+use pir::integrator::{Counters, Integrator, PathTracer, RayByRay};
+use pir::sampling::{Sampler, SamplerKind, Streams};
+use pir::scene::Scene;
+
+use common::Job;
+
+/// Scenes covering the walker's branches, each with what it adds.
+const SCENES: &[&str] = &[
+    // Diffuse, area light sampled by power.
+    "scenes/cornell-box/scene.toml",
+    // A mirror and a glass sphere: delta chains, refraction's η² in Russian roulette.
+    "scenes/cornell-box/sphere.toml",
+    // Glossy surfaces.
+    "scenes/cornell-box/glossy.toml",
+    // An environment map: escaping rays, MIS against its sampling.
+    "tests/data/emitters/envmap.xml",
+    // A point light: a light that is not a triangle.
+    "tests/data/emitters/point.xml",
+    // Emitting spheres: cone samples, whose visibility is a closest-hit query.
+    "tests/data/mitsuba-sphere-lights.xml",
+    // A thin lens: the camera sample's aperture dimension.
+    "tests/data/mitsuba-thinlens.xml",
+    // Rough dielectrics, conductors, plastics, textures.
+    "tests/data/mitsuba-roughdielectric.xml",
+    "tests/data/mitsuba-materials.xml",
+    "tests/data/textured/scene.xml",
+];
+
+fn load(path: &str) -> Scene {
+    pir::scene::load(Path::new(path)).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
+
+/// What the two walkers gave for one scene: paths compared, paths whose estimates differ in
+/// any bit, and the largest difference of a differing path relative to its larger value.
+#[derive(Debug, Default)]
+struct Agreement {
+    paths: usize,
+    differing: usize,
+    largest: f32,
+}
+
+/// Every camera path of `iterations` iterations at `width` × `height`, traced by the batched
+/// walker (in batches of `batch`) and by the scalar walker from the same samplers; panics
+/// unless both draw the same numbers and count the same rays.
+fn compare_paths(
+    scene: &Scene,
+    backend: Backend,
+    (width, height): (usize, usize),
+    iterations: u64,
+    max_depth: u32,
+    sampler: SamplerKind,
+    batch: usize,
+) -> Agreement {
+    let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
+    let job = Job { width, height, max_depth, seed: 3, sampler, ..Job::default() };
+    let camera = scene.camera().with_resolution(width as u32, height as u32).rays();
+    job.with_context_on(scene, accel.as_ref(), |ctx| {
+        let mut agreement = Agreement::default();
+        for iteration in 1..=iterations {
+            let streams = Streams::camera(sampler, job.seed, iteration);
+            let mut rays = Vec::new();
+            let mut samplers: Vec<Sampler> = Vec::new();
+            for y in 0..height {
+                for x in 0..width {
+                    let mut s = streams.sampler((y * width + x) as u64);
+                    let offset = s.next_2d();
+                    let aperture = if camera.has_lens() { s.next_2d() } else { Vec2::ZERO };
+                    rays.push(camera.generate_ray(Vec2::new(x as f32, y as f32) + offset, aperture));
+                    samplers.push(s);
+                }
+            }
+            let mut scalar_samplers = samplers.clone();
+            let (mut batched, mut scalar) = (Counters::default(), Counters::default());
+            let mut out = vec![Vec3::ZERO; rays.len()];
+            for ((rays, samplers), out) in
+                rays.chunks(batch).zip(samplers.chunks_mut(batch)).zip(out.chunks_mut(batch))
+            {
+                PathTracer.radiance_batch(ctx, rays, samplers, &mut batched, out);
+            }
+            for (i, (ray, s)) in rays.iter().zip(scalar_samplers.iter_mut()).enumerate() {
+                let l = PathTracer.radiance(ctx, *ray, s, &mut scalar);
+                agreement.paths += 1;
+                if l.to_array().map(f32::to_bits) != out[i].to_array().map(f32::to_bits) {
+                    agreement.differing += 1;
+                    let scale = l.abs().max(out[i].abs()).max_element().max(f32::MIN_POSITIVE);
+                    agreement.largest = agreement.largest.max((l - out[i]).abs().max_element() / scale);
+                }
+            }
+            if agreement.differing == 0 {
+                // Where every estimate agrees, so do the paths: the same rays, the same draws.
+                assert_eq!(batched, scalar, "ray counts");
+                for (a, b) in samplers.iter_mut().zip(scalar_samplers.iter_mut()) {
+                    assert_eq!(a.next_u64(), b.next_u64(), "the next draw of a path's sampler");
+                }
+            }
+        }
+        agreement
+    })
+}
+
+/// On the BVH and brute force, whose batch queries are their single-ray ones, every path's
+/// estimate is the scalar walker's bit for bit, for both samplers, in batches of any size
+/// (brute force on the Cornell boxes only: it is slow on the tessellated spheres).
+#[test]
+fn batched_paths_are_the_scalar_paths_on_the_bvh() {
+    for (k, path) in SCENES.iter().enumerate() {
+        let scene = load(path);
+        let depth = scene.defaults().max_depth;
+        let backends: &[Backend] = if k < 3 { &[Backend::Bvh, Backend::Brute] } else { &[Backend::Bvh] };
+        for (sampler, batch) in [(SamplerKind::Sobol, 256), (SamplerKind::Independent, 7)] {
+            for &backend in backends {
+                let a = compare_paths(&scene, backend, (24, 20), 3, depth, sampler, batch);
+                assert_eq!(a.differing, 0, "{path}, {backend}, {sampler:?}: {a:?}");
+            }
+        }
+        // A short path: the walk ends at max_depth after the emission it finds.
+        let a = compare_paths(&scene, Backend::Bvh, (24, 20), 2, 2, SamplerKind::Sobol, 64);
+        assert_eq!(a.differing, 0, "{path}, max_depth 2: {a:?}");
+    }
+}
+
+/// On Embree the batches go in packets, whose kernels are other code than the single-ray
+/// kernel's; measured (Embree 3.13.5, AVX-512), they find the same hits bit for bit, so every
+/// path's estimate is the scalar walker's. Should another Embree or vector width round a hit
+/// differently, this test says how many paths differ and by how much; the image tests
+/// (`tests/mitsuba.rs`, `tests/golden.rs` on brute force) still judge the estimator.
+#[test]
+fn batched_paths_are_the_scalar_paths_on_embree() {
+    if !Backend::Embree.is_available() {
+        eprintln!("built without Embree; skipped");
+        return;
+    }
+    for path in SCENES {
+        let scene = load(path);
+        let depth = scene.defaults().max_depth;
+        let a = compare_paths(&scene, Backend::Embree, (24, 20), 3, depth, SamplerKind::Sobol, 256);
+        assert_eq!(a.differing, 0, "{path}: {a:?}");
+    }
+}
+
+/// The driver hands the integrator its tiles' pixels in batches: the film is the ray-by-ray
+/// film for sizes whose edge tiles are narrow, short or single pixels, on 1 and 3 threads,
+/// on the BVH and the default backend (Embree where built in).
+#[test]
+fn driver_batches_give_the_ray_by_ray_film() {
+    let scene = load("scenes/cornell-box/sphere.toml");
+    for (backend, (width, height)) in [
+        (Backend::Bvh, (37, 23)),
+        (Backend::Bvh, (17, 1)),
+        (Backend::Bvh, (1, 33)),
+        (Backend::Bvh, (16, 16)),
+        (Backend::default_available(), (37, 23)),
+    ] {
+        let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
+        let mut films = Vec::new();
+        for threads in [1, 3] {
+            let job = Job { width, height, iterations: 2, threads, ..Job::default() };
+            let batched = job.run_with(&scene, accel.as_ref(), &mut PathTracer);
+            let scalar = job.run_with(&scene, accel.as_ref(), &mut RayByRay(Box::new(PathTracer)));
+            let what = format!("{backend}, {width}×{height}, {threads} threads");
+            assert_eq!(batched.film.sums(), scalar.film.sums(), "{what}");
+            assert_eq!(batched.stats.counters, scalar.stats.counters);
+            films.push(batched.film.sums().to_vec());
+        }
+        assert_eq!(films[0], films[1], "{backend}, {width}×{height}: the film depends on the threads");
+    }
+}
+
+/// A ray the batch holds twice, or that is not valid, is traced as the scalar walker traces it.
+#[test]
+fn degenerate_rays_in_a_batch() {
+    let scene = load("scenes/cornell-box/scene.toml");
+    let accel = build_accelerator(Backend::Bvh, scene.positions(), scene.indices()).unwrap();
+    Job::default().with_context_on(&scene, accel.as_ref(), |ctx| {
+        let good = Ray::new(Vec3::new(0.0, 1.0, 3.0), Vec3::NEG_Z);
+        let rays = [good, Ray::new(Vec3::NAN, Vec3::NEG_Z), good, Ray::new(Vec3::ZERO, Vec3::ZERO)];
+        let streams = Streams::camera(SamplerKind::Sobol, 1, 1);
+        let mut samplers: Vec<Sampler> = (0..rays.len() as u64).map(|i| streams.sampler(i)).collect();
+        let mut scalar = samplers.clone();
+        let mut out = [Vec3::ONE; 4];
+        PathTracer.radiance_batch(ctx, &rays, &mut samplers, &mut Counters::default(), &mut out);
+        for (i, ray) in rays.iter().enumerate() {
+            let l = PathTracer.radiance(ctx, *ray, &mut scalar[i], &mut Counters::default());
+            assert_eq!(out[i].to_array().map(f32::to_bits), l.to_array().map(f32::to_bits), "ray {i}");
+        }
+        PathTracer.radiance_batch(ctx, &[], &mut [], &mut Counters::default(), &mut []);
+    });
+}
+
+/// `pir render --walker batched` and `--walker scalar` write the same image, on the default
+/// backend (Embree where built in), for every method (those without a batched walker trace
+/// ray by ray under both).
+#[test]
+fn the_walker_option_leaves_the_image_as_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cases: &[(&str, &[&str])] = &[
+        ("scenes/cornell-box/sphere.toml", &["--method", "pt"]),
+        ("tests/data/mitsuba-thinlens.xml", &["--method", "pt", "--sampler", "independent"]),
+        ("tests/data/emitters/envmap.xml", &["--method", "pt", "--max-depth", "4"]),
+        ("scenes/cornell-box/sphere.toml", &["--method", "pir-bdpt"]),
+    ];
+    for (scene, args) in cases {
+        let images: Vec<_> = ["batched", "scalar"]
+            .iter()
+            .map(|walker| {
+                let mut all = args.to_vec();
+                all.extend_from_slice(&["--walker", walker, "--spp", "4", "--resolution", "33", "21"]);
+                let out = dir.path().join(format!("{walker}.exr"));
+                common::binary::render(&root.join(scene), &all, &out, dir.path(), scene)
+            })
+            .collect();
+        assert_eq!(images[0].pixels, images[1].pixels, "{scene} {args:?}");
+    }
+}
