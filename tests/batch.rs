@@ -229,7 +229,7 @@ fn incompatible_renders_are_refused() {
     assert!(e.contains("a.exr") && e.contains("seed: 3 here, 0 in the file"), "{e}");
     let e =
         failure(&pir(&["render", &s, "--resolution", "40", "32", "--shard", "0/2", "--resume", "a.exr"], d));
-    assert!(e.contains("method: pt here, pir-clamp in the file"), "{e}");
+    assert!(e.contains("method: pir-bdpt here, pir-clamp in the file"), "{e}");
     let e = failure(&pir(
         &[
             "render",

@@ -45,7 +45,7 @@ fn render_writes_exr_with_metadata_and_png_only() {
     let (img, attrs) = pir::image::read_exr(&dir.path().join("img.exr")).unwrap();
     assert_eq!((img.width, img.height), (32, 24));
     let get = |k: &str| attrs.iter().find(|(a, _)| a == k).map(|(_, v)| v.clone()).unwrap_or_default();
-    assert_eq!(get("pir.method"), "pt");
+    assert_eq!(get("pir.method"), "pir-bdpt");
     assert_eq!(get("pir.seed"), "7");
     assert_eq!(get("pir.iterations"), "2");
     assert_eq!(get("pir.max_depth"), "8");
@@ -56,7 +56,7 @@ fn render_writes_exr_with_metadata_and_png_only() {
     // Standard error is not a terminal here (as in a batch job's log): progress comes as lines.
     assert!(stderr(&o).contains("pir: progress: 1/2 iterations (50 %), "), "{}", stderr(&o));
     assert!(stderr(&o).contains("pir: scene read in "), "{}", stderr(&o));
-    assert!(stderr(&o).contains("pir: estimated peak memory 0.00 GiB (film "), "{}", stderr(&o));
+    assert!(stderr(&o).contains("pir: estimated peak memory 0.01 GiB (film "), "{}", stderr(&o));
 }
 
 #[test]
