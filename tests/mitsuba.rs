@@ -798,6 +798,9 @@ fn converted_scenes_read_back_as_the_same_scene() {
     let toml = root.join("scenes/cornell-box/scene.toml");
     let o = common::binary::pir(&["convert", toml.to_str().unwrap(), "--to", "x.toml"], dir.path());
     common::binary::assert_clean_failure(&o, &["x.toml", ".xml"]);
+    // Its folder must exist: named as the output's, not as a mesh file's.
+    let o = common::binary::pir(&["convert", toml.to_str().unwrap(), "--to", "missing/x.xml"], dir.path());
+    common::binary::assert_clean_failure(&o, &["missing/x.xml", "the output folder missing does not exist"]);
 }
 
 /// Mitsuba's smooth dielectric (numbers or names of its IOR table), its conductor and

@@ -22,6 +22,8 @@ pub fn run(a: ConvertArgs) -> Result<()> {
     if !a.to.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
         bail!("--to {}: the Mitsuba scene file must end in .xml", a.to.display());
     }
+    // (Before the scene is read: a missing folder is named as such, not as a mesh file's.)
+    super::setup::check_writable(&a.to)?;
     let scene = a.options.load(&a.scene)?;
     let files = pir::scene::mitsuba::write(&scene, &a.to)?;
     eprintln!("pir: wrote {} ({} mesh files beside it)", a.to.display(), files.len() - 1);

@@ -1,4 +1,5 @@
-//! What the rendering commands (`pir render`, `pir study`, `pir reference`) share besides the
+//! What the rendering commands (`pir render`, `pir study`, `pir reference`; `pir convert` the
+//! output check) share besides the
 //! [`pir::render::Renderer`] and its options: the checks of their output, the seconds
 //! parser, the interrupt flag and the default output names.
 
@@ -15,8 +16,9 @@ pub fn check_exr_output(out: &Path) -> Result<()> {
     check_writable(out)
 }
 
-/// Fails now, not after the render, when the output file's folder is missing or not writable.
-fn check_writable(out: &Path) -> Result<()> {
+/// Fails now, not after the render (or the scene's conversion), when the output file's folder
+/// is missing or not writable.
+pub fn check_writable(out: &Path) -> Result<()> {
     let dir = match out.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
