@@ -157,7 +157,8 @@ pub struct Connecting {
     /// light tracing reaches it).
     last: bool,
     before_last: bool,
-    /// Whether the last one is glossy ([`glossy_vertex`]).
+    /// Whether the last one is glossy ([`glossy_vertex`]; asked with [`Connect::Glossy`]
+    /// only, false otherwise).
     glossy: bool,
 }
 
@@ -171,7 +172,8 @@ impl Connecting {
         self.rank += 1;
         self.before_last = self.last;
         self.last = connect.at(self.rank, self.glossy);
-        self.glossy = glossy_vertex(b);
+        // (Only `glossy` asks; the others need not look at the BSDF.)
+        self.glossy = connect == Connect::Glossy && glossy_vertex(b);
         self.last
     }
 
