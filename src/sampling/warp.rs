@@ -1,6 +1,6 @@
 //! Warps from the unit square to the domains the renderer samples.
 
-use glam::{Vec2, Vec3};
+use glam::{BVec4A, Vec2, Vec3, Vec4};
 use std::f32::consts::PI;
 
 /// Cosine-weighted direction about +z (Malley's method); pdf = cos θ / π.
@@ -20,10 +20,8 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 /// The map's angle is π/4 · (a ratio in [−1, 1]) or π/2 minus that, so its cosine and sine
 /// come from [`sin_cos_quarter`] (a polynomial) instead of a libm `sincosf` call per sample.
 /// Which of the two wedges a sample falls in is a coin toss, so the two cases share one
-/// evaluation and differ only in selected operands: no branch to mispredict half the time
-/// where the target has blends or masked moves (the AVX2 and AVX-512 versions of `pt`'s
-/// batched walker, which inlines this; the SSE2 baseline keeps one branch for the last
-/// swap). The values are bit for bit those of the two-branch form.
+/// evaluation and differ only in operands picked by selects: no branch to mispredict half
+/// the time. The values are bit for bit those of the two-branch form.
 #[inline]
 pub fn concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
@@ -31,18 +29,15 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
         return Vec2::ZERO;
     }
     // |x| > |y|: radius x at angle π/4 · y/x; otherwise radius y at π/2 − π/4 · x/y, whose
-    // cosine and sine are the sine and cosine of π/4 · x/y.
-    let x_major = o.x.abs() > o.y.abs();
-    let (r, other) = (select(x_major, o.x, o.y), select(x_major, o.y, o.x));
-    let (sin, cos) = sin_cos_quarter((PI / 4.0) * (other / r));
-    r * Vec2::new(select(x_major, cos, sin), select(x_major, sin, cos))
-}
-
-/// `if c { a } else { b }`, written as a bit mask so that LLVM sees a select, not a branch.
-#[inline(always)]
-fn select(c: bool, a: f32, b: f32) -> f32 {
-    let mask = (c as u32).wrapping_neg();
-    f32::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+    // cosine and sine are the sine and cosine of π/4 · x/y. The pairs are picked by 4-lane
+    // selects: LLVM turns scalar ones back into a branch where the target has no masked
+    // scalar moves (SSE2, AVX2), even with `select_unpredictable`.
+    let x_major = BVec4A::splat(o.x.abs() > o.y.abs());
+    let pick = |a: Vec2, b: Vec2| Vec4::select(x_major, a.extend(0.0).extend(0.0), b.extend(0.0).extend(0.0));
+    let ro = pick(o, Vec2::new(o.y, o.x));
+    let (sin, cos) = sin_cos_quarter((PI / 4.0) * (ro.y / ro.x));
+    let d = pick(Vec2::new(cos, sin), Vec2::new(sin, cos));
+    ro.x * Vec2::new(d.x, d.y)
 }
 
 /// (sin x, cos x) for |x| ≤ π/4 by their Taylor polynomials to x⁹ and x⁸, whose remainders
