@@ -11,7 +11,7 @@ use crate::scene::SurfacePoint;
 /// Samples the BSDF at `sp` for the direction `wo` (pointing back along the path) and
 /// multiplies the throughput `beta` by the sample's weight. `None` ends the path: no sample,
 /// or a throughput that is zero or not finite. Always draws three numbers from `sampler`.
-#[inline]
+#[inline(always)]
 pub fn scatter(
     bsdf: &Bsdf,
     sp: &SurfacePoint,

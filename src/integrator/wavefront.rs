@@ -21,8 +21,19 @@
 //!
 //! Measured (`docs/speed.md`): packets of 16 and batches of a whole tile (256 paths) were the
 //! fastest; the shading, still one vertex at a time, is what is left to go wide.
+//!
+//! **Versions picked at run time.** The default build targets plain x86-64 (SSE2), so
+//! [`walk_batch`], with the shading it inlines (`bounce`, [`scatter`], the light sample of
+//! [`connect_emitters_at`], the BSDFs' common cases), is compiled three times with the
+//! `multiversion` crate, as the BVH's traversal is: for AVX2 + FMA, for AVX-512 (CPUs with
+//! Ice Lake's set) and the baseline, the CPU's version picked at run time. The wider ISAs buy
+//! three-operand instructions and more registers, not wider arithmetic;
+//! the images are the same bit for bit, since the operations are the same IEEE ones (Rust
+//! never fuses a multiply and an add on its own). What is not inlined (materials other than
+//! the common ones, the emitters' rarer kinds) runs the baseline code.
 
 use glam::Vec3;
+use multiversion::multiversion;
 
 use super::direct::{Sampled, connect_emitters_at, emission, environment, power_heuristic};
 use super::scatter::{scatter, survives_roulette};
@@ -69,6 +80,10 @@ struct Buffers {
 /// The path tracer's radiance along each camera ray of `rays` (unit directions) into `out`,
 /// path `i` drawing from `samplers[i]`: for each path, [`super::walker::walk`] with the path
 /// tracer's estimator, the paths' queries batched bounce by bounce.
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
+    "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
+))]
 pub fn walk_batch(
     ctx: &RenderContext,
     rays: &[Ray],
@@ -129,7 +144,7 @@ pub fn walk_batch(
 /// the path tracer, with the light sample's shadow ray pushed to `shadows` (and what it adds
 /// to `pending`) instead of traced. Whether the path goes on (its next ray in `path.ray`).
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn bounce(
     ctx: &RenderContext,
     index: u32,
