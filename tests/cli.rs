@@ -244,6 +244,16 @@ fn compare_reports_metrics_and_writes_an_error_map() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("relative MSE"));
     assert!(dir.path().join("err.png").exists());
+    // A reference a whole factor larger is box-downsampled to the image's size: a.exr against
+    // itself shrunk by 2 is the shrunk image against itself; a factor that is not whole fails.
+    let (a, _) = pir::image::read_exr(&dir.path().join("a.exr")).unwrap();
+    let half = a.downsample(2).unwrap();
+    pir::image::write_exr(&dir.path().join("half.exr"), &half, &[]).unwrap();
+    let o = pir(&["compare", "half.exr", "a.exr"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("RMSE          0.000000e0"));
+    let o = pir(&["compare", "a.exr", "half.exr"], dir.path());
+    assert_clean_failure(&o, &["half.exr", "by no whole factor"]);
 
     // Piped into a reader that has gone (`pir compare … | head -1`): no panic message, and
     // the status of a process ended by SIGPIPE (or success, had it written first).

@@ -26,6 +26,10 @@ pub struct CompareArgs {
 pub fn run(a: CompareArgs) -> Result<()> {
     let (img, _) = read_exr(&a.image)?;
     let (reference, _) = read_exr(&a.reference)?;
+    // A reference a whole factor larger is box-downsampled to the image's size, as `pir study`
+    // takes it.
+    let reference = super::setup::at_resolution(reference, (img.width, img.height), &a.reference)
+        .with_context(|| format!("cannot compare {} with {}", a.image.display(), a.reference.display()))?;
     let m = metrics(&img, &reference)
         .with_context(|| format!("cannot compare {} with {}", a.image.display(), a.reference.display()))?;
     let d = m.mean_rel_diff();

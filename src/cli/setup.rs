@@ -4,6 +4,7 @@
 //! parser, the interrupt flag and the default output names.
 
 use anyhow::{Context, Result, bail};
+use pir::image::RgbImage;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -60,4 +61,27 @@ pub fn scene_stem(scene: &Path) -> String {
     } else {
         stem.to_string()
     }
+}
+
+/// The reference at the size asked for: itself, or box-downsampled by a whole factor, which is
+/// exactly the reference at that size (pixels are one-pixel box filters), so a high-resolution
+/// reference serves quick studies too.
+pub fn at_resolution(reference: RgbImage, (w, h): (usize, usize), path: &Path) -> Result<RgbImage> {
+    if (w, h) == (reference.width, reference.height) {
+        return Ok(reference);
+    }
+    let factor = reference.width / w.max(1);
+    if factor >= 1
+        && factor * w == reference.width
+        && factor * h == reference.height
+        && let Some(small) = reference.downsample(factor)
+    {
+        return Ok(small);
+    }
+    bail!(
+        "{w}×{h} differs from the reference {} ({}×{}) by no whole factor: metrics need equal sizes",
+        path.display(),
+        reference.width,
+        reference.height
+    )
 }

@@ -6,13 +6,13 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
-use pir::image::{RgbImage, read_exr};
+use pir::image::read_exr;
 use pir::integrator::{MethodConfig, MethodParams, Parameter};
 use pir::render::{Renderer, SceneOptions};
 use pir::study::output::{StudyInfo, write_all};
 use pir::study::{Method, Run, Schedule, run_one};
 
-use super::setup::{interrupt_flag, scene_stem, seconds};
+use super::setup::{at_resolution, interrupt_flag, scene_stem, seconds};
 
 /// Race rendering methods against a reference for the same wall-clock budget.
 ///
@@ -139,30 +139,6 @@ fn runs(a: &StudyArgs) -> Result<Vec<Run>> {
     Ok(out)
 }
 
-/// The reference at the size asked for: itself, or box-downsampled by a whole factor, which is
-/// exactly the reference at that size (pixels are one-pixel box filters), so a high-resolution
-/// reference serves quick studies too.
-fn at_resolution(reference: RgbImage, (w, h): (usize, usize), path: &Path) -> Result<RgbImage> {
-    if (w, h) == (reference.width, reference.height) {
-        return Ok(reference);
-    }
-    let factor = reference.width / w.max(1);
-    if factor >= 1
-        && factor * w == reference.width
-        && factor * h == reference.height
-        && let Some(small) = reference.downsample(factor)
-    {
-        return Ok(small);
-    }
-    bail!(
-        "--resolution {w}×{h} differs from the reference {} ({}×{}) by no whole factor: metrics need \
-         equal sizes",
-        path.display(),
-        reference.width,
-        reference.height
-    )
-}
-
 /// Creates `dir` if needed and checks that files can be written in it.
 fn check_out_dir(dir: &Path) -> Result<()> {
     if dir.exists() && !dir.is_dir() {
@@ -212,7 +188,9 @@ pub fn run(a: StudyArgs) -> Result<()> {
     let runs = runs(&a)?;
     let (reference, ref_attrs) = read_exr(&a.reference).context("cannot read the reference")?;
     let reference = match &a.options.resolution {
-        Some(r) => at_resolution(reference, (r[0] as usize, r[1] as usize), &a.reference)?,
+        Some(r) => {
+            at_resolution(reference, (r[0] as usize, r[1] as usize), &a.reference).context("--resolution")?
+        }
         None => reference,
     };
     if reference.pixels.iter().any(|p| !p.is_finite()) {
