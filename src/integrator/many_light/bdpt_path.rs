@@ -166,7 +166,9 @@ impl Estimator for Bidirectional<'_> {
         if connects {
             let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
             let count_in = count_previous;
-            let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, counts, count_in };
+            let glossy = path.connecting.glossy();
+            let end =
+                CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
             let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
             let max_vpl_depth = ctx.max_depth - depth - 1;
             *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);

@@ -89,7 +89,7 @@
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use super::config::{Connect, glossy_vertex};
+use super::config::Connect;
 use super::light_paths::Vpl;
 use super::subpath::{Counts, MisState};
 use crate::integrator::direct::LightSample;
@@ -226,6 +226,9 @@ pub struct CameraEnd<'a> {
     /// emitter techniques extend the camera subpath into the light subpath).
     pub connect: Connect,
     pub rank: u32,
+    /// Whether this vertex is glossy for `connect` ([`Connect::glossy`]; found once per
+    /// vertex, not per connection).
+    pub glossy: bool,
     /// The connections' counts, and the count of the connection from the camera vertex
     /// before this one to this one (relative to [`Counts::paths`]; 0 where that vertex does
     /// not connect; any value where the sums are zero).
@@ -249,7 +252,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let camera_pdf = x.fx.pdf(w) * cos_y / dist2;
     // The reverse densities only where their factors are not zero (at the camera's first
     // vertex its sums are, so the light subpath extended to x has no competitor to weigh).
-    let more = vpl.mis.beyond(x.connect, x.rank + 1, glossy_vertex(bsdf_y));
+    let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.glossy(bsdf_y));
     let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 };
     let w_camera = if x.state.dvcm > 0.0 || x.state.dvc > 0.0 {
         let camera_rev = if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 };
@@ -261,7 +264,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
     let one = match vpl.depth {
         1 => vpl.mis.dvcm,
-        _ if x.connect.at(x.rank + 1, glossy_vertex(x.bsdf)) => vpl.mis.dvcm * vpl.count_out,
+        _ if x.connect.at(x.rank + 1, x.glossy) => vpl.mis.dvcm * vpl.count_out,
         _ => 0.0,
     };
     let w_light = camera_pdf * (one + more * light_rev);
@@ -271,7 +274,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
 
 /// The weight of light tracing to the camera from the light subpath's vertex `y`: `mis` its
 /// sums on arriving there, `depth` its segments from the emitter, `glossy` whether it is
-/// glossy ([`super::config::glossy_vertex`]), `count_out` the count of the
+/// glossy for `connect` ([`Connect::glossy`]), `count_out` the count of the
 /// connection from it (as the camera's first vertex) to the light subpath's previous vertex
 /// ([`Vpl::count_out`]); `pdf_camera` the camera's density of `y` per unit area (its direction
 /// density, [`crate::scene::CameraRays::direction_pdf`], times cos θ_y / d²), `light_rev` the
@@ -305,8 +308,8 @@ pub fn camera_weight(
 mod tests {
     use super::*;
     use crate::geometry::Frame;
-    use crate::integrator::many_light::config::Connecting;
     use crate::integrator::many_light::config::Gather;
+    use crate::integrator::many_light::config::{Connecting, glossy_vertex};
     use crate::integrator::many_light::subpath::Scatter;
     use crate::material::TransportMode;
     use crate::sampling::{Domain, Sampler};
@@ -481,7 +484,7 @@ mod tests {
             let count_out = factor(counts, (2 < k).then(|| &z[2]), &z[1]);
             let light_rev = z[1].pdf(&z[0], &z[2]);
             let pdf_camera = camera_pdf_area(z);
-            let glossy = z[1].bsdf.is_some_and(|b| glossy_vertex(&b));
+            let glossy = z[1].bsdf.is_some_and(|b| connect.glossy(&b));
             let depth = (k - 1) as u32;
             camera_weight(&mis, depth, glossy, count_out, pdf_camera, light_rev, connect, samples_at(1))
         })];
@@ -567,6 +570,7 @@ mod tests {
                     state: cam,
                     connect,
                     rank: rank(z, t),
+                    glossy: walk(z, t, connect).glossy(),
                     counts,
                     count_in: if walk(z, t, connect).previous_connects() { count_in } else { 0.0 },
                 };

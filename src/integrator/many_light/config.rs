@@ -130,6 +130,13 @@ impl Connect {
         clap::ValueEnum::to_possible_value(&self).map(|v| v.get_name().to_string()).unwrap_or_default()
     }
 
+    /// Whether a vertex of BSDF `b` counts as glossy for this rule: only [`Connect::Glossy`]
+    /// asks ([`glossy_vertex`]), so that the others need not look at the BSDF.
+    #[inline]
+    pub fn glossy(self, b: &Bsdf) -> bool {
+        self == Connect::Glossy && glossy_vertex(b)
+    }
+
     /// Whether the camera vertex of rank `rank` among its path's non-delta vertices connects
     /// (1: the first non-delta vertex, after any mirror or glass the camera ray met first,
     /// so that a wall seen in a mirror connects as one seen directly; 0: the camera itself,
@@ -157,8 +164,7 @@ pub struct Connecting {
     /// light tracing reaches it).
     last: bool,
     before_last: bool,
-    /// Whether the last one is glossy ([`glossy_vertex`]; asked with [`Connect::Glossy`]
-    /// only, false otherwise).
+    /// Whether the last one is glossy ([`Connect::glossy`]).
     glossy: bool,
 }
 
@@ -172,8 +178,7 @@ impl Connecting {
         self.rank += 1;
         self.before_last = self.last;
         self.last = connect.at(self.rank, self.glossy);
-        // (Only `glossy` asks; the others need not look at the BSDF.)
-        self.glossy = connect == Connect::Glossy && glossy_vertex(b);
+        self.glossy = connect.glossy(b);
         self.last
     }
 
@@ -181,6 +186,12 @@ impl Connecting {
     #[inline]
     pub fn rank(&self) -> u32 {
         self.rank
+    }
+
+    /// Whether the last non-delta vertex is glossy ([`Connect::glossy`]).
+    #[inline]
+    pub fn glossy(&self) -> bool {
+        self.glossy
     }
 
     /// Whether the last non-delta vertex (or the camera, before any) connects.

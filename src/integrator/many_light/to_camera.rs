@@ -22,7 +22,7 @@
 use glam::{Vec2, Vec3};
 
 use super::bidirectional::camera_weight;
-use super::config::{Connect, glossy_vertex};
+use super::config::Connect;
 use super::subpath::MisState;
 use crate::integrator::{FilmSplat, RenderContext, shadow_ray};
 use crate::material::{Bsdf, PreparedBsdf, TransportMode};
@@ -93,7 +93,7 @@ impl ToCamera {
             // The reverse density only where the sums it multiplies are not zero.
             let light_rev = if v.mis.dvc > 0.0 { v.bsdf.pdf(&geometry, w, v.w_in) } else { 0.0 };
             let n = self.light_samples as f32;
-            let glossy = glossy_vertex(v.bsdf);
+            let glossy = self.connect.glossy(v.bsdf);
             camera_weight(v.mis, v.depth, glossy, v.count_out, pdf_camera, light_rev, self.connect, n)
         } else {
             1.0
