@@ -178,6 +178,7 @@ fn bounce(
         let u_select = sampler.next_f32();
         let u = sampler.next_2d();
         match connect_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters) {
+            // (Added as the scalar walker adds its zero: β · 0 is NaN where β is not finite.)
             None => path.radiance += path.beta * Vec3::ZERO,
             Some(c) => {
                 let value = c.value(|s| power_heuristic(s.pdf_light, s.pdf_bsdf));
