@@ -63,10 +63,10 @@ pub struct RenderContext<'a> {
     pub seed: u64,
     /// How camera samples and light paths draw their numbers.
     pub sampler: SamplerKind,
-    /// Where the render keeps its pilot ([`many_light::Pilot`]), a function of the fields
-    /// above alone, so that every integrator made for the render (its own, and the ones that
-    /// only report their parameters) runs it once; `None`: each runs its own.
-    pub pilot: Option<&'a std::sync::OnceLock<many_light::Pilot>>,
+    /// Where the render keeps its pilots ([`many_light::Pilots`]), each a function of the
+    /// render alone, so that every integrator made for the render (its own, and the ones that
+    /// only report their parameters) runs them once; `None`: each runs its own.
+    pub pilot: Option<&'a many_light::Pilots>,
 }
 
 /// Light that an iteration traced to the camera ([`Integrator::film_splats`]): a film

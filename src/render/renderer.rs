@@ -49,8 +49,8 @@ pub struct Renderer<'s> {
     sampler: SamplerKind,
     max_depth: u32,
     walker: Walker,
-    /// The pilot of the methods that run one, once for the render ([`Integrator::prepare`]).
-    pilot: std::sync::OnceLock<crate::integrator::many_light::Pilot>,
+    /// The pilots of the methods that run them, once for the render ([`Integrator::prepare`]).
+    pilot: crate::integrator::many_light::Pilots,
 }
 
 impl<'s> Renderer<'s> {
@@ -88,7 +88,7 @@ impl<'s> Renderer<'s> {
             sampler: options.sampler(),
             max_depth: options.max_depth(scene),
             walker: options.walker(),
-            pilot: std::sync::OnceLock::new(),
+            pilot: Default::default(),
         })
     }
 

@@ -75,4 +75,4 @@ pub use config::{Clamping, Connect, DEFAULT_PATHS, Gather, Radius, VirtualLights
 pub use instant_radiosity::InstantRadiosity;
 pub use light_paths::{Vpl, trace_vpls};
 pub use light_set::LightSet;
-pub use path_count::{AutoPaths, Pilot};
+pub use path_count::{AutoPaths, Pilot, Pilots};

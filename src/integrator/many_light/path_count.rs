@@ -77,6 +77,15 @@ impl AutoPaths {
     }
 }
 
+/// Where a render keeps what its pilots measured, each run at most once: the light paths'
+/// ([`Pilot`]) and the camera's view ([`super::view_pilot::lit_share`], for the render's
+/// camera and resolution).
+#[derive(Debug, Default)]
+pub struct Pilots {
+    pub light: std::sync::OnceLock<Pilot>,
+    pub view: std::sync::OnceLock<f32>,
+}
+
 /// What the pilot measures of a scene before the first iteration: the VPLs its light paths
 /// leave, and how often next-event estimation from where they first arrive finds its emitter
 /// point in view.
@@ -100,7 +109,7 @@ impl Pilot {
     /// when it comes from the cache).
     pub fn run(ctx: &RenderContext, counters: &mut Counters) -> Pilot {
         match ctx.pilot {
-            Some(cell) => *cell.get_or_init(|| Pilot::trace(ctx, counters)),
+            Some(pilots) => *pilots.light.get_or_init(|| Pilot::trace(ctx, counters)),
             None => Pilot::trace(ctx, counters),
         }
     }

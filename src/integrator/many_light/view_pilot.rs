@@ -47,8 +47,18 @@ pub fn connect_for(lit_share: f32) -> Connect {
 /// Of the light samples from the first non-delta surfaces that [`VIEW_PILOT_RAYS`] rays of
 /// `camera` find, the share that sees the emitters (a sample on an emitter's back or behind
 /// the surface does not); 1 when there were none (nothing in view,
-/// or only emitters and delta surfaces). Its queries are added to `counters.pilot_rays`.
+/// or only emitters and delta surfaces). Once per render where the context keeps it
+/// ([`super::Pilots`]; the render has one camera); its queries are added to
+/// `counters.pilot_rays` when it runs.
 pub fn lit_share(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> f32 {
+    match ctx.pilot {
+        Some(pilots) => *pilots.view.get_or_init(|| trace(ctx, camera, counters)),
+        None => trace(ctx, camera, counters),
+    }
+}
+
+/// [`lit_share`] without the render's cache.
+fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> f32 {
     let streams = Streams::light_paths(ctx.sampler, ctx.seed, VIEW_PILOT_ITERATION);
     let film = camera.film_size();
     let mut queries = Counters::default();
