@@ -88,6 +88,36 @@ impl Glossy {
         p
     }
 
+    /// [`Glossy::eval`], [`Glossy::pdf`] and the reverse density `pdf(wi, wo)` at once, each
+    /// bit for bit what its own call gives: the half vector, D and the two G1 are shared
+    /// (a bidirectional connection needs all three; the half vector of `wi + wo` is that of
+    /// `wo + wi`, since each sum is rounded once).
+    pub fn eval_pdfs(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Vec3::ZERO, 0.0, 0.0);
+        }
+        let mut value = diffuse::eval(self.albedo, wi);
+        let (mut pdf, mut rev) = (0.0, 0.0);
+        if let Some(h) = (wo + wi).try_normalize() {
+            let d = self.ggx.d(h);
+            let (g_o, g_i) = (self.ggx.g1(wo, h), self.ggx.g1(wi, h));
+            let spec = d * (g_o * g_i) / (4.0 * wo.z);
+            if spec.is_finite() {
+                value += self.specular * spec;
+            }
+            if self.p_spec > 0.0 {
+                let finite = |p: f32| if p.is_finite() { p } else { 0.0 };
+                pdf += self.p_spec * finite(g_o * d / (4.0 * wo.z));
+                rev += self.p_spec * finite(g_i * d / (4.0 * wi.z));
+            }
+        }
+        if self.p_spec < 1.0 {
+            pdf += (1.0 - self.p_spec) * diffuse::pdf(wi);
+            rev += (1.0 - self.p_spec) * diffuse::pdf(wo);
+        }
+        (value, pdf, rev)
+    }
+
     /// Samples `wi` (local) from the mixture; `None` when the reflected direction falls below
     /// the horizon or the material is black.
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<Vec3> {

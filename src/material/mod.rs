@@ -921,4 +921,63 @@ mod tests {
         }
         assert!(both > 1000 && grazing * 1000 < both, "{both} samples, {grazing} grazing");
     }
+
+    /// `eval_pdfs` is `eval`, `pdf` and the reverse `Bsdf::pdf` bit for bit: for the lobes it
+    /// shares work in (Lambertian, glossy: black, rough, near-mirror, without a diffuse part)
+    /// and for those it passes on, shading normals tilted off the geometric one, directions on
+    /// both sides (and mirrored ones, in the glossy lobe), both modes.
+    #[test]
+    fn eval_pdfs_are_the_three_calls() {
+        let mut rng = Sampler::new(7, 0, Domain::Iteration, 0);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let glossy = |albedo: f32, specular: f32, roughness: f32| Bsdf::Glossy {
+            albedo: Vec3::new(albedo, albedo * 0.5, 0.0),
+            specular: Vec3::splat(specular),
+            roughness,
+        };
+        let bsdfs = [
+            Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.5, 0.2) },
+            Bsdf::Diffuse { albedo: Vec3::ZERO },
+            glossy(0.3, 0.5, 0.3),
+            glossy(0.05, 0.8, 0.05),
+            glossy(0.0, 0.5, 0.01),
+            glossy(0.5, 0.0, 0.2),
+            glossy(0.0, 0.0, 0.2),
+            Bsdf::RoughDielectric {
+                eta: 1.5,
+                reflectance: Vec3::ONE,
+                transmittance: Vec3::new(0.5, 0.2, 0.0),
+                microfacet: Microfacet::new(microfacet::Distribution::Ggx, 0.4),
+            },
+            blend(0.3, Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.5, 0.2) }, glossy(0.0, 0.5, 0.2)),
+            mask(0.6, glossy(0.0, 0.5, 0.3)),
+            Bsdf::Mirror { specular: Vec3::ONE },
+        ];
+        let mut nonzero = 0;
+        for bsdf in bsdfs {
+            for _ in 0..3000 {
+                let ng = dir(&mut rng);
+                let ns = (ng + 0.3 * dir(&mut rng)).normalize();
+                let g = LocalGeometry { ng, frame: Frame::from_normal(ns) };
+                let wo = dir(&mut rng);
+                let mirrored = (2.0 * wo.dot(ns) * ns - wo + 0.05 * dir(&mut rng)).normalize();
+                for wi in [dir(&mut rng), mirrored] {
+                    for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                        let p = PreparedBsdf::new(bsdf, g, wo, mode);
+                        let (f, pdf, rev) = p.eval_pdfs(wi);
+                        let calls = (bits(p.eval(wi)), p.pdf(wi).to_bits(), bsdf.pdf(&g, wi, wo).to_bits());
+                        assert_eq!(
+                            (bits(f), pdf.to_bits(), rev.to_bits()),
+                            calls,
+                            "{bsdf:?} {g:?} {wo} {wi}"
+                        );
+                        if rev > 0.0 && pdf > 0.0 {
+                            nonzero += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(nonzero > 20_000, "{nonzero}");
+    }
 }

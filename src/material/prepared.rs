@@ -30,6 +30,8 @@ pub struct PreparedBsdf {
     bsdf: Bsdf,
     g: LocalGeometry,
     mode: TransportMode,
+    /// The fixed direction, as given (for the reverse densities of [`PreparedBsdf::eval_pdfs`]).
+    wo: Vec3,
     /// The fixed direction in the shading frame, and its cosine with the geometric normal.
     wo_l: Vec3,
     wo_ng: f32,
@@ -56,7 +58,7 @@ impl PreparedBsdf {
         } else {
             wo_ng > 0.0 && wo_l.z > 0.0 && !bsdf.is_delta()
         };
-        PreparedBsdf { bsdf, g, mode, wo_l, wo_ng, active }
+        PreparedBsdf { bsdf, g, mode, wo, wo_l, wo_ng, active }
     }
 
     /// Whether [`PreparedBsdf::eval`] can be non-zero at all.
@@ -159,6 +161,41 @@ impl PreparedBsdf {
         }
         let Some((_, wi_l)) = self.incident(wi) else { return 0.0 };
         self.bsdf.local_pdf(self.wo_l, wi_l)
+    }
+
+    /// [`PreparedBsdf::eval`], [`PreparedBsdf::pdf`] and the reverse density
+    /// [`Bsdf::pdf`]`(g, wi, wo)` (of sampling the fixed direction from `wi`) at once, each
+    /// bit for bit what its own call gives: what a bidirectional connection needs of each end.
+    /// The Lambertian lobe needs only the cosines, the glossy one shares its half vector, D
+    /// and G1 ([`Glossy::eval_pdfs`]); the others are the three calls.
+    #[inline]
+    pub fn eval_pdfs(&self, wi: Vec3) -> (Vec3, f32, f32) {
+        match self.bsdf {
+            Bsdf::Diffuse { albedo } => {
+                let Some((wi_ng, wi_ns)) = self.incident_cosines(wi) else { return (Vec3::ZERO, 0.0, 0.0) };
+                let (f, pdf) = diffuse::eval_pdf_cos(albedo, wi_ns);
+                // (`Bsdf::pdf`'s Lambertian case: cos θo / π where the albedo is not black.)
+                let rev = if albedo.max_element() > 0.0 {
+                    diffuse::pdf(Vec3::new(0.0, 0.0, self.wo_l.z))
+                } else {
+                    0.0
+                };
+                (self.finish(f, wi_ng, wi_ns), pdf, rev)
+            }
+            Bsdf::Glossy { albedo, specular, roughness } => {
+                let Some((wi_ng, wi_l)) = self.incident(wi) else { return (Vec3::ZERO, 0.0, 0.0) };
+                let lobe = Glossy::new(albedo, specular, roughness);
+                let (f, pdf, rev) = lobe.eval_pdfs(self.wo_l, wi_l);
+                // (`Bsdf::local_pdf`'s checks.)
+                let density = |p: f32| match lobe.is_black() {
+                    true => 0.0,
+                    false if p.is_finite() => p.max(0.0),
+                    false => 0.0,
+                };
+                (self.finish(f, wi_ng, wi_l.z), density(pdf), density(rev))
+            }
+            _ => (self.eval(wi), self.pdf(wi), self.bsdf.pdf(&self.g, wi, self.wo)),
+        }
     }
 
     /// [`PreparedBsdf::eval_pdf`] of any lobe.
