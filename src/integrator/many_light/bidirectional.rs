@@ -91,6 +91,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use super::config::Connect;
 use super::light_paths::Vpl;
+use super::points::point_value;
 use super::subpath::{Counts, MisState};
 use crate::integrator::direct::LightSample;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
@@ -246,17 +247,68 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
         return 0.0;
     }
     let w = d / dist2.sqrt();
-    let cos_x = x.geometry.ng.dot(w).abs();
-    let cos_y = vpl.ng.dot(w).abs();
-    // The camera subpath extended to the VPL, and the light subpath extended to x.
-    let camera_pdf = x.fx.pdf(w) * cos_y / dist2;
     // The reverse densities only where their factors are not zero (at the camera's first
     // vertex its sums are, so the light subpath extended to x has no competitor to weigh).
     let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.glossy(bsdf_y));
-    let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 };
+    let densities = Densities {
+        camera: x.fx.pdf(w),
+        camera_rev: if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 },
+        light: if x.state.dvcm > 0.0 || x.state.dvc > 0.0 { emitting.pdf(-w) } else { 0.0 },
+        light_rev: if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), -w, vpl.w_in) } else { 0.0 },
+    };
+    weight_of(x, vpl, bsdf_y, w, dist2, more, densities)
+}
+
+/// A connection's contribution ([`super::points::point_contribution`] with the G bound `bound`) and its
+/// weight ([`connection_weight`]), bit for bit those two, from one evaluation of each end's
+/// BSDF with both its densities ([`PreparedBsdf::eval_pdfs`]) instead of two values and four
+/// densities: a picked connection's cost, where the ends are glossy, is mostly these.
+#[inline]
+pub fn connection(x: &CameraEnd, p: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, bound: f32) -> (Vec3, f32) {
+    let d = vpl.p - p;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 {
+        return (Vec3::ZERO, 0.0);
+    }
+    let w = d / dist2.sqrt();
+    let (fx, camera, camera_rev) = x.fx.eval_pdfs(w);
+    if fx == Vec3::ZERO {
+        return (Vec3::ZERO, 0.0);
+    }
+    let (fy, light, light_rev) = emitting.eval_pdfs(-w);
+    if fy == Vec3::ZERO {
+        return (Vec3::ZERO, 0.0);
+    }
+    let c = point_value(vpl, fx, fy, x.geometry.frame.n, w, dist2, bound);
+    // (`dist2` is a positive number here: a NaN one made `fx` zero.)
+    let bsdf_y = emitting.bsdf();
+    let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.glossy(bsdf_y));
+    (c, weight_of(x, vpl, bsdf_y, w, dist2, more, Densities { camera, camera_rev, light, light_rev }))
+}
+
+/// The solid-angle densities of a connection's ends that its weight needs: the camera
+/// vertex's BSDF sampling towards the VPL and, from there, back along the camera path; the
+/// VPL's towards the camera vertex and, from there, back the way the light came.
+struct Densities {
+    camera: f32,
+    camera_rev: f32,
+    light: f32,
+    light_rev: f32,
+}
+
+/// [`connection_weight`] from the unit direction `w` from the camera vertex to the VPL, their
+/// squared distance, the light subpath's sum `more` ([`MisState::beyond`]) and the ends'
+/// densities (of which only those whose factors are not zero are used).
+#[inline]
+fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more: f32, d: Densities) -> f32 {
+    let cos_x = x.geometry.ng.dot(w).abs();
+    let cos_y = vpl.ng.dot(w).abs();
+    // The camera subpath extended to the VPL, and the light subpath extended to x.
+    let camera_pdf = d.camera * cos_y / dist2;
+    let light_rev = if more > 0.0 { d.light_rev } else { 0.0 };
     let w_camera = if x.state.dvcm > 0.0 || x.state.dvc > 0.0 {
-        let camera_rev = if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 };
-        emitting.pdf(-w) * cos_x / dist2 * (x.state.dvcm * x.count_in + x.state.dvc * camera_rev)
+        let camera_rev = if x.state.dvc > 0.0 { d.camera_rev } else { 0.0 };
+        d.light * cos_x / dist2 * (x.state.dvcm * x.count_in + x.state.dvc * camera_rev)
     } else {
         0.0
     };
@@ -310,6 +362,7 @@ mod tests {
     use crate::geometry::Frame;
     use crate::integrator::many_light::config::Gather;
     use crate::integrator::many_light::config::{Connecting, glossy_vertex};
+    use crate::integrator::many_light::points::point_contribution;
     use crate::integrator::many_light::subpath::Scatter;
     use crate::material::TransportMode;
     use crate::sampling::{Domain, Sampler};
@@ -574,7 +627,17 @@ mod tests {
                     counts,
                     count_in: if walk(z, t, connect).previous_connects() { count_in } else { 0.0 },
                 };
-                Some(connection_weight(&end, x.p, &vpl, &by, &emitting))
+                let weight = connection_weight(&end, x.p, &vpl, &by, &emitting);
+                // The pick's evaluation of both at once gives the same numbers bit for bit.
+                for bound in [f32::INFINITY, 0.5] {
+                    let (c, fused) = connection(&end, x.p, &vpl, &emitting, bound);
+                    let alone = point_contribution(x.p, x.g.frame.n, &fx, &vpl, &emitting, bound);
+                    assert_eq!(c.to_array().map(f32::to_bits), alone.to_array().map(f32::to_bits));
+                    if c != Vec3::ZERO {
+                        assert_eq!(fused.to_bits(), weight.to_bits(), "{c} {fused} {weight}");
+                    }
+                }
+                Some(weight)
             });
         }
         w

@@ -141,9 +141,7 @@ fn resampled<L: Lights, W: Weigh<L>>(
         sampler,
         |cands, window, sampler| lights.push_estimates(cands, window, &rx, sampler),
         |j, factor, sampler| {
-            let c = lights.picked(j, &rx, sampler);
-            if c != Vec3::ZERO {
-                let c = weighing.weigh(lights, j, v.sp.p, c);
+            if let Some(c) = weighing.picked(lights, j, &rx, v.sp.p, sampler) {
                 batch.push(shadow_segment(&x, lights.end(j)), c * factor);
             }
         },

@@ -58,14 +58,15 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use super::bidirectional::{CameraEnd, connection_weight};
+use super::bidirectional::{CameraEnd, connection, connection_weight};
 use super::light_paths::Vpl;
 use super::lobe::Lobe;
-use super::points::PointLights;
-use super::virtual_light::Weigh;
+use super::points::{PointLights, PointReceiver};
+use super::virtual_light::{Weigh, weighed_pick};
 use crate::integrator::direct::LightSample;
 use crate::integrator::walker::Vertex;
 use crate::material::PreparedBsdf;
+use crate::sampling::Sampler;
 
 /// Which technique a weighed gather of point lights is, with what its weights need (the
 /// thesis' methods take every connection in full: [`super::virtual_light::Plain`]).
@@ -207,6 +208,25 @@ impl Weigh<PointLights> for Weighing<'_> {
     #[inline]
     fn weigh(&self, lights: &PointLights, j: usize, x: Vec3, c: Vec3) -> Vec3 {
         self.apply(x, &lights.vpls[j], &lights.emitting[j], c)
+    }
+
+    /// `pir-bdpt`'s connection with its weight from one evaluation of each end
+    /// ([`connection`]); the same numbers as the two steps.
+    #[inline]
+    fn picked(
+        &self,
+        lights: &PointLights,
+        j: usize,
+        rx: &PointReceiver<'_>,
+        x: Vec3,
+        sampler: &mut Sampler,
+    ) -> Option<Vec3> {
+        let Technique::Bidirectional { ref end } = self.technique else {
+            return weighed_pick(self, lights, j, rx, x, sampler);
+        };
+        let vpl = &lights.vpls[j];
+        let (c, w) = connection(end, x, vpl, &lights.emitting[j], lights.bound);
+        (c != Vec3::ZERO).then(|| bounded(c, vpl.flux, w, self.bound))
     }
 }
 

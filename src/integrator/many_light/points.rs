@@ -172,6 +172,14 @@ pub fn point_contribution(
     if fp == Vec3::ZERO {
         return Vec3::ZERO;
     }
+    point_value(vpl, fx, fp, n, w, dist2, bound)
+}
+
+/// The end of [`point_contribution`], from the two BSDFs' values `fx` (towards the unit
+/// direction `w` to the VPL) and `fp` (towards −w) at squared distance `dist2`, for callers
+/// that evaluated the BSDFs themselves (with their densities, [`super::bidirectional::connection`]).
+#[inline]
+pub fn point_value(vpl: &Vpl, fx: Vec3, fp: Vec3, n: Vec3, w: Vec3, dist2: f32, bound: f32) -> Vec3 {
     let c = vpl.flux * fx * fp / dist2;
     if bound.is_finite() {
         let g = n.dot(w).abs() * vpl.frame.n.dot(w).abs() / dist2;

@@ -90,6 +90,35 @@ pub trait Weigh<L: Lights> {
 
     /// The weighted contribution `c` of light `j` at the receiver `x`.
     fn weigh(&self, lights: &L, j: usize, x: Vec3, c: Vec3) -> Vec3;
+
+    /// The weighted contribution of light `j` picked by the resampled gather at the receiver
+    /// `rx` at `x` ([`weighed_pick`]: [`Lights::picked`], then [`Weigh::weigh`]); `None`
+    /// where its contribution is zero (no shadow ray). A weighing may compute both at once.
+    #[inline]
+    fn picked(
+        &self,
+        lights: &L,
+        j: usize,
+        rx: &L::Receiver<'_>,
+        x: Vec3,
+        sampler: &mut Sampler,
+    ) -> Option<Vec3> {
+        weighed_pick(self, lights, j, rx, x, sampler)
+    }
+}
+
+/// [`Weigh::picked`] as two steps: light `j`'s contribution, then its weight.
+#[inline]
+pub fn weighed_pick<L: Lights, W: Weigh<L> + ?Sized>(
+    weighing: &W,
+    lights: &L,
+    j: usize,
+    rx: &L::Receiver<'_>,
+    x: Vec3,
+    sampler: &mut Sampler,
+) -> Option<Vec3> {
+    let c = lights.picked(j, rx, sampler);
+    (c != Vec3::ZERO).then(|| weighing.weigh(lights, j, x, c))
 }
 
 /// The thesis' methods: every connection counts in full.
