@@ -223,11 +223,14 @@ fn erfc(x: f64) -> f64 {
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
-/// erf⁻¹(x) for x in (−1, 1): Giles' approximation (2010) refined by two Newton steps on erf.
+/// erf⁻¹(x) for x in (−1, 1): Giles' approximation (2010), as Mitsuba 3's `erfinv`. Newton
+/// steps on [`erf`] (whose own error is about 1e-7) changed no slope by more than 3e-8 and
+/// cost two exponentials each, a tenth of a Beckmann sample's time: the test
+/// `erfinv_inverts_erf` holds it to erf's accuracy.
 fn erfinv(x: f64) -> f64 {
     let x = x.clamp(-1.0 + 1e-15, 1.0 - 1e-15);
     let w = -((1.0 - x) * (1.0 + x)).ln();
-    let mut y = if w < 5.0 {
+    if w < 5.0 {
         let w = w - 2.5;
         let mut p = 2.810_226_36e-08;
         for c in [
@@ -259,18 +262,26 @@ fn erfinv(x: f64) -> f64 {
             p = c + p * w;
         }
         p * x
-    };
-    for _ in 0..2 {
-        let err = erf(y) - x;
-        y -= err / (2.0 / std::f64::consts::PI.sqrt() * (-y * y).exp());
     }
-    y
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sampling::{Domain, Sampler, uniform_cone};
+
+    /// erf⁻¹ inverts erf to erf's own accuracy (about 1e-7) over (−1, 1), odd.
+    #[test]
+    fn erfinv_inverts_erf() {
+        let mut worst = 0.0f64;
+        for i in 1..400_000 {
+            let x = -1.0 + 2.0 * i as f64 / 400_000.0;
+            let y = erfinv(x);
+            worst = worst.max((erf(y) - x).abs());
+            assert_eq!(erfinv(-x), -y, "{x}");
+        }
+        assert!(worst < 3e-7, "{worst}");
+    }
 
     /// ∫ D(m) cos θm dm = 1 for both kinds (midpoint rule in θ with a fine grid near 0).
     #[test]
