@@ -12,6 +12,9 @@ apt-get install -y libllvm19 (for llvm_ad_rgb).
         Renders with Mitsuba's own integrator for about T seconds of wall time: a first render
         of 1 spp (its JIT compiled) measures the time per sample pass, then as many spp as fit
         in what is left of T. Prints "spp wall_seconds".
+    production_mitsuba.py spp SCENE OUT.exr W H --spp N [--seed S]
+        One render of N spp with seed S (default 1), the whole process timed from outside
+        (docs/pt_vs_mitsuba.sh: Mitsuba's side at a fixed sample count).
 
 SCENE is a Mitsuba XML file (loaded unchanged but for the film size, through its `resx`/`resy`
 defaults as Mitsuba's own examples name them, or the film's width/height otherwise) or a pir
@@ -92,6 +95,10 @@ def equal_time(a):
     print(spp, f"{time.time() - start:.2f}")
 
 
+def fixed_spp(a):
+    write(a.out, render(load(a.scene, a.width, a.height), a.spp, a.seed))
+
+
 def main():
     ap = argparse.ArgumentParser()
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -108,8 +115,15 @@ def main():
     e.add_argument("width", type=int)
     e.add_argument("height", type=int)
     e.add_argument("--seconds", type=float, required=True)
+    f = sub.add_parser("spp")
+    f.add_argument("scene")
+    f.add_argument("out")
+    f.add_argument("width", type=int)
+    f.add_argument("height", type=int)
+    f.add_argument("--spp", type=int, required=True)
+    f.add_argument("--seed", type=int, default=1)
     a = ap.parse_args()
-    reference(a) if a.cmd == "reference" else equal_time(a)
+    {"reference": reference, "equal-time": equal_time, "spp": fixed_spp}[a.cmd](a)
 
 
 if __name__ == "__main__":

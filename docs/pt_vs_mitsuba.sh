@@ -32,7 +32,12 @@
 #   PIR             a pir binary to measure instead of this checkout's (e.g. an older build, for
 #                   before/after figures); by default the script builds and uses target/release/pir.
 #   PIR_ARGS        more options for every pir render (e.g. "--threads 1"), word-split.
-#   SCENES          the scenes to measure, by name (default "cornell-box mirror-glass bunny").
+#   SCENES          the scenes to measure, by name (default "cornell-box mirror-glass bunny
+#                   veach-mis"). veach-mis is Mitsuba's own XML file of Veach's multiple-importance
+#                   test (shared/scenes/mitsuba/veach-mis), rendered by both at 320×180: Mitsuba
+#                   loads it unchanged but for the film size (docs/production_mitsuba.py spp), pir
+#                   reads it as Mitsuba 3 would. Its reference (Mitsuba, 4,096 spp, about a minute)
+#                   is rendered into target/bench-refs/ when missing and Mitsuba is there.
 #
 # The first lines say which vector width each renderer runs at: the CPU's widest vector ISA
 # (from /proc/cpuinfo's flags), the packet width pir's Embree wrapper picks for its batch
@@ -48,7 +53,7 @@ runs=${RUNS:-1}
 seed=${SEED:-1}
 samplers=${SAMPLERS:-sobol independent}
 read -r -a pir_args <<<"${PIR_ARGS:-}"
-wanted=${SCENES:-cornell-box mirror-glass bunny}
+wanted=${SCENES:-cornell-box mirror-glass bunny veach-mis}
 shared=${SHARED:-../shared}
 py=${MITSUBA_PYTHON:-}
 if [[ -z $py && -x /tmp/mi/bin/python ]]; then py=/tmp/mi/bin/python; fi
@@ -68,11 +73,25 @@ trap 'rm -rf "$tmp"' EXIT
 bunny_ref=
 if [[ " $wanted " == *" bunny "* ]]; then bunny_ref=$(docs/bunny-reference.sh "$shared" "$py"); fi
 
-# name scene reference
+# A Mitsuba XML scene's reference at W×H: Mitsuba, 16 chunks of 256 spp, kept in target/bench-refs/.
+xml_reference() {
+    local scene=$1 name=$2 w=$3 h=$4 dir=target/bench-refs/$2-${3}x$4
+    if [[ ! -f $dir/reference.exr && -n $py && -f $scene ]]; then
+        echo "$name: rendering its Mitsuba reference (4,096 spp) into $dir" >&2
+        "$py" docs/production_mitsuba.py reference "$scene" "$dir" "$w" "$h" --chunk-spp 256 --chunks 16 >/dev/null
+    fi
+    echo "$dir/reference.exr"
+}
+veach_xml=$shared/scenes/mitsuba/veach-mis/scene.xml
+veach_ref=
+if [[ " $wanted " == *" veach-mis "* ]]; then veach_ref=$(xml_reference "$veach_xml" veach-mis 320 180); fi
+
+# name scene reference [width height: an XML scene's film size for both renderers]
 scenes=(
     "cornell-box $shared/scenes/cornell-box/original.toml $shared/references/cornell-box-original.exr"
     "mirror-glass $shared/scenes/cornell-box/sphere.toml $shared/references/cornell-box-sphere.exr"
     "bunny $shared/scenes/bunny/cornell-bunny.toml $bunny_ref"
+    "veach-mis $veach_xml $veach_ref 320 180"
 )
 
 # seconds COMMAND… : "wall cpu" seconds of one run (cpu = user + system of all its threads)
@@ -133,23 +152,30 @@ echo "pir pt vs Mitsuba 3 path, $spp spp, seed $seed, $(nproc) threads, $(date -
 printf '%-13s %-17s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
     "pir/Mi wall" "pir/Mi cpu"
 for entry in "${scenes[@]}"; do
-    read -r name scene ref <<<"$entry"
+    read -r name scene ref width height <<<"$entry"
     [[ " $wanted " == *" $name "* ]] || continue
     if [[ ! -f $ref ]]; then
         echo "$name: no reference ($ref); skipped" >&2
         continue
     fi
+    size=()
+    [[ -n ${width:-} ]] && size=(--resolution "$width" "$height")
     if [[ -n $py ]]; then
-        read -r w_mi c_mi e_mi < <(measure "$ref" "$tmp/mi.exr" \
-            "$py" "$shared/tools/mitsuba_ref.py" "$scene" "$tmp/mi.exr" --spp "$spp" --seed "$seed")
+        if [[ $scene == *.xml ]]; then
+            mi_cmd=("$py" docs/production_mitsuba.py spp "$scene" "$tmp/mi.exr" "$width" "$height" --spp "$spp"
+                --seed "$seed")
+        else
+            mi_cmd=("$py" "$shared/tools/mitsuba_ref.py" "$scene" "$tmp/mi.exr" --spp "$spp" --seed "$seed")
+        fi
+        read -r w_mi c_mi e_mi < <(measure "$ref" "$tmp/mi.exr" "${mi_cmd[@]}")
         printf '%-13s %-17s %8s %8s %12s %11s\n' "$name" "mitsuba" "$w_mi" "$c_mi" "$e_mi" "$(eff "$w_mi" "$e_mi")"
     fi
     for sampler in $samplers; do
         choice=(--sampler "$sampler")
         [[ $sampler == default ]] && choice=()
         read -r w_pir c_pir e_pir < <(measure "$ref" "$tmp/pir.exr" \
-            "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" "${choice[@]}" "${pir_args[@]}" \
-            -o "$tmp/pir.exr")
+            "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" "${size[@]}" "${choice[@]}" \
+            "${pir_args[@]}" -o "$tmp/pir.exr")
         row=$(printf '%-13s %-17s %8s %8s %12s %11s' "$name" "pir ($sampler)" "$w_pir" "$c_pir" "$e_pir" \
             "$(eff "$w_pir" "$e_pir")")
         if [[ -n $py ]]; then
