@@ -1204,6 +1204,17 @@ fn a_texture_elsewhere_is_refused() {
             "weight: the texture's values span 0.4 to 1.5; they must lie between 0 and 1",
         ),
         (
+            r#"<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><float name="color1" value="1.5"/></texture></bsdf>"#
+                .to_string(),
+            "reflectance: the texture's values span 0.4 to 1.5; they must lie between 0 and 1 (above 1 the \
+             material creates energy",
+        ),
+        (
+            r#"<emitter type="area"><texture type="checkerboard" name="radiance"><float name="color0" value="-1"/></texture></emitter>"#
+                .to_string(),
+            "radiance: the texture's values span -1 to 0.2; they must be finite and not negative",
+        ),
+        (
             format!(r#"<bsdf type="normalmap">{}<bsdf type="diffuse"/></bsdf>"#, bitmap.replace("NAME", "normalmap")),
             "the bitmap must be raw",
         ),

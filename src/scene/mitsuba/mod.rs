@@ -237,12 +237,7 @@ impl<'a> Params<'a> {
             None | Some(Texture::Constant(_)) => return Ok(None),
             Some(t) => t,
         };
-        let (min, max) = t.range();
-        if min < lo || max > hi {
-            return Err(self.e.error(format!(
-                "{name}: the texture's values span {min} to {max}; they must lie between {lo} and {hi}"
-            )));
-        }
+        texture_within(self.e, name, &t, (lo, hi), "")?;
         self.means.borrow_mut().push((name.to_string(), slot.mean_value(t.mean())));
         Ok(Some((slot, t)))
     }
@@ -811,13 +806,7 @@ impl<'a> Builder<'a> {
                 Ok((v, None))
             }
             Some(t) => {
-                let (lo, hi) = t.range();
-                if lo < 0.0 || hi > 1.0 {
-                    return Err(e.error(format!(
-                        "{name}: the texture's values span {lo} to {hi}; they must lie between 0 and 1 \
-                         (above 1 the material creates energy; Mitsuba refuses it too)"
-                    )));
-                }
+                texture_within(e, name, &t, (0.0, 1.0), CREATES_ENERGY)?;
                 Ok((t.mean(), slots(t)))
             }
             None => Ok((Vec3::splat(0.5), None)),
@@ -902,12 +891,10 @@ impl<'a> Builder<'a> {
                 Err(e.error(format!("radiance {radiance}: must not be negative")))
             }
             Texture::Constant(radiance) => Ok((radiance, None)),
-            t => match t.range() {
-                (lo, hi) if lo < 0.0 || !lo.is_finite() || !hi.is_finite() => Err(e.error(format!(
-                    "radiance: the texture's values span {lo} to {hi}; they must be finite and not negative"
-                ))),
-                _ => Ok((t.mean(), Some(t))),
-            },
+            t => {
+                texture_within(e, "radiance", &t, (0.0, f32::MAX), "")?;
+                Ok((t.mean(), Some(t)))
+            }
         }
     }
 }
@@ -998,14 +985,37 @@ fn ior(p: &Params, name: &str, default: f32) -> Result<f32, SceneError> {
     })
 }
 
+/// Why a reflectance above 1 is refused.
+const CREATES_ENERGY: &str = " (above 1 the material creates energy; Mitsuba refuses it too)";
+
 /// A reflectance must lie in [0, 1] in every channel.
 fn reflectance(e: &Element, name: &str, v: Vec3) -> Result<(), SceneError> {
     if v.min_element() < 0.0 || v.max_element() > 1.0 {
         return Err(e.error(format!(
-            "{name} {} {} {}: must lie between 0 and 1 in every channel (above 1 the material creates energy; \
-             Mitsuba refuses it too)",
+            "{name} {} {} {}: must lie between 0 and 1 in every channel{CREATES_ENERGY}",
             v.x, v.y, v.z
         )));
     }
     Ok(())
+}
+
+/// The texture `name`'s values (every texel, every channel) must be finite and lie in
+/// [`lo`, `hi`] (`hi` = `f32::MAX`: not bounded above); `why` is added to the error.
+fn texture_within(
+    e: &Element,
+    name: &str,
+    t: &Texture,
+    (lo, hi): (f32, f32),
+    why: &str,
+) -> Result<(), SceneError> {
+    let (min, max) = t.range();
+    if min >= lo && max <= hi && min.is_finite() && max.is_finite() {
+        return Ok(());
+    }
+    let bounds = match hi {
+        f32::MAX if lo == 0.0 => "be finite and not negative".to_string(),
+        f32::MAX => format!("be finite and at least {lo}"),
+        _ => format!("lie between {lo} and {hi}"),
+    };
+    Err(e.error(format!("{name}: the texture's values span {min} to {max}; they must {bounds}{why}")))
 }
