@@ -208,18 +208,15 @@ impl SphereLanes {
         let floor = s(1e-6);
         let rho = x.reflected;
         let reflected = q.reflected[0] * s(rho.x) + q.reflected[1] * s(rho.y) + q.reflected[2] * s(rho.z);
+        // Whether each end transmits: its cosines count on either side, as no_light_in's planes.
+        let (tx, tp) = (BVec4A::splat(x.transmits), q.transmits.cmpgt(Vec4::ZERO));
         // The receiver's shading cosine, the sphere's geometric one (the adjoint correction).
-        let (na_side, ma_side) = (
-            Vec4::select(BVec4A::splat(x.transmits), na.abs(), na),
-            Vec4::select(q.transmits.cmpgt(Vec4::ZERO), ma.abs(), ma),
-        );
+        let (na_side, ma_side) = (Vec4::select(tx, na.abs(), na), Vec4::select(tp, ma.abs(), ma));
         let p = reflected * widest(na_side).max(floor) * widest(ma_side).max(floor) * solid;
         // Where without_sampling returns zero; the same margin as no_light_in.
         let behind = -(sin_max + s(1e-4));
         let same_normal =
             q.vpl.ng[0].cmpeq(s(x.ng.x)) & q.vpl.ng[1].cmpeq(s(x.ng.y)) & q.vpl.ng[2].cmpeq(s(x.ng.z));
-        // A transmitting end's cosines count on either side, as no_light_in's planes.
-        let (tx, tp) = (BVec4A::splat(x.transmits), q.transmits.cmpgt(Vec4::ZERO));
         let dark = dist2.cmple(Vec4::ZERO)
             | q.radius.cmple(Vec4::ZERO)
             | (same_normal & !(tx | tp))
