@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # pir's path tracer against Mitsuba 3's, side by side (issue 13): the Cornell box, the
-# mirror-and-glass box and the Cornell box with the bunny, each rendered by both at the same
-# sample count, with each one's wall time (the whole process: start-up, scene load, BVH build,
-# for Mitsuba its JIT), its CPU time (user + system, all threads), relative MSE against the
+# mirror-and-glass box, the Cornell box with the bunny and Veach's MIS scene in Mitsuba's own
+# XML, each rendered by both at the same sample count, with each one's wall time (the whole
+# process: start-up, scene load, BVH build, for Mitsuba its JIT), its CPU time (user + system, all threads), relative MSE against the
 # reference (`pir compare`: mean over pixels and channels of (x − r)² / (r² + 0.01)) and
 # efficiency = 1 / (relative MSE × wall time). The last columns are pir's efficiency over
 # Mitsuba's (≥ 1: pir is at least as efficient), by wall time and by CPU time; on a machine
