@@ -7,7 +7,8 @@
 
 use glam::Vec3;
 
-use super::direct::sample_emitters;
+use super::deferred::{Deferred, LightSamples};
+use super::direct::{connect_emitters_at, power_heuristic, sample_emitters};
 use super::walker::{Estimator, Vertex, walk};
 use super::wavefront::walk_batch;
 use super::{Counters, Integrator, RenderContext};
@@ -36,6 +37,21 @@ impl Estimator for PathTracer {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters);
     }
+
+    #[inline(always)]
+    fn at_vertex_deferred(
+        &self,
+        _: &mut (),
+        ctx: &RenderContext,
+        v: &Vertex,
+        _beta: Vec3,
+        _radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        deferred: &mut Deferred,
+    ) {
+        light_sample_to(ctx, v, sampler, counters, deferred);
+    }
 }
 
 /// One light sample at the non-delta vertex `v`, weighed against BSDF sampling by the power
@@ -50,6 +66,21 @@ pub fn light_sample(
     counters: &mut Counters,
 ) {
     *radiance += beta * sample_emitters(ctx, v.sp, v.bsdf, v.wo, sampler, counters);
+}
+
+/// [`light_sample`] put in `samples` ([`LightSamples`]): the same draws, the same value.
+#[inline(always)]
+pub fn light_sample_to(
+    ctx: &RenderContext,
+    v: &Vertex,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+    samples: &mut impl LightSamples,
+) {
+    let u_select = sampler.next_f32();
+    let u = sampler.next_2d();
+    let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, (u_select, u), counters);
+    samples.add(ctx, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf));
 }
 
 impl Integrator for PathTracer {
@@ -73,6 +104,6 @@ impl Integrator for PathTracer {
         counters: &mut Counters,
         out: &mut [Vec3],
     ) {
-        walk_batch(ctx, rays, samplers, counters, out);
+        walk_batch(ctx, self, rays, samplers, counters, out);
     }
 }

@@ -42,6 +42,7 @@
 
 use glam::Vec3;
 
+use super::deferred::Deferred;
 use super::direct::{Sampled, emission, environment};
 use super::scatter::{scatter, survives_roulette};
 use super::{Counters, RenderContext};
@@ -135,6 +136,40 @@ pub trait Estimator {
         sampler: &mut Sampler,
         counters: &mut Counters,
     );
+
+    /// [`Estimator::at_vertex`] for a batched walker: the same draws and the same terms, the
+    /// light samples put in `deferred` (with the vertex's own term after them,
+    /// [`Deferred::then`]), to be added by [`Estimator::finish_vertex`] once the batch's
+    /// shadow rays are traced. By default [`Estimator::at_vertex`] itself, nothing deferred.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn at_vertex_deferred(
+        &self,
+        state: &mut Self::State,
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        _deferred: &mut Deferred,
+    ) {
+        self.at_vertex(state, ctx, v, beta, radiance, sampler, counters);
+    }
+
+    /// What [`Estimator::at_vertex_deferred`] parked at a vertex of throughput `beta`, added
+    /// to the path's `radiance` as [`Estimator::at_vertex`] adds it: the light samples'
+    /// values (zero where occluded) in their order, and the vertex's own term. By default
+    /// each sample times `beta`, then the term times `beta`.
+    #[inline(always)]
+    fn finish_vertex(&self, beta: Vec3, samples: &[Vec3], then: Option<Vec3>, radiance: &mut Vec3) {
+        for &s in samples {
+            *radiance += beta * s;
+        }
+        if let Some(t) = then {
+            *radiance += beta * t;
+        }
+    }
 
     /// After the BSDF at `v` (delta or not) sampled the direction the path continues in, and
     /// before Russian roulette.
