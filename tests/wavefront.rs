@@ -56,9 +56,14 @@ struct Agreement {
     largest: f32,
 }
 
+/// The method named `method` with its default parameters.
+fn config(method: &str) -> MethodConfig {
+    MethodConfig::new(method.parse().unwrap())
+}
+
 /// The integrator of the method named `method` for `scene`.
 fn integrator(method: &str, scene: &Scene) -> Box<dyn Integrator> {
-    MethodConfig::new(method.parse().unwrap()).integrator(scene.bounds().diagonal())
+    config(method).integrator(scene.bounds().diagonal())
 }
 
 /// Every camera path of `iterations` iterations at `width` × `height`, traced by `method`'s
@@ -66,7 +71,7 @@ fn integrator(method: &str, scene: &Scene) -> Box<dyn Integrator> {
 /// panics unless both draw the same numbers and count the same rays.
 #[allow(clippy::too_many_arguments)]
 fn compare_paths(
-    method: &str,
+    method: &MethodConfig,
     scene: &Scene,
     backend: Backend,
     (width, height): (usize, usize),
@@ -78,7 +83,7 @@ fn compare_paths(
     let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
     let job = Job { width, height, max_depth, seed: 3, sampler, ..Job::default() };
     let camera = scene.camera().with_resolution(width as u32, height as u32).rays();
-    let mut integrator = integrator(method, scene);
+    let mut integrator = method.integrator(scene.bounds().diagonal());
     job.with_context_on(scene, accel.as_ref(), |ctx| {
         let mut agreement = Agreement::default();
         integrator.set_camera(camera);
@@ -130,7 +135,8 @@ fn compare_paths(
 /// `method` has the scalar walker's estimate bit for bit, for both samplers, in batches of
 /// any size (brute force on the Cornell boxes only: it is slow on the tessellated spheres),
 /// on `scenes` (indices into [`SCENES`]).
-fn same_paths_on_the_bvh(method: &str, scenes: &[usize]) {
+fn same_paths_on_the_bvh(method: &MethodConfig, scenes: &[usize]) {
+    let name = method.method.name();
     for &k in scenes {
         let path = SCENES[k];
         let scene = load(path);
@@ -139,12 +145,12 @@ fn same_paths_on_the_bvh(method: &str, scenes: &[usize]) {
         for (sampler, batch) in [(SamplerKind::Sobol, 256), (SamplerKind::Independent, 7)] {
             for &backend in backends {
                 let a = compare_paths(method, &scene, backend, (24, 20), 3, depth, sampler, batch);
-                assert_eq!(a.differing, 0, "{method}, {path}, {backend}, {sampler:?}: {a:?}");
+                assert_eq!(a.differing, 0, "{name}, {path}, {backend}, {sampler:?}: {a:?}");
             }
         }
         // A short path: the walk ends at max_depth after the emission it finds.
         let a = compare_paths(method, &scene, Backend::Bvh, (24, 20), 2, 2, SamplerKind::Sobol, 64);
-        assert_eq!(a.differing, 0, "{method}, {path}, max_depth 2: {a:?}");
+        assert_eq!(a.differing, 0, "{name}, {path}, max_depth 2: {a:?}");
     }
 }
 
@@ -153,14 +159,17 @@ const ALL: &[usize] = &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9];
 
 #[test]
 fn batched_paths_are_the_scalar_paths_on_the_bvh() {
-    same_paths_on_the_bvh("pt", ALL);
+    same_paths_on_the_bvh(&config("pt"), ALL);
 }
 
-/// `pir-bdpt`'s camera paths: next-event estimation with several light samples at the first
-/// vertex, the gather, the weights' per-path sums.
+/// `pir-bdpt`'s camera paths: next-event estimation with as many light samples at the first
+/// vertex as the scene asks for, and with four, the gather, the weights' per-path sums.
 #[test]
 fn bdpt_batched_paths_are_the_scalar_paths_on_the_bvh() {
-    same_paths_on_the_bvh("pir-bdpt", ALL);
+    same_paths_on_the_bvh(&config("pir-bdpt"), ALL);
+    let mut four = config("pir-bdpt");
+    four.params.light_samples = Some(4);
+    same_paths_on_the_bvh(&four, &[0, 1, 3, 4]);
 }
 
 /// The forward many-light methods' covered walks (points, spheres, and `pir-mis`'s bounces
@@ -169,7 +178,7 @@ fn bdpt_batched_paths_are_the_scalar_paths_on_the_bvh() {
 #[test]
 fn many_light_batched_paths_are_the_scalar_paths_on_the_bvh() {
     for method in ["pir-mis", "pir-clamp", "pir-vsl", "ir"] {
-        same_paths_on_the_bvh(method, &[1, 3, 4, 8]);
+        same_paths_on_the_bvh(&config(method), &[1, 3, 4, 8]);
     }
 }
 
@@ -188,8 +197,16 @@ fn batched_paths_are_the_scalar_paths_on_embree() {
         for path in SCENES {
             let scene = load(path);
             let depth = scene.defaults().max_depth;
-            let a =
-                compare_paths(method, &scene, Backend::Embree, (24, 20), 3, depth, SamplerKind::Sobol, 256);
+            let a = compare_paths(
+                &config(method),
+                &scene,
+                Backend::Embree,
+                (24, 20),
+                3,
+                depth,
+                SamplerKind::Sobol,
+                256,
+            );
             assert_eq!(a.differing, 0, "{method}, {path}: {a:?}");
         }
     }
