@@ -1,14 +1,15 @@
-//! Light samples whose shadow rays wait: where an estimator puts the light samples of a
-//! camera vertex ([`LightSamples`]), either tested at once ([`Summed`], the scalar walker's)
-//! or parked with the vertex's other terms until a batched walker has traced the shadow rays
-//! of all its paths' vertices together ([`Deferred`],
-//! [`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch)).
+//! Terms whose shadow rays wait: what a camera vertex adds to its path, kept by a batched
+//! walker until it has traced the shadow rays of all its paths' vertices together
+//! ([`Deferred`],
+//! [`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch)), and where an
+//! estimator puts light samples that it sums before weighing them ([`LightSamples`]: tested
+//! at once by the scalar walker, [`Summed`], or kept by [`Deferred`]).
 //!
-//! Both give each sample the value [`sample_emitters_at`](super::direct::sample_emitters_at)
-//! gives it (zero where it connects to nothing or is occluded), and a parked vertex's values
-//! come back in the order its samples were added, so that an estimator adds the same terms
-//! in the same order either way ([`super::walker::Estimator::finish_vertex`]): the image does
-//! not depend on the walker.
+//! A light sample's value is the one
+//! [`sample_emitters_at`](super::direct::sample_emitters_at) gives it (zero where it connects
+//! to nothing or is occluded), and a path's terms are added in the order the estimator gave
+//! them, each computed as the scalar walker computes it, so that the image does not depend on
+//! the walker.
 
 use glam::Vec3;
 
@@ -16,7 +17,7 @@ use super::RenderContext;
 use super::direct::{Connection, LightSample};
 use crate::geometry::Ray;
 
-/// Where an estimator puts the light samples of a camera vertex.
+/// Where an estimator puts light samples that it sums (then weighs by their count).
 pub trait LightSamples {
     /// A light sample connected to the vertex (`None`: it adds nothing, visible or not), its
     /// contribution weighed by `weight` where nothing blocks its shadow ray.
@@ -40,40 +41,82 @@ impl LightSamples for Summed {
     }
 }
 
-/// Where a shadow ray is not needed ([`Parked`]).
+/// Where a term needs no shadow ray.
 const NO_SHADOW: u32 = u32::MAX;
 
-/// The terms of one camera vertex waiting for its light samples' shadow rays.
+/// What a kept term does to its path, its value zero where its shadow ray is blocked.
 #[derive(Clone, Copy, Debug)]
-struct Parked {
-    /// The path's index in the batch.
-    path: u32,
-    /// The path throughput at the vertex.
-    beta: Vec3,
-    /// The vertex's samples, `Deferred::samples[start..end]`.
-    start: u32,
-    end: u32,
-    /// What the estimator adds after the light samples (e.g. its gather), if anything.
-    then: Option<Vec3>,
+enum Op {
+    /// Adds `beta · value` to the path's radiance.
+    Add,
+    /// Adds `value` to the running sum of the vertex's light samples.
+    Sum,
+    /// Adds `beta · (sum / n)` to the path's radiance and starts a new sum.
+    Mean { n: f32 },
 }
 
-/// The light samples of a bounce's vertices, across a batch of paths, with their shadow rays
-/// to trace together; buffers kept across bounces.
+/// A term of a path kept for the batch's shadow rays.
+#[derive(Clone, Copy, Debug)]
+struct Term {
+    path: u32,
+    /// The index of its shadow ray, or [`NO_SHADOW`].
+    shadow: u32,
+    op: Op,
+    beta: Vec3,
+    value: Vec3,
+}
+
+/// The terms of a bounce's vertices, across a batch of paths, with their shadow rays to
+/// trace together; buffers kept across bounces. The walker names the path whose vertex it
+/// shades ([`Deferred::at`]); the terms an estimator gives are that path's.
 #[derive(Default)]
 pub struct Deferred {
-    vertices: Vec<Parked>,
-    /// Each sample's value where unoccluded and its shadow ray's index (or [`NO_SHADOW`]).
-    samples: Vec<(Vec3, u32)>,
+    path: u32,
+    terms: Vec<Term>,
     shadows: Vec<Ray>,
     blocked: Vec<bool>,
-    values: Vec<Vec3>,
 }
 
 impl LightSamples for Deferred {
+    /// A light sample of the vertex's sum ([`Deferred::mean`] adds it).
     #[inline(always)]
     fn add(&mut self, _: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
-        let sample = match c {
-            None => (Vec3::ZERO, NO_SHADOW),
+        self.push(Op::Sum, Vec3::ZERO, c, weight);
+    }
+}
+
+impl Deferred {
+    /// The terms given from now on are path `path`'s.
+    #[inline(always)]
+    pub(crate) fn at(&mut self, path: u32) {
+        self.path = path;
+    }
+
+    /// A light sample connected to the vertex (`None`: it adds nothing), added times `beta`
+    /// where nothing blocks its shadow ray, weighed by `weight`.
+    #[inline(always)]
+    pub fn sample(&mut self, beta: Vec3, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
+        self.push(Op::Add, beta, c, weight);
+    }
+
+    /// `beta · value`, added after the terms before it.
+    #[inline(always)]
+    pub fn add(&mut self, beta: Vec3, value: Vec3) {
+        self.terms.push(Term { path: self.path, shadow: NO_SHADOW, op: Op::Add, beta, value });
+    }
+
+    /// `beta` times the mean of the `n` light samples given since the last mean
+    /// ([`LightSamples::add`]), added after the terms before it.
+    #[inline(always)]
+    pub fn mean(&mut self, beta: Vec3, n: u32) {
+        let op = Op::Mean { n: n as f32 };
+        self.terms.push(Term { path: self.path, shadow: NO_SHADOW, op, beta, value: Vec3::ZERO });
+    }
+
+    #[inline(always)]
+    fn push(&mut self, op: Op, beta: Vec3, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
+        let (shadow, value) = match c {
+            None => (NO_SHADOW, Vec3::ZERO),
             Some(c) => {
                 let shadow = match c.shadow {
                     None => NO_SHADOW,
@@ -82,71 +125,37 @@ impl LightSamples for Deferred {
                         (self.shadows.len() - 1) as u32
                     }
                 };
-                (c.value(weight), shadow)
+                (shadow, c.value(weight))
             }
         };
-        self.samples.push(sample);
-    }
-}
-
-impl Deferred {
-    /// Forgets every parked vertex (the buffers are kept).
-    pub(crate) fn clear(&mut self) {
-        self.vertices.clear();
-        self.samples.clear();
-        self.shadows.clear();
+        self.terms.push(Term { path: self.path, shadow, op, beta, value });
     }
 
-    /// Starts parking a vertex of path `path` whose throughput is `beta`: what
-    /// [`LightSamples::add`] and [`Deferred::then`] add until [`Deferred::close`] is its.
+    /// Traces the kept shadow rays as one batch and gives each path's terms, in the order
+    /// they were kept, to `add` (the path, and what it adds to the path's radiance); then
+    /// forgets them.
     #[inline(always)]
-    pub(crate) fn open(&mut self, path: u32, beta: Vec3) {
-        let start = self.samples.len() as u32;
-        self.vertices.push(Parked { path, beta, start, end: start, then: None });
-    }
-
-    /// What the open vertex adds after its light samples: the estimator's own term.
-    #[inline(always)]
-    pub fn then(&mut self, value: Vec3) {
-        if let Some(v) = self.vertices.last_mut() {
-            v.then = Some(value);
-        }
-    }
-
-    /// Ends the open vertex; one that parked nothing is forgotten.
-    #[inline(always)]
-    pub(crate) fn close(&mut self) {
-        let end = self.samples.len() as u32;
-        if let Some(v) = self.vertices.last_mut() {
-            v.end = end;
-            if v.start == end && v.then.is_none() {
-                self.vertices.pop();
-            }
-        }
-    }
-
-    /// Traces the parked shadow rays as one batch and hands each parked vertex, in the order
-    /// they were parked, to `add`: its path, throughput, samples' values (zero where
-    /// occluded), in the order they were added, and its own term. Then clears.
-    pub(crate) fn finish(
-        &mut self,
-        ctx: &RenderContext,
-        mut add: impl FnMut(u32, Vec3, &[Vec3], Option<Vec3>),
-    ) {
+    pub(crate) fn finish(&mut self, ctx: &RenderContext, mut add: impl FnMut(u32, Vec3)) {
         if !self.shadows.is_empty() {
             self.blocked.clear();
             self.blocked.resize(self.shadows.len(), false);
             ctx.accel.occluded_batch(&self.shadows, &mut self.blocked);
         }
-        for v in &self.vertices {
-            self.values.clear();
-            self.values.extend(self.samples[v.start as usize..v.end as usize].iter().map(
-                |&(value, shadow)| {
-                    if shadow != NO_SHADOW && self.blocked[shadow as usize] { Vec3::ZERO } else { value }
-                },
-            ));
-            add(v.path, v.beta, &self.values, v.then);
+        // (A vertex's samples and their mean are consecutive terms of one path.)
+        let mut sum = Vec3::ZERO;
+        for t in &self.terms {
+            let value =
+                if t.shadow != NO_SHADOW && self.blocked[t.shadow as usize] { Vec3::ZERO } else { t.value };
+            match t.op {
+                Op::Add => add(t.path, t.beta * value),
+                Op::Sum => sum += value,
+                Op::Mean { n } => {
+                    add(t.path, t.beta * (sum / n));
+                    sum = Vec3::ZERO;
+                }
+            }
         }
-        self.clear();
+        self.terms.clear();
+        self.shadows.clear();
     }
 }

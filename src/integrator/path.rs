@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::deferred::{Deferred, LightSamples};
+use super::deferred::Deferred;
 use super::direct::{connect_emitters_at, power_heuristic, sample_emitters};
 use super::walker::{Estimator, Vertex, walk};
 use super::wavefront::walk_batch;
@@ -44,13 +44,13 @@ impl Estimator for PathTracer {
         _: &mut (),
         ctx: &RenderContext,
         v: &Vertex,
-        _beta: Vec3,
+        beta: Vec3,
         _radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        light_sample_to(ctx, v, sampler, counters, deferred);
+        light_sample_deferred(ctx, v, beta, sampler, counters, deferred);
     }
 }
 
@@ -68,19 +68,20 @@ pub fn light_sample(
     *radiance += beta * sample_emitters(ctx, v.sp, v.bsdf, v.wo, sampler, counters);
 }
 
-/// [`light_sample`] put in `samples` ([`LightSamples`]): the same draws, the same value.
+/// [`light_sample`] with its shadow ray left to `deferred`: the same draws, the same term.
 #[inline(always)]
-pub fn light_sample_to(
+pub fn light_sample_deferred(
     ctx: &RenderContext,
     v: &Vertex,
+    beta: Vec3,
     sampler: &mut Sampler,
     counters: &mut Counters,
-    samples: &mut impl LightSamples,
+    deferred: &mut Deferred,
 ) {
     let u_select = sampler.next_f32();
     let u = sampler.next_2d();
     let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, (u_select, u), counters);
-    samples.add(ctx, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf));
+    deferred.sample(beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf));
 }
 
 impl Integrator for PathTracer {

@@ -137,10 +137,10 @@ pub trait Estimator {
         counters: &mut Counters,
     );
 
-    /// [`Estimator::at_vertex`] for a batched walker: the same draws and the same terms, the
-    /// light samples put in `deferred` (with the vertex's own term after them,
-    /// [`Deferred::then`]), to be added by [`Estimator::finish_vertex`] once the batch's
-    /// shadow rays are traced. By default [`Estimator::at_vertex`] itself, nothing deferred.
+    /// [`Estimator::at_vertex`] for a batched walker: the same draws, the same terms in the
+    /// same order, those that wait for a shadow ray (and every term after them) given to
+    /// `deferred` instead of added to `radiance`, which adds them once the batch's shadow rays
+    /// are traced. By default [`Estimator::at_vertex`] itself, nothing deferred.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn at_vertex_deferred(
@@ -155,20 +155,6 @@ pub trait Estimator {
         _deferred: &mut Deferred,
     ) {
         self.at_vertex(state, ctx, v, beta, radiance, sampler, counters);
-    }
-
-    /// What [`Estimator::at_vertex_deferred`] parked at a vertex of throughput `beta`, added
-    /// to the path's `radiance` as [`Estimator::at_vertex`] adds it: the light samples'
-    /// values (zero where occluded) in their order, and the vertex's own term. By default
-    /// each sample times `beta`, then the term times `beta`.
-    #[inline(always)]
-    fn finish_vertex(&self, beta: Vec3, samples: &[Vec3], then: Option<Vec3>, radiance: &mut Vec3) {
-        for &s in samples {
-            *radiance += beta * s;
-        }
-        if let Some(t) = then {
-            *radiance += beta * t;
-        }
     }
 
     /// After the BSDF at `v` (delta or not) sampled the direction the path continues in, and

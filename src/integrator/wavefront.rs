@@ -10,9 +10,9 @@
 //! each hit in the batch's order with the scalar walker's loop body ([`super::walker::walk`]:
 //! the emission found there, the estimator's terms at the vertex, the BSDF sample, Russian
 //! roulette), except that the light samples of the estimator's terms stop at their shadow
-//! rays, which are collected with what the vertex adds ([`Deferred`],
-//! [`Estimator::at_vertex_deferred`]); trace the collected shadow rays; add each parked
-//! vertex's terms to its path ([`Estimator::finish_vertex`]). Every path draws the same
+//! rays, which are collected with the terms that wait for them ([`Deferred`],
+//! [`Estimator::at_vertex_deferred`]); trace the collected shadow rays; add the kept terms
+//! to their paths, each path's in its order. Every path draws the same
 //! dimensions of its own sampler in the same order as the scalar walker, and adds the same
 //! terms in the same order (emission at depth d, the terms of the vertex at d, emission at
 //! d + 1, …), computed by the same functions; so each path's estimate is the scalar
@@ -131,9 +131,7 @@ pub fn walk_batch<E: Estimator>(
         }
         b.live.truncate(kept);
 
-        b.deferred.finish(ctx, |i, beta, samples, then| {
-            estimator.finish_vertex(beta, samples, then, &mut paths[i as usize].radiance);
-        });
+        b.deferred.finish(ctx, |i, term| paths[i as usize].radiance += term);
     }
     for (o, p) in out.iter_mut().zip(&paths) {
         *o = p.radiance;
@@ -141,7 +139,7 @@ pub fn walk_batch<E: Estimator>(
 }
 
 /// One step of path `index`, whose ray found `hit`: the scalar walker's loop body, with the
-/// light samples of the estimator's terms at the vertex parked in `deferred` instead of
+/// light samples of the estimator's terms at the vertex kept in `deferred` instead of
 /// tested. Whether the path goes on (its next ray in `path.ray`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -185,10 +183,9 @@ fn bounce<E: Estimator>(
     let bsdf = &material.bsdf_at(sp.uv);
     let v = Vertex { sp: &sp, wo, bsdf, depth };
     if !bsdf.is_delta() {
-        deferred.open(index, path.beta);
+        deferred.at(index);
         let (state, radiance) = (&mut path.state, &mut path.radiance);
         estimator.at_vertex_deferred(state, ctx, &v, path.beta, radiance, sampler, counters, deferred);
-        deferred.close();
     }
 
     // ---- BSDF sampling and Russian roulette.

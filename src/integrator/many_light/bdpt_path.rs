@@ -105,16 +105,6 @@ impl Bidirectional<'_> {
         let max_vpl_depth = ctx.max_depth - depth - 1;
         Some(self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
     }
-
-    /// What a vertex adds to the path's `radiance` at throughput `beta`: the mean of its `n`
-    /// light samples (`direct` their sum), then the gather where it connects.
-    #[inline(always)]
-    fn add_vertex(&self, beta: Vec3, direct: Vec3, n: u32, gathered: Option<Vec3>, radiance: &mut Vec3) {
-        *radiance += beta * (direct / n as f32);
-        if let Some(g) = gathered {
-            *radiance += beta * g;
-        }
-    }
 }
 
 impl Estimator for Bidirectional<'_> {
@@ -210,35 +200,31 @@ impl Estimator for Bidirectional<'_> {
     ) {
         let mut direct = Summed::default();
         let gathered = self.vertex(path, ctx, v, sampler, counters, &mut direct);
-        self.add_vertex(beta, direct.sum, self.samples_at(path), gathered, radiance);
+        *radiance += beta * (direct.sum / self.samples_at(path) as f32);
+        if let Some(g) = gathered {
+            *radiance += beta * g;
+        }
     }
 
-    /// [`Bidirectional::at_vertex`] with the light samples' shadow rays and the gather parked.
+    /// [`Bidirectional::at_vertex`] with the light samples' shadow rays deferred (and the
+    /// gather after them).
     #[inline]
     fn at_vertex_deferred(
         &self,
         path: &mut CameraPath,
         ctx: &RenderContext,
         v: &Vertex,
-        _beta: Vec3,
+        beta: Vec3,
         _radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        if let Some(gathered) = self.vertex(path, ctx, v, sampler, counters, deferred) {
-            deferred.then(gathered);
+        let gathered = self.vertex(path, ctx, v, sampler, counters, deferred);
+        deferred.mean(beta, self.samples_at(path));
+        if let Some(g) = gathered {
+            deferred.add(beta, g);
         }
-    }
-
-    /// The light samples' mean, then the gather, as [`Bidirectional::at_vertex`] adds them.
-    #[inline]
-    fn finish_vertex(&self, beta: Vec3, samples: &[Vec3], then: Option<Vec3>, radiance: &mut Vec3) {
-        let mut direct = Vec3::ZERO;
-        for &s in samples {
-            direct += s;
-        }
-        self.add_vertex(beta, direct, samples.len() as u32, then, radiance);
     }
 
     /// The camera subpath's sums extended by the sampled direction.

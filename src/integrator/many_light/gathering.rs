@@ -12,7 +12,7 @@ use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
 use crate::integrator::deferred::Deferred;
 use crate::integrator::direct::{LightSample, Sampled, emission_weighted, sample_emitters_weighted};
-use crate::integrator::path::{light_sample, light_sample_to};
+use crate::integrator::path::{light_sample, light_sample_deferred};
 use crate::integrator::scatter::scatter;
 use crate::integrator::walker::{Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
@@ -47,22 +47,23 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
         *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
     }
 
-    /// [`Gathering::at_vertex`] with the light sample's shadow ray and the gather parked.
+    /// [`Gathering::at_vertex`] with the light sample's shadow ray deferred (and the gather
+    /// after it).
     #[inline]
     fn at_vertex_deferred(
         &self,
         _: &mut (),
         ctx: &RenderContext,
         v: &Vertex,
-        _beta: Vec3,
+        beta: Vec3,
         _radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        light_sample_to(ctx, v, sampler, counters, deferred);
+        light_sample_deferred(ctx, v, beta, sampler, counters, deferred);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        deferred.then(self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters));
+        deferred.add(beta, self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters));
     }
 }
 
@@ -112,22 +113,22 @@ impl Estimator for WeighedGathering<'_> {
         *radiance += beta * self.gather(ctx, v, sampler, counters);
     }
 
-    /// [`WeighedGathering::at_vertex`] with the light sample's shadow ray and the gather
-    /// parked.
+    /// [`WeighedGathering::at_vertex`] with the light sample's shadow ray deferred (and the
+    /// gather after it).
     #[inline]
     fn at_vertex_deferred(
         &self,
         _: &mut (),
         ctx: &RenderContext,
         v: &Vertex,
-        _beta: Vec3,
+        beta: Vec3,
         _radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        light_sample_to(ctx, v, sampler, counters, deferred);
-        deferred.then(self.gather(ctx, v, sampler, counters));
+        light_sample_deferred(ctx, v, beta, sampler, counters, deferred);
+        deferred.add(beta, self.gather(ctx, v, sampler, counters));
     }
 
     #[inline]
