@@ -12,11 +12,11 @@
 //! roulette), except that the light samples of the estimator's terms stop at their shadow
 //! rays, which are collected with the terms that wait for them ([`Deferred`],
 //! [`Estimator::at_vertex_deferred`]); trace the collected shadow rays; add the kept terms
-//! to their paths, each path's in its order. Every path draws the same
-//! dimensions of its own sampler in the same order as the scalar walker, and adds the same
-//! terms in the same order (emission at depth d, the terms of the vertex at d, emission at
-//! d + 1, …), computed by the same functions; so each path's estimate is the scalar
-//! walker's, bit for bit, wherever the batch queries answer as the single-ray ones do: the
+//! to their paths, each path's in its order. Every path draws the same dimensions of its own
+//! sampler in the same order as the scalar walker, and adds the same terms in the same order
+//! (emission at depth d, the terms of the vertex at d, emission at d + 1, …), computed by
+//! the same functions; so each path's estimate is the scalar walker's, bit for bit,
+//! wherever the batch queries answer as the single-ray ones do: the
 //! BVH's and brute force's batch queries are their single-ray ones; Embree's packet kernels
 //! are other code than its single-ray kernel, but gave the same hits bit for bit wherever
 //! measured (Embree 3.13.5, AVX-512: every path of `tests/wavefront.rs`, and 256 × 256 × 16
