@@ -51,8 +51,9 @@ enum Op {
     Add,
     /// Adds `value` to the running sum of the vertex's light samples.
     Sum,
-    /// Adds `beta · (sum / n)` to the path's radiance and starts a new sum.
-    Mean { n: f32 },
+    /// Adds `beta · (sum / n)` to the path's radiance and starts a new sum, `n` in the
+    /// term's `value.x`.
+    Mean,
 }
 
 /// A term of a path kept for the batch's shadow rays.
@@ -68,10 +69,15 @@ struct Term {
 
 /// The terms of a bounce's vertices, across a batch of paths, with their shadow rays to
 /// trace together; buffers kept across bounces. The walker names the path whose vertex it
-/// shades ([`Deferred::at`]); the terms an estimator gives are that path's.
+/// shades ([`Deferred::at`]); the terms an estimator gives are that path's. A term that needs
+/// no shadow ray, before the path's first that does, is added to the path's radiance at once
+/// (the scalar walker's order is kept either way, and most of `pt`'s light samples that add
+/// nothing need no shadow ray).
 #[derive(Default)]
 pub struct Deferred {
     path: u32,
+    /// Whether a term of the current path is kept (the terms after it wait too).
+    waiting: bool,
     terms: Vec<Term>,
     shadows: Vec<Ray>,
     blocked: Vec<bool>,
@@ -81,41 +87,65 @@ impl LightSamples for Deferred {
     /// A light sample of the vertex's sum ([`Deferred::mean`] adds it).
     #[inline(always)]
     fn add(&mut self, _: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
-        self.push(Op::Sum, Vec3::ZERO, c, weight);
+        let (shadow, value) = self.connect(c, weight);
+        self.keep(Term { path: self.path, shadow, op: Op::Sum, beta: Vec3::ZERO, value });
     }
 }
 
 impl Deferred {
-    /// The terms given from now on are path `path`'s.
+    /// The terms given from now on are path `path`'s, none of whose terms waits.
     #[inline(always)]
     pub(crate) fn at(&mut self, path: u32) {
         self.path = path;
+        self.waiting = false;
     }
 
     /// A light sample connected to the vertex (`None`: it adds nothing), added times `beta`
-    /// where nothing blocks its shadow ray, weighed by `weight`.
+    /// to the path's `radiance` where nothing blocks its shadow ray, weighed by `weight`.
     #[inline(always)]
-    pub fn sample(&mut self, beta: Vec3, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
-        self.push(Op::Add, beta, c, weight);
+    pub fn sample(
+        &mut self,
+        beta: Vec3,
+        c: Option<Connection>,
+        weight: impl FnOnce(LightSample) -> f32,
+        radiance: &mut Vec3,
+    ) {
+        let (shadow, value) = self.connect(c, weight);
+        if shadow == NO_SHADOW && !self.waiting {
+            *radiance += beta * value;
+        } else {
+            self.keep(Term { path: self.path, shadow, op: Op::Add, beta, value });
+        }
     }
 
-    /// `beta · value`, added after the terms before it.
+    /// `beta · value`, added to the path's `radiance` after the terms before it.
     #[inline(always)]
-    pub fn add(&mut self, beta: Vec3, value: Vec3) {
-        self.terms.push(Term { path: self.path, shadow: NO_SHADOW, op: Op::Add, beta, value });
+    pub fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
+        if self.waiting {
+            self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Add, beta, value });
+        } else {
+            *radiance += beta * value;
+        }
     }
 
     /// `beta` times the mean of the `n` light samples given since the last mean
     /// ([`LightSamples::add`]), added after the terms before it.
     #[inline(always)]
     pub fn mean(&mut self, beta: Vec3, n: u32) {
-        let op = Op::Mean { n: n as f32 };
-        self.terms.push(Term { path: self.path, shadow: NO_SHADOW, op, beta, value: Vec3::ZERO });
+        let value = Vec3::new(n as f32, 0.0, 0.0);
+        self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Mean, beta, value });
     }
 
     #[inline(always)]
-    fn push(&mut self, op: Op, beta: Vec3, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
-        let (shadow, value) = match c {
+    fn keep(&mut self, term: Term) {
+        self.terms.push(term);
+        self.waiting = true;
+    }
+
+    /// A light sample's shadow ray (kept) and its value where unoccluded.
+    #[inline(always)]
+    fn connect(&mut self, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) -> (u32, Vec3) {
+        match c {
             None => (NO_SHADOW, Vec3::ZERO),
             Some(c) => {
                 let shadow = match c.shadow {
@@ -127,8 +157,7 @@ impl Deferred {
                 };
                 (shadow, c.value(weight))
             }
-        };
-        self.terms.push(Term { path: self.path, shadow, op, beta, value });
+        }
     }
 
     /// Traces the kept shadow rays as one batch and gives each path's terms, in the order
@@ -149,8 +178,8 @@ impl Deferred {
             match t.op {
                 Op::Add => add(t.path, t.beta * value),
                 Op::Sum => sum += value,
-                Op::Mean { n } => {
-                    add(t.path, t.beta * (sum / n));
+                Op::Mean => {
+                    add(t.path, t.beta * (sum / t.value.x));
                     sum = Vec3::ZERO;
                 }
             }

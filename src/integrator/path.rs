@@ -45,12 +45,12 @@ impl Estimator for PathTracer {
         ctx: &RenderContext,
         v: &Vertex,
         beta: Vec3,
-        _radiance: &mut Vec3,
+        radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        light_sample_deferred(ctx, v, beta, sampler, counters, deferred);
+        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
     }
 }
 
@@ -74,6 +74,7 @@ pub fn light_sample_deferred(
     ctx: &RenderContext,
     v: &Vertex,
     beta: Vec3,
+    radiance: &mut Vec3,
     sampler: &mut Sampler,
     counters: &mut Counters,
     deferred: &mut Deferred,
@@ -81,7 +82,7 @@ pub fn light_sample_deferred(
     let u_select = sampler.next_f32();
     let u = sampler.next_2d();
     let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, (u_select, u), counters);
-    deferred.sample(beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf));
+    deferred.sample(beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf), radiance);
 }
 
 impl Integrator for PathTracer {

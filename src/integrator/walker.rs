@@ -138,9 +138,10 @@ pub trait Estimator {
     );
 
     /// [`Estimator::at_vertex`] for a batched walker: the same draws, the same terms in the
-    /// same order, those that wait for a shadow ray (and every term after them) given to
-    /// `deferred` instead of added to `radiance`, which adds them once the batch's shadow rays
-    /// are traced. By default [`Estimator::at_vertex`] itself, nothing deferred.
+    /// same order, each given to `deferred` (with `radiance`), which adds it at once or, from
+    /// the first that waits for a shadow ray on, once the batch's shadow rays are traced.
+    /// Nothing of the path waits when it is called. By default [`Estimator::at_vertex`]
+    /// itself, nothing deferred.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn at_vertex_deferred(

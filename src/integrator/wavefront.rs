@@ -197,7 +197,9 @@ fn bounce<E: Estimator>(
     path.eta_scale *= s.eta * s.eta;
     estimator.on_scatter(&mut path.state, &v, &s);
     path.how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
-    path.covered = !s.delta;
+    if E::COVERS_SURFACES {
+        path.covered = !s.delta;
+    }
     if !E::COVERS_SURFACES
         && depth >= ctx.scene.defaults().rr_depth
         && !survives_roulette(path.beta.max_element() * path.eta_scale, &mut path.beta, sampler)

@@ -215,7 +215,7 @@ impl Estimator for Bidirectional<'_> {
         ctx: &RenderContext,
         v: &Vertex,
         beta: Vec3,
-        _radiance: &mut Vec3,
+        radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
@@ -223,7 +223,7 @@ impl Estimator for Bidirectional<'_> {
         let gathered = self.vertex(path, ctx, v, sampler, counters, deferred);
         deferred.mean(beta, self.samples_at(path));
         if let Some(g) = gathered {
-            deferred.add(beta, g);
+            deferred.add(beta, g, radiance);
         }
     }
 

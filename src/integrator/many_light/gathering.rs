@@ -56,14 +56,15 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
         ctx: &RenderContext,
         v: &Vertex,
         beta: Vec3,
-        _radiance: &mut Vec3,
+        radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        light_sample_deferred(ctx, v, beta, sampler, counters, deferred);
+        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        deferred.add(beta, self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters));
+        let gathered = self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
+        deferred.add(beta, gathered, radiance);
     }
 }
 
@@ -122,13 +123,14 @@ impl Estimator for WeighedGathering<'_> {
         ctx: &RenderContext,
         v: &Vertex,
         beta: Vec3,
-        _radiance: &mut Vec3,
+        radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
         deferred: &mut Deferred,
     ) {
-        light_sample_deferred(ctx, v, beta, sampler, counters, deferred);
-        deferred.add(beta, self.gather(ctx, v, sampler, counters));
+        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+        let gathered = self.gather(ctx, v, sampler, counters);
+        deferred.add(beta, gathered, radiance);
     }
 
     #[inline]
