@@ -28,7 +28,7 @@
 //! where the scalar walker traces it.
 //!
 //! Measured (`docs/speed.md`): packets of 16 and batches of a whole tile (256 paths) were the
-//! fastest for `pt` (1.2–1.3× the scalar walker's speed on Embree); `pir-bdpt` is 1.06–1.11×
+//! fastest for `pt` (1.2–1.3× the scalar walker's speed on Embree); `pir-bdpt` is 1.08–1.11×
 //! (Cornell box, near-mirror floor, glossy corner; one thread, CPU time), less because the
 //! gather, not Embree, is most of its time. Batching the closest hits gave 1.01–1.04×,
 //! deferring the shadow rays of next-event estimation into the bounce's batch the rest.
