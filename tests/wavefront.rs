@@ -1,12 +1,12 @@
-//! `pt`'s batched walker (`src/integrator/wavefront.rs`) against its scalar walker, the
-//! reference: the same estimate for every camera path, bit for bit (on the BVH and the
-//! brute-force backends, whose batch queries are their single-ray queries, and on Embree,
-//! whose packet kernels measured the same as its single-ray kernel), the same draws from
-//! every path's sampler and the same ray counts, on scenes that take every branch of the
-//! walk (glass and mirrors, glossy surfaces, an environment, a point light, emitting spheres
-//! sampled by their cones, textures, a thin lens, a short `max_depth`); and the driver's
-//! batches: the same film as ray by ray for image sizes whose edge tiles are not square, on
-//! any number of threads.
+//! The batched walker (`src/integrator/wavefront.rs`) against the scalar walker, the
+//! reference, for `pt` and every many-light method (`pir-bdpt`'s camera paths first): the same
+//! estimate for every camera path, bit for bit (on the BVH and the brute-force backends,
+//! whose batch queries are their single-ray queries, and on Embree, whose packet kernels
+//! measured the same as its single-ray kernel), the same draws from every path's sampler and
+//! the same ray counts, on scenes that take every branch of the walk (glass and mirrors,
+//! glossy surfaces, an environment, a point light, emitting spheres sampled by their cones,
+//! textures, a thin lens, a short `max_depth`); and the driver's batches: the same film as ray
+//! by ray for image sizes whose edge tiles are not square, on any number of threads.
 
 mod common;
 
@@ -15,7 +15,7 @@ use std::path::Path;
 
 use pir::accel::{Backend, build_accelerator};
 use pir::geometry::Ray;
-use pir::integrator::{Counters, Integrator, PathTracer, RayByRay};
+use pir::integrator::{Counters, Integrator, MethodConfig, RayByRay};
 use pir::sampling::{Sampler, SamplerKind, Streams};
 use pir::scene::Scene;
 
@@ -56,10 +56,22 @@ struct Agreement {
     largest: f32,
 }
 
-/// Every camera path of `iterations` iterations at `width` × `height`, traced by the batched
-/// walker (in batches of `batch`) and by the scalar walker from the same samplers; panics
-/// unless both draw the same numbers and count the same rays.
+/// The method named `method` with its default parameters.
+fn config(method: &str) -> MethodConfig {
+    MethodConfig::new(method.parse().unwrap())
+}
+
+/// The integrator of the method named `method` for `scene`.
+fn integrator(method: &str, scene: &Scene) -> Box<dyn Integrator> {
+    config(method).integrator(scene.bounds().diagonal())
+}
+
+/// Every camera path of `iterations` iterations at `width` × `height`, traced by `method`'s
+/// batched walker (in batches of `batch`) and by its scalar walker from the same samplers;
+/// panics unless both draw the same numbers and count the same rays.
+#[allow(clippy::too_many_arguments)]
 fn compare_paths(
+    method: &MethodConfig,
     scene: &Scene,
     backend: Backend,
     (width, height): (usize, usize),
@@ -71,9 +83,13 @@ fn compare_paths(
     let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
     let job = Job { width, height, max_depth, seed: 3, sampler, ..Job::default() };
     let camera = scene.camera().with_resolution(width as u32, height as u32).rays();
+    let mut integrator = method.integrator(scene.bounds().diagonal());
     job.with_context_on(scene, accel.as_ref(), |ctx| {
         let mut agreement = Agreement::default();
+        integrator.set_camera(camera);
+        integrator.prepare(ctx, &mut Counters::default());
         for iteration in 1..=iterations {
+            integrator.begin_iteration(ctx, iteration, &mut Counters::default());
             let streams = Streams::camera(sampler, job.seed, iteration);
             let mut rays = Vec::new();
             let mut samplers: Vec<Sampler> = Vec::new();
@@ -88,14 +104,14 @@ fn compare_paths(
             }
             let mut scalar_samplers = samplers.clone();
             let (mut batched, mut scalar) = (Counters::default(), Counters::default());
-            let mut out = vec![Vec3::ZERO; rays.len()];
+            let mut out = vec![Vec3::NAN; rays.len()];
             for ((rays, samplers), out) in
                 rays.chunks(batch).zip(samplers.chunks_mut(batch)).zip(out.chunks_mut(batch))
             {
-                PathTracer.radiance_batch(ctx, rays, samplers, &mut batched, out);
+                integrator.radiance_batch(ctx, rays, samplers, &mut batched, out);
             }
             for (i, (ray, s)) in rays.iter().zip(scalar_samplers.iter_mut()).enumerate() {
-                let l = PathTracer.radiance(ctx, *ray, s, &mut scalar);
+                let l = integrator.radiance(ctx, *ray, s, &mut scalar);
                 agreement.paths += 1;
                 if l.to_array().map(f32::to_bits) != out[i].to_array().map(f32::to_bits) {
                     agreement.differing += 1;
@@ -115,24 +131,54 @@ fn compare_paths(
     })
 }
 
-/// On the BVH and brute force, whose batch queries are their single-ray ones, every path's
-/// estimate is the scalar walker's bit for bit, for both samplers, in batches of any size
-/// (brute force on the Cornell boxes only: it is slow on the tessellated spheres).
-#[test]
-fn batched_paths_are_the_scalar_paths_on_the_bvh() {
-    for (k, path) in SCENES.iter().enumerate() {
+/// On the BVH and brute force, whose batch queries are their single-ray ones, every path of
+/// `method` has the scalar walker's estimate bit for bit, for both samplers, in batches of
+/// any size (brute force on the Cornell boxes only: it is slow on the tessellated spheres),
+/// on `scenes` (indices into [`SCENES`]).
+fn same_paths_on_the_bvh(method: &MethodConfig, scenes: &[usize]) {
+    let name = method.method.name();
+    for &k in scenes {
+        let path = SCENES[k];
         let scene = load(path);
         let depth = scene.defaults().max_depth;
         let backends: &[Backend] = if k < 3 { &[Backend::Bvh, Backend::Brute] } else { &[Backend::Bvh] };
         for (sampler, batch) in [(SamplerKind::Sobol, 256), (SamplerKind::Independent, 7)] {
             for &backend in backends {
-                let a = compare_paths(&scene, backend, (24, 20), 3, depth, sampler, batch);
-                assert_eq!(a.differing, 0, "{path}, {backend}, {sampler:?}: {a:?}");
+                let a = compare_paths(method, &scene, backend, (24, 20), 3, depth, sampler, batch);
+                assert_eq!(a.differing, 0, "{name}, {path}, {backend}, {sampler:?}: {a:?}");
             }
         }
         // A short path: the walk ends at max_depth after the emission it finds.
-        let a = compare_paths(&scene, Backend::Bvh, (24, 20), 2, 2, SamplerKind::Sobol, 64);
-        assert_eq!(a.differing, 0, "{path}, max_depth 2: {a:?}");
+        let a = compare_paths(method, &scene, Backend::Bvh, (24, 20), 2, 2, SamplerKind::Sobol, 64);
+        assert_eq!(a.differing, 0, "{name}, {path}, max_depth 2: {a:?}");
+    }
+}
+
+/// Every scene of [`SCENES`].
+const ALL: &[usize] = &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9];
+
+#[test]
+fn batched_paths_are_the_scalar_paths_on_the_bvh() {
+    same_paths_on_the_bvh(&config("pt"), ALL);
+}
+
+/// `pir-bdpt`'s camera paths: next-event estimation with as many light samples at the first
+/// vertex as the scene asks for, and with four, the gather, the weights' per-path sums.
+#[test]
+fn bdpt_batched_paths_are_the_scalar_paths_on_the_bvh() {
+    same_paths_on_the_bvh(&config("pir-bdpt"), ALL);
+    let mut four = config("pir-bdpt");
+    four.params.light_samples = Some(4);
+    same_paths_on_the_bvh(&four, &[0, 1, 3, 4]);
+}
+
+/// The forward many-light methods' covered walks (points, spheres, and `pir-mis`'s bounces
+/// weighed against its connections), on the scenes with delta chains, plastics, an
+/// environment and a light that is not a triangle.
+#[test]
+fn many_light_batched_paths_are_the_scalar_paths_on_the_bvh() {
+    for method in ["pir-mis", "pir-clamp", "pir-vsl", "ir"] {
+        same_paths_on_the_bvh(&config(method), &[1, 3, 4, 8]);
     }
 }
 
@@ -147,66 +193,109 @@ fn batched_paths_are_the_scalar_paths_on_embree() {
         eprintln!("built without Embree; skipped");
         return;
     }
-    for path in SCENES {
-        let scene = load(path);
-        let depth = scene.defaults().max_depth;
-        let a = compare_paths(&scene, Backend::Embree, (24, 20), 3, depth, SamplerKind::Sobol, 256);
-        assert_eq!(a.differing, 0, "{path}: {a:?}");
+    for method in ["pt", "pir-bdpt", "pir-mis"] {
+        for path in SCENES {
+            let scene = load(path);
+            let depth = scene.defaults().max_depth;
+            let a = compare_paths(
+                &config(method),
+                &scene,
+                Backend::Embree,
+                (24, 20),
+                3,
+                depth,
+                SamplerKind::Sobol,
+                256,
+            );
+            assert_eq!(a.differing, 0, "{method}, {path}: {a:?}");
+        }
     }
 }
 
 /// The driver hands the integrator its tiles' pixels in batches: the film is the ray-by-ray
 /// film for sizes whose edge tiles are narrow, short or single pixels, on 1 and 3 threads,
-/// on the BVH and the default backend (Embree where built in).
+/// on the BVH and the default backend (Embree where built in), for `pt` and `pir-bdpt` (whose
+/// light paths also splat into the film), and `pir-mis` on one size.
 #[test]
 fn driver_batches_give_the_ray_by_ray_film() {
     let scene = load("scenes/cornell-box/sphere.toml");
-    for (backend, (width, height)) in [
-        (Backend::Bvh, (37, 23)),
-        (Backend::Bvh, (17, 1)),
-        (Backend::Bvh, (1, 33)),
-        (Backend::Bvh, (16, 16)),
-        (Backend::default_available(), (37, 23)),
-    ] {
+    let cases = [
+        ("pt", Backend::Bvh, (37, 23)),
+        ("pt", Backend::Bvh, (17, 1)),
+        ("pt", Backend::Bvh, (1, 33)),
+        ("pt", Backend::Bvh, (16, 16)),
+        ("pt", Backend::default_available(), (37, 23)),
+        ("pir-bdpt", Backend::Bvh, (37, 23)),
+        ("pir-bdpt", Backend::Bvh, (1, 33)),
+        ("pir-bdpt", Backend::default_available(), (37, 23)),
+        ("pir-mis", Backend::default_available(), (37, 23)),
+    ];
+    for (method, backend, (width, height)) in cases {
         let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
         let mut films = Vec::new();
         for threads in [1, 3] {
             let job = Job { width, height, iterations: 2, threads, ..Job::default() };
-            let batched = job.run_with(&scene, accel.as_ref(), &mut PathTracer);
-            let scalar = job.run_with(&scene, accel.as_ref(), &mut RayByRay(Box::new(PathTracer)));
-            let what = format!("{backend}, {width}×{height}, {threads} threads");
+            let batched = job.run_with(&scene, accel.as_ref(), integrator(method, &scene).as_mut());
+            let scalar = job.run_with(&scene, accel.as_ref(), &mut RayByRay(integrator(method, &scene)));
+            let what = format!("{method}, {backend}, {width}×{height}, {threads} threads");
             assert_eq!(batched.film.sums(), scalar.film.sums(), "{what}");
-            assert_eq!(batched.stats.counters, scalar.stats.counters);
+            assert_eq!(batched.stats.counters, scalar.stats.counters, "{what}");
             films.push(batched.film.sums().to_vec());
         }
-        assert_eq!(films[0], films[1], "{backend}, {width}×{height}: the film depends on the threads");
+        assert_eq!(
+            films[0], films[1],
+            "{method}, {backend}, {width}×{height}: the film depends on the threads"
+        );
     }
 }
 
-/// A ray the batch holds twice, or that is not valid, is traced as the scalar walker traces it.
+/// A ray the batch holds twice, or that is not valid, is traced as the scalar walker traces
+/// it, by `pt` and `pir-bdpt`.
 #[test]
 fn degenerate_rays_in_a_batch() {
     let scene = load("scenes/cornell-box/scene.toml");
     let accel = build_accelerator(Backend::Bvh, scene.positions(), scene.indices()).unwrap();
-    Job::default().with_context_on(&scene, accel.as_ref(), |ctx| {
-        let good = Ray::new(Vec3::new(0.0, 1.0, 3.0), Vec3::NEG_Z);
-        let rays = [good, Ray::new(Vec3::NAN, Vec3::NEG_Z), good, Ray::new(Vec3::ZERO, Vec3::ZERO)];
+    for method in ["pt", "pir-bdpt"] {
+        let mut integrator = integrator(method, &scene);
+        Job::default().with_context_on(&scene, accel.as_ref(), |ctx| {
+            integrator.set_camera(scene.camera().with_resolution(16, 16).rays());
+            integrator.prepare(ctx, &mut Counters::default());
+            integrator.begin_iteration(ctx, 1, &mut Counters::default());
+            let good = Ray::new(Vec3::new(0.0, 1.0, 3.0), Vec3::NEG_Z);
+            let rays = [good, Ray::new(Vec3::NAN, Vec3::NEG_Z), good, Ray::new(Vec3::ZERO, Vec3::ZERO)];
+            let streams = Streams::camera(SamplerKind::Sobol, 1, 1);
+            let mut samplers: Vec<Sampler> = (0..rays.len() as u64).map(|i| streams.sampler(i)).collect();
+            let mut scalar = samplers.clone();
+            let mut out = [Vec3::ONE; 4];
+            integrator.radiance_batch(ctx, &rays, &mut samplers, &mut Counters::default(), &mut out);
+            for (i, ray) in rays.iter().enumerate() {
+                let l = integrator.radiance(ctx, *ray, &mut scalar[i], &mut Counters::default());
+                let (a, b) = (out[i].to_array().map(f32::to_bits), l.to_array().map(f32::to_bits));
+                assert_eq!(a, b, "{method}, ray {i}");
+            }
+            integrator.radiance_batch(ctx, &[], &mut [], &mut Counters::default(), &mut []);
+        });
+    }
+}
+
+/// Before the first iteration a many-light method has no lights and sees nothing, batched
+/// or not.
+#[test]
+fn a_batch_before_the_first_iteration_is_black() {
+    let scene = load("scenes/cornell-box/scene.toml");
+    let integrator = integrator("pir-bdpt", &scene);
+    Job::default().with_context(&scene, |ctx| {
+        let rays = [Ray::new(Vec3::new(0.0, 1.0, 3.0), Vec3::NEG_Z); 3];
         let streams = Streams::camera(SamplerKind::Sobol, 1, 1);
         let mut samplers: Vec<Sampler> = (0..rays.len() as u64).map(|i| streams.sampler(i)).collect();
-        let mut scalar = samplers.clone();
-        let mut out = [Vec3::ONE; 4];
-        PathTracer.radiance_batch(ctx, &rays, &mut samplers, &mut Counters::default(), &mut out);
-        for (i, ray) in rays.iter().enumerate() {
-            let l = PathTracer.radiance(ctx, *ray, &mut scalar[i], &mut Counters::default());
-            assert_eq!(out[i].to_array().map(f32::to_bits), l.to_array().map(f32::to_bits), "ray {i}");
-        }
-        PathTracer.radiance_batch(ctx, &[], &mut [], &mut Counters::default(), &mut []);
+        let mut out = [Vec3::ONE; 3];
+        integrator.radiance_batch(ctx, &rays, &mut samplers, &mut Counters::default(), &mut out);
+        assert_eq!(out, [Vec3::ZERO; 3]);
     });
 }
 
 /// `pir render --walker batched` and `--walker scalar` write the same image, on the default
-/// backend (Embree where built in), for every method (those without a batched walker trace
-/// ray by ray under both).
+/// backend (Embree where built in).
 #[test]
 fn the_walker_option_leaves_the_image_as_it_is() {
     let dir = tempfile::tempdir().unwrap();
@@ -216,6 +305,8 @@ fn the_walker_option_leaves_the_image_as_it_is() {
         ("tests/data/mitsuba-thinlens.xml", &["--method", "pt", "--sampler", "independent"]),
         ("tests/data/emitters/envmap.xml", &["--method", "pt", "--max-depth", "4"]),
         ("scenes/cornell-box/sphere.toml", &["--method", "pir-bdpt"]),
+        ("tests/data/emitters/envmap.xml", &["--method", "pir-bdpt", "--sampler", "independent"]),
+        ("scenes/cornell-box/glossy.toml", &["--method", "pir-mis"]),
     ];
     for (scene, args) in cases {
         let images: Vec<_> = ["batched", "scalar"]

@@ -14,14 +14,17 @@
 //!   camera and light paths alike;
 //! - [`direct`]: direct light from the real emitters (light sampling, MIS weights);
 //! - `path.rs`: `pt`, whose estimator is next-event estimation and BSDF sampling under MIS;
-//! - [`wavefront`]: `pt`'s batched walker, many camera paths bounce by bounce with batched
-//!   queries, the same estimates as the scalar walker's;
+//! - [`wavefront`]: the batched walker, many camera paths bounce by bounce with batched
+//!   queries, for every method's estimator, the same estimates as the scalar walker's;
+//! - [`deferred`]: where an estimator puts its light samples, tested at once (the scalar
+//!   walker) or parked until the batched walker traces their shadow rays together;
 //! - [`many_light`]: the VPL methods, whose estimators add the gather from the virtual lights;
 //! - [`methods`]: the methods by name, one type each in a registry ([`methods::MethodSpec`],
 //!   [`Method`]), the parameter table ([`methods::params`]) and a method's one configuration
 //!   ([`MethodConfig`]: flags, defaults, `validate()`, serde). It builds integrators with the
 //!   public builders of the modules above; none of them imports it.
 
+pub mod deferred;
 pub mod direct;
 pub mod many_light;
 pub mod methods;

@@ -7,7 +7,8 @@
 
 use glam::Vec3;
 
-use super::direct::sample_emitters;
+use super::deferred::Deferred;
+use super::direct::{connect_emitters_at, power_heuristic, sample_emitters};
 use super::walker::{Estimator, Vertex, walk};
 use super::wavefront::walk_batch;
 use super::{Counters, Integrator, RenderContext};
@@ -36,6 +37,21 @@ impl Estimator for PathTracer {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters);
     }
+
+    #[inline(always)]
+    fn at_vertex_deferred(
+        &self,
+        _: &mut (),
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        deferred: &mut Deferred,
+    ) {
+        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+    }
 }
 
 /// One light sample at the non-delta vertex `v`, weighed against BSDF sampling by the power
@@ -50,6 +66,23 @@ pub fn light_sample(
     counters: &mut Counters,
 ) {
     *radiance += beta * sample_emitters(ctx, v.sp, v.bsdf, v.wo, sampler, counters);
+}
+
+/// [`light_sample`] with its shadow ray left to `deferred`: the same draws, the same term.
+#[inline(always)]
+pub fn light_sample_deferred(
+    ctx: &RenderContext,
+    v: &Vertex,
+    beta: Vec3,
+    radiance: &mut Vec3,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+    deferred: &mut Deferred,
+) {
+    let u_select = sampler.next_f32();
+    let u = sampler.next_2d();
+    let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, (u_select, u), counters);
+    deferred.sample(beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf), radiance);
 }
 
 impl Integrator for PathTracer {
@@ -73,6 +106,6 @@ impl Integrator for PathTracer {
         counters: &mut Counters,
         out: &mut [Vec3],
     ) {
-        walk_batch(ctx, rays, samplers, counters, out);
+        walk_batch(ctx, self, rays, samplers, counters, out);
     }
 }

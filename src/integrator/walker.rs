@@ -42,6 +42,7 @@
 
 use glam::Vec3;
 
+use super::deferred::Deferred;
 use super::direct::{Sampled, emission, environment};
 use super::scatter::{scatter, survives_roulette};
 use super::{Counters, RenderContext};
@@ -135,6 +136,27 @@ pub trait Estimator {
         sampler: &mut Sampler,
         counters: &mut Counters,
     );
+
+    /// [`Estimator::at_vertex`] for a batched walker: the same draws, the same terms in the
+    /// same order, each given to `deferred` (with `radiance`), which adds it at once or, from
+    /// the first that waits for a shadow ray on, once the batch's shadow rays are traced.
+    /// Nothing of the path waits when it is called. By default [`Estimator::at_vertex`]
+    /// itself, nothing deferred.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn at_vertex_deferred(
+        &self,
+        state: &mut Self::State,
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        _deferred: &mut Deferred,
+    ) {
+        self.at_vertex(state, ctx, v, beta, radiance, sampler, counters);
+    }
 
     /// After the BSDF at `v` (delta or not) sampled the direction the path continues in, and
     /// before Russian roulette.

@@ -1,42 +1,55 @@
-//! The batched (wavefront) camera-path walker of `pt`: a batch of camera paths advanced
-//! together, bounce by bounce, so that each bounce's closest-hit queries and each bounce's
-//! shadow rays go to the accelerator as one batch
+//! The batched (wavefront) camera-path walker: a batch of camera paths advanced together,
+//! bounce by bounce, so that each bounce's closest-hit queries and each bounce's shadow rays
+//! go to the accelerator as one batch
 //! ([`Accelerator::intersect_batch`](crate::accel::Accelerator::intersect_batch),
 //! [`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch): Embree's
-//! 4/8/16-wide packets).
+//! 4/8/16-wide packets), for any [`Estimator`]: `pt`'s, `pir-bdpt`'s, and the forward
+//! many-light methods' covered walks.
 //!
 //! One bounce: trace the rays of the live paths (finished paths are compacted away); shade
-//! each hit in the batch's order (the emission found there, the light sample up to its
-//! shadow ray, which is collected, the BSDF sample and Russian roulette); trace the collected
-//! shadow rays; add each unoccluded light sample to its path. Every path draws the same
-//! dimensions of its own sampler in the same order as [`super::walker::walk`] with the path
-//! tracer's estimator, and adds the same terms in the same order (emission at depth d, the
-//! light sample at d, emission at d + 1, …), computed by the same functions; so each path's
-//! estimate is the scalar walker's, bit for bit, wherever the batch queries answer as the
-//! single-ray ones do: the BVH's and brute force's batch queries are their single-ray ones;
-//! Embree's packet kernels are other code than its single-ray kernel, but gave the same hits
-//! bit for bit wherever measured (Embree 3.13.5, AVX-512: every path of `tests/wavefront.rs`,
-//! and 256 × 256 × 16 samples of the Cornell and mirror-and-glass boxes). The scalar walker
-//! stays the reference, and the walker of every other method.
+//! each hit in the batch's order with the scalar walker's loop body ([`super::walker::walk`]:
+//! the emission found there, the estimator's terms at the vertex, the BSDF sample, Russian
+//! roulette), except that the light samples of the estimator's terms stop at their shadow
+//! rays, which are collected with the terms that wait for them ([`Deferred`],
+//! [`Estimator::at_vertex_deferred`]); trace the collected shadow rays; add the kept terms
+//! to their paths, each path's in its order. Every path draws the same dimensions of its own
+//! sampler in the same order as the scalar walker, and adds the same terms in the same order
+//! (emission at depth d, the terms of the vertex at d, emission at d + 1, …), computed by
+//! the same functions; so each path's estimate is the scalar walker's, bit for bit,
+//! wherever the batch queries answer as the single-ray ones do: the
+//! BVH's and brute force's batch queries are their single-ray ones; Embree's packet kernels
+//! are other code than its single-ray kernel, but gave the same hits bit for bit wherever
+//! measured (Embree 3.13.5, AVX-512: every path of `tests/wavefront.rs`, and 256 × 256 × 16
+//! samples of the Cornell and mirror-and-glass boxes). The scalar walker stays the reference
+//! (`--walker scalar`).
+//!
+//! What an estimator traces inside its own terms (`pir-bdpt`'s gather from the virtual
+//! lights, with its shadow rays batched per vertex; a sphere light's cone sample) is traced
+//! where the scalar walker traces it.
 //!
 //! Measured (`docs/speed.md`): packets of 16 and batches of a whole tile (256 paths) were the
-//! fastest; the shading, still one vertex at a time, is what is left to go wide.
+//! fastest for `pt` (1.2–1.3× the scalar walker's speed on Embree); `pir-bdpt` is 1.08–1.11×
+//! (Cornell box, near-mirror floor, glossy corner; one thread, CPU time), less because the
+//! gather, not Embree, is most of its time. Batching the closest hits gave 1.01–1.04×,
+//! deferring the shadow rays of next-event estimation into the bounce's batch the rest.
 //!
 //! **Versions picked at run time.** The default build targets plain x86-64 (SSE2), so
 //! [`walk_batch`], with the shading it inlines (`bounce`, [`scatter`], the light sample of
-//! [`connect_emitters_at`], the BSDFs' common cases), is compiled three times with the
-//! `multiversion` crate, as the BVH's traversal is: for AVX2 + FMA, for AVX-512 (CPUs with
-//! Ice Lake's set) and the baseline, the CPU's version picked at run time. The wider ISAs buy
-//! three-operand instructions and more registers, not wider arithmetic;
-//! the images are the same bit for bit, since the operations are the same IEEE ones (Rust
-//! never fuses a multiply and an add on its own). What is not inlined (materials other than
-//! the common ones, the emitters' rarer kinds) runs the baseline code.
+//! [`connect_emitters_at`](super::direct::connect_emitters_at), the BSDFs' common cases), is
+//! compiled three times with the `multiversion` crate, as the BVH's traversal is: for AVX2 +
+//! FMA, for AVX-512 (CPUs with Ice Lake's set) and the baseline, the CPU's version picked at
+//! run time. The wider ISAs buy three-operand instructions and more registers, not wider
+//! arithmetic; the images are the same bit for bit, since the operations are the same IEEE
+//! ones (Rust never fuses a multiply and an add on its own). What is not inlined (materials
+//! other than the common ones, the emitters' rarer kinds, the gather) runs the baseline code.
 
 use glam::Vec3;
 use multiversion::multiversion;
 
-use super::direct::{Sampled, connect_emitters_at, emission, environment, power_heuristic};
+use super::deferred::Deferred;
+use super::direct::Sampled;
 use super::scatter::{scatter, survives_roulette};
+use super::walker::{Arrival, Estimator, Vertex};
 use super::{Counters, FilmSplat, Integrator, RenderContext};
 use crate::accel::Hit;
 use crate::geometry::{Ray, offset_origin};
@@ -45,7 +58,7 @@ use crate::sampling::Sampler;
 use crate::scene::CameraRays;
 
 /// One camera path of a batch between bounces: what the scalar walker keeps in its loop.
-struct Path {
+struct Path<S> {
     /// The ray to trace next.
     ray: Ray,
     radiance: Vec3,
@@ -53,16 +66,12 @@ struct Path {
     eta_scale: f32,
     /// How `ray` was sampled (the camera or a delta lobe: full emission).
     how: Sampled,
+    /// `ray` left a non-delta vertex whose estimate covers the surfaces beyond it.
+    covered: bool,
     /// Segments from the camera to the vertex `ray` left.
     depth: u32,
-}
-
-/// A light sample waiting for its shadow ray: the path, its throughput at the vertex, and
-/// what it adds unless occluded.
-struct Pending {
-    path: u32,
-    beta: Vec3,
-    value: Vec3,
+    /// The estimator's bookkeeping.
+    state: S,
 }
 
 /// Buffers of one batch, kept across bounces.
@@ -72,27 +81,26 @@ struct Buffers {
     live: Vec<u32>,
     rays: Vec<Ray>,
     hits: Vec<Option<Hit>>,
-    pending: Vec<Pending>,
-    shadows: Vec<Ray>,
-    blocked: Vec<bool>,
+    deferred: Deferred,
 }
 
-/// The path tracer's radiance along each camera ray of `rays` (unit directions) into `out`,
-/// path `i` drawing from `samplers[i]`: for each path, [`super::walker::walk`] with the path
-/// tracer's estimator, the paths' queries batched bounce by bounce.
+/// The radiance that `estimator` estimates along each camera ray of `rays` (unit directions)
+/// into `out`, path `i` drawing from `samplers[i]`: for each path, [`super::walker::walk`]
+/// with `estimator`, the paths' queries batched bounce by bounce.
 #[multiversion(targets(
     "x86_64+avx512f+avx512bw+avx512vl+avx512dq+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt"
 ))]
-pub fn walk_batch(
+pub fn walk_batch<E: Estimator>(
     ctx: &RenderContext,
+    estimator: &E,
     rays: &[Ray],
     samplers: &mut [Sampler],
     counters: &mut Counters,
     out: &mut [Vec3],
 ) {
     assert!(rays.len() == samplers.len() && rays.len() == out.len());
-    let mut paths: Vec<Path> = rays
+    let mut paths: Vec<Path<E::State>> = rays
         .iter()
         .map(|&ray| Path {
             ray,
@@ -100,7 +108,9 @@ pub fn walk_batch(
             beta: Vec3::ONE,
             eta_scale: 1.0,
             how: Sampled::camera(ray.origin),
+            covered: false,
             depth: 0,
+            state: estimator.start(&ray),
         })
         .collect();
     let mut b = Buffers { live: (0..rays.len() as u32).collect(), ..Buffers::default() };
@@ -112,85 +122,72 @@ pub fn walk_batch(
         counters.rays += b.rays.len() as u64;
         ctx.accel.intersect_batch(&b.rays, &mut b.hits);
 
-        b.pending.clear();
-        b.shadows.clear();
         let mut kept = 0;
         for k in 0..b.live.len() {
             let i = b.live[k];
             let (path, sampler) = (&mut paths[i as usize], &mut samplers[i as usize]);
-            if bounce(ctx, i, path, b.hits[k], sampler, counters, &mut b.pending, &mut b.shadows) {
+            if bounce(ctx, estimator, i, path, b.hits[k], sampler, counters, &mut b.deferred) {
                 b.live[kept] = i;
                 kept += 1;
             }
         }
         b.live.truncate(kept);
 
-        if !b.shadows.is_empty() {
-            b.blocked.clear();
-            b.blocked.resize(b.shadows.len(), false);
-            ctx.accel.occluded_batch(&b.shadows, &mut b.blocked);
-            for (p, &blocked) in b.pending.iter().zip(&b.blocked) {
-                let value = if blocked { Vec3::ZERO } else { p.value };
-                paths[p.path as usize].radiance += p.beta * value;
-            }
-        }
+        b.deferred.finish(ctx, |i, term| paths[i as usize].radiance += term);
     }
     for (o, p) in out.iter_mut().zip(&paths) {
         *o = p.radiance;
     }
 }
 
-/// One vertex of path `index`, where its ray found `hit`: the scalar walker's loop body for
-/// the path tracer, with the light sample's shadow ray pushed to `shadows` (and what it adds
-/// to `pending`) instead of traced. Whether the path goes on (its next ray in `path.ray`).
+/// One step of path `index`, whose ray found `hit`: the scalar walker's loop body, with the
+/// light samples of the estimator's terms at the vertex kept in `deferred` instead of
+/// tested. Whether the path goes on (its next ray in `path.ray`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn bounce(
+fn bounce<E: Estimator>(
     ctx: &RenderContext,
+    estimator: &E,
     index: u32,
-    path: &mut Path,
+    path: &mut Path<E::State>,
     hit: Option<Hit>,
     sampler: &mut Sampler,
     counters: &mut Counters,
-    pending: &mut Vec<Pending>,
-    shadows: &mut Vec<Ray>,
+    deferred: &mut Deferred,
 ) -> bool {
     let Some(hit) = hit else {
         if !ctx.emitters.environments().is_empty() {
-            path.radiance += path.beta * environment(ctx, path.ray.dir.normalize(), &path.how);
+            estimator.on_escape(&mut path.state, ctx, &path.ray, &path.how, path.beta, &mut path.radiance);
         }
         return false;
     };
+    if E::COVERS_SURFACES && path.covered {
+        let material = ctx.scene.material_of(hit.prim);
+        if !material.bsdf.is_delta() {
+            return covered_end(ctx, estimator, path, &hit, sampler, counters);
+        }
+    }
     path.depth += 1;
+    let depth = path.depth;
     let sp = ctx.scene.surface_of_hit(&hit, path.ray.dir);
     let wo = -path.ray.dir.normalize();
     let material = ctx.scene.material(sp.material);
 
     // ---- Emission found by the camera ray or the BSDF sample.
-    path.radiance += path.beta * emission(ctx, material, &sp, wo, &path.how);
-    if path.depth >= ctx.max_depth {
+    let at = Arrival { sp: &sp, wo, material, depth, how: &path.how };
+    estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
+    if depth >= ctx.max_depth {
         return false;
     }
 
-    // ---- Light sampling, its shadow ray deferred to the bounce's batch.
+    // ---- Light sampling and the method's techniques, their shadow rays deferred to the
+    // bounce's batch.
     let bsdf = &material.bsdf_at(sp.uv);
+    let v = Vertex { sp: &sp, wo, bsdf, depth };
     if !bsdf.is_delta() {
-        let u_select = sampler.next_f32();
-        let u = sampler.next_2d();
-        match connect_emitters_at(ctx, &sp, bsdf, wo, (u_select, u), counters) {
-            // (Added as the scalar walker adds its zero: β · 0 is NaN where β is not finite.)
-            None => path.radiance += path.beta * Vec3::ZERO,
-            Some(c) => {
-                let value = c.value(|s| power_heuristic(s.pdf_light, s.pdf_bsdf));
-                match c.shadow {
-                    None => path.radiance += path.beta * value,
-                    Some(ray) => {
-                        shadows.push(ray);
-                        pending.push(Pending { path: index, beta: path.beta, value });
-                    }
-                }
-            }
-        }
+        deferred.at(index);
+        let (state, radiance) = (&mut path.state, &mut path.radiance);
+        estimator.at_vertex_deferred(state, ctx, &v, path.beta, radiance, sampler, counters, deferred);
     }
 
     // ---- BSDF sampling and Russian roulette.
@@ -198,8 +195,13 @@ fn bounce(
         return false;
     };
     path.eta_scale *= s.eta * s.eta;
+    estimator.on_scatter(&mut path.state, &v, &s);
     path.how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
-    if path.depth >= ctx.scene.defaults().rr_depth
+    if E::COVERS_SURFACES {
+        path.covered = !s.delta;
+    }
+    if !E::COVERS_SURFACES
+        && depth >= ctx.scene.defaults().rr_depth
         && !survives_roulette(path.beta.max_element() * path.eta_scale, &mut path.beta, sampler)
     {
         return false;
@@ -208,8 +210,61 @@ fn bounce(
     true
 }
 
+/// The non-delta vertex where a covered walk arrives (only when
+/// [`Estimator::COVERS_SURFACES`]): the scalar walker's covered branch, its emission, the
+/// bounce's share, and the delta lobe of a plastic or a mask, through which the path goes on.
+/// Whether it does (its next ray in `path.ray`).
+#[inline(never)]
+fn covered_end<E: Estimator>(
+    ctx: &RenderContext,
+    estimator: &E,
+    path: &mut Path<E::State>,
+    hit: &Hit,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+) -> bool {
+    let material = ctx.scene.material_of(hit.prim);
+    let depth = path.depth;
+    let bounce = estimator.uses_bounces() && depth + 1 < ctx.max_depth;
+    let through = material.bsdf.has_delta() && depth + 1 < ctx.max_depth;
+    if !(material.is_emitter() || bounce || through) {
+        return false;
+    }
+    let sp = ctx.scene.surface_of_hit(hit, path.ray.dir);
+    let wo = -path.ray.dir.normalize();
+    if material.is_emitter() {
+        let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &path.how };
+        estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
+    }
+    if !(bounce || through) {
+        return false;
+    }
+    let bsdf = material.bsdf_at(sp.uv);
+    let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
+    if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &path.how, sampler, counters) {
+        path.radiance += path.beta * l;
+    }
+    if !through {
+        return false;
+    }
+    let Some(s) = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
+        return false;
+    };
+    if !s.delta {
+        return false;
+    }
+    path.depth += 1;
+    path.eta_scale *= s.eta * s.eta;
+    estimator.on_scatter(&mut path.state, &v, &s);
+    path.how = Sampled { from: sp.p, pdf: s.pdf, delta: true };
+    path.covered = false;
+    path.ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    true
+}
+
 /// How the driver's batches of camera rays are traced (`--walker`): together, by the
-/// integrator's batched walker where it has one (`pt`: [`walk_batch`]), or ray by ray through
+/// integrator's batched walker where it has one (every method's camera paths: [`walk_batch`]),
+/// or ray by ray through
 /// [`Integrator::radiance`] ([`RayByRay`]), the reference. Both give the same image.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Walker {
@@ -239,8 +294,8 @@ impl std::str::FromStr for Walker {
 }
 
 /// An integrator with its batch entry point the default, ray by ray through
-/// [`Integrator::radiance`]: for `pt`, the scalar walker, the reference its batched walker is
-/// tested against (`--walker scalar`).
+/// [`Integrator::radiance`]: for every method, the scalar walker, the reference its batched
+/// walker is tested against (`--walker scalar`).
 pub struct RayByRay(pub Box<dyn Integrator>);
 
 impl Integrator for RayByRay {

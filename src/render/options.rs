@@ -46,10 +46,10 @@ pub struct SceneOptions {
     /// every `$NAME`), as Mitsuba's `-D`. Repeatable.
     #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
-    /// How camera paths are traced: batched (pt: a tile's paths bounce by bounce together, each
-    /// bounce's rays and shadow rays in Embree packets) or scalar (one path at a time, the
-    /// reference); the same image either way. Methods without a batched walker trace one path
-    /// at a time under both [default: batched].
+    /// How camera paths are traced: batched (every method: a tile's paths bounce by bounce
+    /// together, each bounce's rays and light samples' shadow rays in Embree packets) or
+    /// scalar (one path at a time, the reference); the same image either way [default:
+    /// batched].
     #[arg(long, value_name = "WALKER")]
     pub walker: Option<Walker>,
 }

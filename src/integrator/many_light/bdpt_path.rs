@@ -12,7 +12,8 @@ use super::mis::{Technique, Weighing};
 use super::points::PointLights;
 use super::subpath::{Counts, MisState, Scatter};
 use crate::geometry::Ray;
-use crate::integrator::direct::{Sampled, sample_emitters_at};
+use crate::integrator::deferred::{Deferred, LightSamples, Summed};
+use crate::integrator::direct::{Sampled, connect_emitters_at};
 use crate::integrator::walker::{Arrival, Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
 use crate::material::{Bsdf, BsdfSample, PreparedBsdf, TransportMode};
@@ -48,6 +49,62 @@ pub struct CameraPath {
     /// The non-delta vertices the path has passed, and which of them connect (the last
     /// one's rank: 1 for the first non-delta vertex, whatever delta vertices came before it).
     connecting: Connecting,
+}
+
+impl Bidirectional<'_> {
+    /// The light samples at the camera vertex of `path` that the walk is at: `light_samples`
+    /// at its first non-delta vertex, one at the others (valid after
+    /// [`Bidirectional::vertex`] passed it).
+    #[inline]
+    fn samples_at(&self, path: &CameraPath) -> u32 {
+        if path.connecting.rank() == 1 { self.light_samples } else { 1 }
+    }
+
+    /// The terms of the non-delta vertex `v`: its light samples put in `samples`, each
+    /// weighed bidirectionally, and the gather from the VPLs where the vertex connects
+    /// (`None` where it does not), each per unit throughput.
+    #[inline(always)]
+    fn vertex(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        v: &Vertex,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        samples: &mut impl LightSamples,
+    ) -> Option<Vec3> {
+        let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
+        let (counts, connect, state) = (self.counts, self.connect, path.mis);
+        let connects = path.connecting.pass(connect, bsdf);
+        let rank = path.connecting.rank();
+        let geometry = sp.geometry();
+        // The count of the connection from the previous camera vertex to this one.
+        let count_in = counts.between(path.previous.as_ref(), bsdf);
+        let n = self.samples_at(path);
+        let count = n as f32;
+        // The samples' points: one block of the sequence, stratified among themselves.
+        let u_select = sampler.next_f32();
+        // (0 where the camera vertex before this one does not connect to VPLs.)
+        let count_previous = if path.connecting.previous_connects() { count_in } else { 0.0 };
+        for u in sampler.next_2d_block(n) {
+            let c = connect_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters);
+            samples.add(ctx, c, |l| {
+                let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
+                light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
+            });
+        }
+        // ---- The connections to the VPLs.
+        if !connects {
+            return None;
+        }
+        let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
+        let count_in = count_previous;
+        let glossy = path.connecting.glossy();
+        let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
+        let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
+        let max_vpl_depth = ctx.max_depth - depth - 1;
+        Some(self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
+    }
 }
 
 impl Estimator for Bidirectional<'_> {
@@ -141,37 +198,32 @@ impl Estimator for Bidirectional<'_> {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) {
-        let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
-        let (counts, connect, state) = (self.counts, self.connect, path.mis);
-        let connects = path.connecting.pass(connect, bsdf);
-        let rank = path.connecting.rank();
-        let geometry = sp.geometry();
-        // The count of the connection from the previous camera vertex to this one.
-        let count_in = counts.between(path.previous.as_ref(), bsdf);
-        let n = if rank == 1 { self.light_samples } else { 1 };
-        let count = n as f32;
-        // The samples' points: one block of the sequence, stratified among themselves.
-        let u_select = sampler.next_f32();
-        let mut direct = Vec3::ZERO;
-        // (0 where the camera vertex before this one does not connect to VPLs.)
-        let count_previous = if path.connecting.previous_connects() { count_in } else { 0.0 };
-        for u in sampler.next_2d_block(n) {
-            direct += sample_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters, |l| {
-                let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
-                light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
-            });
+        let mut direct = Summed::default();
+        let gathered = self.vertex(path, ctx, v, sampler, counters, &mut direct);
+        *radiance += beta * (direct.sum / self.samples_at(path) as f32);
+        if let Some(g) = gathered {
+            *radiance += beta * g;
         }
-        *radiance += beta * (direct / count);
-        // ---- The connections to the VPLs.
-        if connects {
-            let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
-            let count_in = count_previous;
-            let glossy = path.connecting.glossy();
-            let end =
-                CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
-            let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
-            let max_vpl_depth = ctx.max_depth - depth - 1;
-            *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+    }
+
+    /// [`Bidirectional::at_vertex`] with the light samples' shadow rays deferred (and the
+    /// gather after them).
+    #[inline]
+    fn at_vertex_deferred(
+        &self,
+        path: &mut CameraPath,
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        deferred: &mut Deferred,
+    ) {
+        let gathered = self.vertex(path, ctx, v, sampler, counters, deferred);
+        deferred.mean(beta, self.samples_at(path));
+        if let Some(g) = gathered {
+            deferred.add(beta, g, radiance);
         }
     }
 

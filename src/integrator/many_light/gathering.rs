@@ -10,8 +10,9 @@ use super::mis::{EmitterPath, Technique, Weighing};
 use super::points::PointLights;
 use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
+use crate::integrator::deferred::Deferred;
 use crate::integrator::direct::{LightSample, Sampled, emission_weighted, sample_emitters_weighted};
-use crate::integrator::path::light_sample;
+use crate::integrator::path::{light_sample, light_sample_deferred};
 use crate::integrator::scatter::scatter;
 use crate::integrator::walker::{Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
@@ -45,6 +46,26 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
     }
+
+    /// [`Gathering::at_vertex`] with the light sample's shadow ray deferred (and the gather
+    /// after it).
+    #[inline]
+    fn at_vertex_deferred(
+        &self,
+        _: &mut (),
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        deferred: &mut Deferred,
+    ) {
+        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        let gathered = self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
+        deferred.add(beta, gathered, radiance);
+    }
 }
 
 /// `pir-mis` on point lights: [`Gathering`] whose connections are weighed against a
@@ -55,6 +76,23 @@ pub struct WeighedGathering<'a> {
     /// The iteration's light paths: every connection counts them all.
     pub paths: f32,
     pub bound: f32,
+}
+
+impl WeighedGathering<'_> {
+    /// The gather at the vertex `v`, its connections weighed against the bounce.
+    #[inline(always)]
+    fn gather(
+        &self,
+        ctx: &RenderContext,
+        v: &Vertex,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> Vec3 {
+        let max_vpl_depth = ctx.max_depth - v.depth - 1;
+        let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
+        let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: self.bound };
+        self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters)
+    }
 }
 
 impl Estimator for WeighedGathering<'_> {
@@ -73,10 +111,26 @@ impl Estimator for WeighedGathering<'_> {
         counters: &mut Counters,
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters);
-        let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
-        let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: self.bound };
-        *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters);
+        *radiance += beta * self.gather(ctx, v, sampler, counters);
+    }
+
+    /// [`WeighedGathering::at_vertex`] with the light sample's shadow ray deferred (and the
+    /// gather after it).
+    #[inline]
+    fn at_vertex_deferred(
+        &self,
+        _: &mut (),
+        ctx: &RenderContext,
+        v: &Vertex,
+        beta: Vec3,
+        radiance: &mut Vec3,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+        deferred: &mut Deferred,
+    ) {
+        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+        let gathered = self.gather(ctx, v, sampler, counters);
+        deferred.add(beta, gathered, radiance);
     }
 
     #[inline]

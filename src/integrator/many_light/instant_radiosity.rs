@@ -1,7 +1,8 @@
 //! The many-light integrator: each iteration traces the light paths, makes the iteration's
 //! light set from their VPLs, and walks every camera path with the method's estimator
-//! ([`super::gathering`] or [`super::bdpt_path`]); `pir-bdpt`'s light paths also splat into
-//! the film ([`super::to_camera`]).
+//! ([`super::gathering`] or [`super::bdpt_path`]), the driver's batches of camera rays by the
+//! batched walker ([`walk_batch`]); `pir-bdpt`'s light paths also splat into the film
+//! ([`super::to_camera`]).
 
 use glam::Vec3;
 
@@ -18,7 +19,8 @@ use super::subpath::Counts;
 use super::to_camera::ToCamera;
 use super::view_pilot;
 use crate::geometry::Ray;
-use crate::integrator::walker::walk;
+use crate::integrator::walker::{Estimator, walk};
+use crate::integrator::wavefront::walk_batch;
 use crate::integrator::{Counters, FilmSplat, Integrator, RenderContext};
 use crate::sampling::Sampler;
 use crate::scene::CameraRays;
@@ -228,26 +230,82 @@ impl Integrator for InstantRadiosity {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
-        // The estimator of the method on the iteration's lights: weighed connections
-        // exist for points only, so a weighed gather of spheres does not type-check.
+        let mut out = Vec3::ZERO;
+        self.walk_with(&mut ScalarWalk { ray, sampler, counters, out: &mut out }, ctx);
+        out
+    }
+
+    /// The paths of the batch together ([`walk_batch`]), each the same as
+    /// [`InstantRadiosity::radiance`]'s.
+    fn radiance_batch(
+        &self,
+        ctx: &RenderContext,
+        rays: &[Ray],
+        samplers: &mut [Sampler],
+        counters: &mut Counters,
+        out: &mut [Vec3],
+    ) {
+        out.fill(Vec3::ZERO);
+        self.walk_with(&mut BatchWalk { rays, samplers, counters, out }, ctx);
+    }
+}
+
+/// How the camera paths are walked with the method's estimator: one path by the scalar
+/// walker, or a batch by the batched walker.
+trait Walk {
+    fn walk<E: Estimator>(&mut self, ctx: &RenderContext, estimator: &E);
+}
+
+/// One camera path by [`walk`].
+struct ScalarWalk<'a, 's> {
+    ray: Ray,
+    sampler: &'a mut Sampler<'s>,
+    counters: &'a mut Counters,
+    out: &'a mut Vec3,
+}
+
+impl Walk for ScalarWalk<'_, '_> {
+    fn walk<E: Estimator>(&mut self, ctx: &RenderContext, estimator: &E) {
+        *self.out = walk(ctx, self.ray, estimator, self.sampler, self.counters);
+    }
+}
+
+/// A batch of camera paths by [`walk_batch`].
+struct BatchWalk<'a, 's> {
+    rays: &'a [Ray],
+    samplers: &'a mut [Sampler<'s>],
+    counters: &'a mut Counters,
+    out: &'a mut [Vec3],
+}
+
+impl Walk for BatchWalk<'_, '_> {
+    fn walk<E: Estimator>(&mut self, ctx: &RenderContext, estimator: &E) {
+        walk_batch(ctx, estimator, self.rays, self.samplers, self.counters, self.out);
+    }
+}
+
+impl InstantRadiosity {
+    /// Walks the camera paths of `w` with the estimator of the method on the iteration's
+    /// lights (none before the first iteration: nothing, zero).
+    fn walk_with(&self, w: &mut impl Walk, ctx: &RenderContext) {
+        // Weighed connections exist for points only, so a weighed gather of spheres does not
+        // type-check.
         match (&self.set, self.lights) {
-            (IterationLights::None, _) => Vec3::ZERO,
-            (IterationLights::Spheres(set), _) => walk(ctx, ray, &Gathering { set }, sampler, counters),
+            (IterationLights::None, _) => {}
+            (IterationLights::Spheres(set), _) => w.walk(ctx, &Gathering { set }),
             (IterationLights::Points { set, counts, bound }, lights) => match lights {
                 VirtualLights::Bidirectional(_, connect) => {
                     let light_samples = self.light_samples;
                     let camera = self.camera.as_ref();
                     let camera_path =
                         Bidirectional { set, connect, light_samples, counts: *counts, bound: *bound, camera };
-                    walk(ctx, ray, &camera_path, sampler, counters)
+                    w.walk(ctx, &camera_path);
                 }
                 VirtualLights::WeighedPoints(_) => {
                     let weighed = WeighedGathering { set, paths: counts.paths, bound: *bound };
-                    walk(ctx, ray, &weighed, sampler, counters)
+                    w.walk(ctx, &weighed);
                 }
-                VirtualLights::Points(_) | VirtualLights::Spheres { .. } => {
-                    walk(ctx, ray, &Gathering { set }, sampler, counters)
-                }
+                VirtualLights::Points(_) | VirtualLights::Spheres { .. } => w.walk(ctx, &Gathering { set }),
             },
         }
     }
