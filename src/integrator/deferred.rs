@@ -1,9 +1,8 @@
-//! Terms whose shadow rays wait: what a camera vertex adds to its path, kept by a batched
-//! walker until it has traced the shadow rays of all its paths' vertices together
-//! ([`Deferred`],
-//! [`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch)), and where an
-//! estimator puts light samples that it sums before weighing them ([`LightSamples`]: tested
-//! at once by the scalar walker, [`Summed`], or kept by [`Deferred`]).
+//! Where a camera vertex's terms go ([`Terms`]): added to the path at once, each shadow ray
+//! traced as it comes (the scalar walker's [`Immediate`]), or kept by a batched walker until
+//! it has traced the shadow rays of all its paths' vertices together ([`Deferred`],
+//! [`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch)). An estimator
+//! writes its vertex once, against [`Terms`], for both walkers.
 //!
 //! A light sample's value is the one
 //! [`sample_emitters_at`](super::direct::sample_emitters_at) gives it (zero where it connects
@@ -17,27 +16,76 @@ use super::RenderContext;
 use super::direct::{Connection, LightSample};
 use crate::geometry::Ray;
 
-/// Where an estimator puts light samples that it sums (then weighs by their count).
-pub trait LightSamples {
-    /// A light sample connected to the vertex (`None`: it adds nothing, visible or not), its
-    /// contribution weighed by `weight` where nothing blocks its shadow ray.
-    fn add(&mut self, ctx: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32);
+/// Where the terms of a camera vertex go, each added to the path's `radiance` (times the
+/// throughput `beta` it is given) in the order they are given.
+pub trait Terms {
+    /// A light sample connected to the vertex (`None`: it adds nothing, visible or not),
+    /// weighed by `weight`, its value zero where its shadow ray is blocked.
+    fn sample(
+        &mut self,
+        ctx: &RenderContext,
+        beta: Vec3,
+        c: Option<Connection>,
+        weight: impl FnOnce(LightSample) -> f32,
+        radiance: &mut Vec3,
+    );
+
+    /// A light sample of the vertex's running sum (added by [`Terms::mean`]).
+    fn sum(&mut self, ctx: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32);
+
+    /// `beta` times the mean of the `n` light samples summed since the last mean.
+    fn mean(&mut self, beta: Vec3, n: u32, radiance: &mut Vec3);
+
+    /// `beta · value`.
+    fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3);
 }
 
-/// Light samples tested one by one as they come, and summed: the scalar walker's.
+/// The scalar walker's terms: each shadow ray traced as it comes, each term added at once.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct Summed {
-    /// The sum of the samples' values, in their order.
-    pub sum: Vec3,
+pub struct Immediate {
+    /// The running sum of the vertex's light samples.
+    sum: Vec3,
 }
 
-impl LightSamples for Summed {
+impl Immediate {
+    /// A light sample's value where nothing blocks its shadow ray, else zero.
     #[inline(always)]
-    fn add(&mut self, ctx: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
-        self.sum += match c {
+    fn value(ctx: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) -> Vec3 {
+        match c {
             Some(c) if !c.shadow.is_some_and(|ray| ctx.accel.occluded(&ray)) => c.value(weight),
             _ => Vec3::ZERO,
-        };
+        }
+    }
+}
+
+impl Terms for Immediate {
+    #[inline(always)]
+    fn sample(
+        &mut self,
+        ctx: &RenderContext,
+        beta: Vec3,
+        c: Option<Connection>,
+        weight: impl FnOnce(LightSample) -> f32,
+        radiance: &mut Vec3,
+    ) {
+        // (A zero is added too: β · 0 is NaN where β is not finite, as the batched walk adds.)
+        *radiance += beta * Self::value(ctx, c, weight);
+    }
+
+    #[inline(always)]
+    fn sum(&mut self, ctx: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
+        self.sum += Self::value(ctx, c, weight);
+    }
+
+    #[inline(always)]
+    fn mean(&mut self, beta: Vec3, n: u32, radiance: &mut Vec3) {
+        *radiance += beta * (self.sum / n as f32);
+        self.sum = Vec3::ZERO;
+    }
+
+    #[inline(always)]
+    fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
+        *radiance += beta * value;
     }
 }
 
@@ -83,28 +131,12 @@ pub struct Deferred {
     blocked: Vec<bool>,
 }
 
-impl LightSamples for Deferred {
-    /// A light sample of the vertex's sum ([`Deferred::mean`] adds it).
+impl Terms for Deferred {
+    /// Added at once where it needs no shadow ray and no term of the path waits; else kept.
     #[inline(always)]
-    fn add(&mut self, _: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
-        let (shadow, value) = self.connect(c, weight);
-        self.keep(Term { path: self.path, shadow, op: Op::Sum, beta: Vec3::ZERO, value });
-    }
-}
-
-impl Deferred {
-    /// The terms given from now on are path `path`'s, none of whose terms waits.
-    #[inline(always)]
-    pub(crate) fn at(&mut self, path: u32) {
-        self.path = path;
-        self.waiting = false;
-    }
-
-    /// A light sample connected to the vertex (`None`: it adds nothing), added times `beta`
-    /// to the path's `radiance` where nothing blocks its shadow ray, weighed by `weight`.
-    #[inline(always)]
-    pub fn sample(
+    fn sample(
         &mut self,
+        _: &RenderContext,
         beta: Vec3,
         c: Option<Connection>,
         weight: impl FnOnce(LightSample) -> f32,
@@ -118,22 +150,34 @@ impl Deferred {
         }
     }
 
-    /// `beta · value`, added to the path's `radiance` after the terms before it.
     #[inline(always)]
-    pub fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
+    fn sum(&mut self, _: &RenderContext, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) {
+        let (shadow, value) = self.connect(c, weight);
+        self.keep(Term { path: self.path, shadow, op: Op::Sum, beta: Vec3::ZERO, value });
+    }
+
+    #[inline(always)]
+    fn mean(&mut self, beta: Vec3, n: u32, _: &mut Vec3) {
+        let value = Vec3::new(n as f32, 0.0, 0.0);
+        self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Mean, beta, value });
+    }
+
+    #[inline(always)]
+    fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
         if self.waiting {
             self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Add, beta, value });
         } else {
             *radiance += beta * value;
         }
     }
+}
 
-    /// `beta` times the mean of the `n` light samples given since the last mean
-    /// ([`LightSamples::add`]), added after the terms before it.
+impl Deferred {
+    /// The terms given from now on are path `path`'s, none of whose terms waits.
     #[inline(always)]
-    pub fn mean(&mut self, beta: Vec3, n: u32) {
-        let value = Vec3::new(n as f32, 0.0, 0.0);
-        self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Mean, beta, value });
+    pub(crate) fn at(&mut self, path: u32) {
+        self.path = path;
+        self.waiting = false;
     }
 
     #[inline(always)]

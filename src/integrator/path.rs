@@ -7,8 +7,8 @@
 
 use glam::Vec3;
 
-use super::deferred::Deferred;
-use super::direct::{connect_emitters_at, power_heuristic, sample_emitters};
+use super::deferred::Terms;
+use super::direct::{connect_emitters_at, power_heuristic};
 use super::walker::{Estimator, Vertex, walk};
 use super::wavefront::walk_batch;
 use super::{Counters, Integrator, RenderContext};
@@ -24,7 +24,7 @@ impl Estimator for PathTracer {
     const COVERS_SURFACES: bool = false;
     type State = ();
 
-    #[inline]
+    #[inline(always)]
     fn at_vertex(
         &self,
         _: &mut (),
@@ -34,28 +34,14 @@ impl Estimator for PathTracer {
         radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
+        terms: &mut impl Terms,
     ) {
-        light_sample(ctx, v, beta, radiance, sampler, counters);
-    }
-
-    #[inline(always)]
-    fn at_vertex_deferred(
-        &self,
-        _: &mut (),
-        ctx: &RenderContext,
-        v: &Vertex,
-        beta: Vec3,
-        radiance: &mut Vec3,
-        sampler: &mut Sampler,
-        counters: &mut Counters,
-        deferred: &mut Deferred,
-    ) {
-        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+        light_sample(ctx, v, beta, radiance, sampler, counters, terms);
     }
 }
 
 /// One light sample at the non-delta vertex `v`, weighed against BSDF sampling by the power
-/// heuristic.
+/// heuristic, given to `terms`.
 #[inline(always)]
 pub fn light_sample(
     ctx: &RenderContext,
@@ -64,25 +50,12 @@ pub fn light_sample(
     radiance: &mut Vec3,
     sampler: &mut Sampler,
     counters: &mut Counters,
-) {
-    *radiance += beta * sample_emitters(ctx, v.sp, v.bsdf, v.wo, sampler, counters);
-}
-
-/// [`light_sample`] with its shadow ray left to `deferred`: the same draws, the same term.
-#[inline(always)]
-pub fn light_sample_deferred(
-    ctx: &RenderContext,
-    v: &Vertex,
-    beta: Vec3,
-    radiance: &mut Vec3,
-    sampler: &mut Sampler,
-    counters: &mut Counters,
-    deferred: &mut Deferred,
+    terms: &mut impl Terms,
 ) {
     let u_select = sampler.next_f32();
     let u = sampler.next_2d();
     let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, (u_select, u), counters);
-    deferred.sample(beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf), radiance);
+    terms.sample(ctx, beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf), radiance);
 }
 
 impl Integrator for PathTracer {

@@ -42,7 +42,7 @@
 
 use glam::Vec3;
 
-use super::deferred::Deferred;
+use super::deferred::{Immediate, Terms};
 use super::direct::{Sampled, emission, environment};
 use super::scatter::{scatter, survives_roulette};
 use super::{Counters, RenderContext};
@@ -124,7 +124,12 @@ pub trait Estimator {
     }
 
     /// At a non-delta vertex below `max_depth`, after [`Estimator::on_hit`] and before BSDF
-    /// sampling, with the vertex's sampler: light sampling and the method's own techniques.
+    /// sampling, with the vertex's sampler: light sampling and the method's own techniques,
+    /// each term given to `terms` (with `radiance`), which adds it at once (the scalar
+    /// walker's [`Immediate`](super::deferred::Immediate)) or, from the first that waits for
+    /// a shadow ray on, once a batch's shadow rays are traced (the batched walker's
+    /// [`Deferred`](super::deferred::Deferred)): the same draws, the same terms in the same
+    /// order either way.
     #[allow(clippy::too_many_arguments)]
     fn at_vertex(
         &self,
@@ -135,28 +140,8 @@ pub trait Estimator {
         radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
+        terms: &mut impl Terms,
     );
-
-    /// [`Estimator::at_vertex`] for a batched walker: the same draws, the same terms in the
-    /// same order, each given to `deferred` (with `radiance`), which adds it at once or, from
-    /// the first that waits for a shadow ray on, once the batch's shadow rays are traced.
-    /// Nothing of the path waits when it is called. By default [`Estimator::at_vertex`]
-    /// itself, nothing deferred.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn at_vertex_deferred(
-        &self,
-        state: &mut Self::State,
-        ctx: &RenderContext,
-        v: &Vertex,
-        beta: Vec3,
-        radiance: &mut Vec3,
-        sampler: &mut Sampler,
-        counters: &mut Counters,
-        _deferred: &mut Deferred,
-    ) {
-        self.at_vertex(state, ctx, v, beta, radiance, sampler, counters);
-    }
 
     /// After the BSDF at `v` (delta or not) sampled the direction the path continues in, and
     /// before Russian roulette.
@@ -282,7 +267,8 @@ pub fn walk<E: Estimator>(
         let bsdf = &material.bsdf_at(sp.uv);
         let v = Vertex { sp: &sp, wo, bsdf, depth };
         if !bsdf.is_delta() {
-            estimator.at_vertex(&mut state, ctx, &v, beta, &mut radiance, sampler, counters);
+            let terms = &mut Immediate::default();
+            estimator.at_vertex(&mut state, ctx, &v, beta, &mut radiance, sampler, counters, terms);
         }
 
         // ---- BSDF sampling: the MIS half of direct light, a delta bounce, or a full bounce.

@@ -10,8 +10,8 @@
 //! each hit in the batch's order with the scalar walker's loop body ([`super::walker::walk`]:
 //! the emission found there, the estimator's terms at the vertex, the BSDF sample, Russian
 //! roulette), except that the light samples of the estimator's terms stop at their shadow
-//! rays, which are collected with the terms that wait for them ([`Deferred`],
-//! [`Estimator::at_vertex_deferred`]); trace the collected shadow rays; add the kept terms
+//! rays, which are collected with the terms that wait for them ([`Deferred`], the
+//! [`Terms`](super::deferred::Terms) that [`Estimator::at_vertex`] is given); trace the collected shadow rays; add the kept terms
 //! to their paths, each path's in its order. Every path draws the same dimensions of its own
 //! sampler in the same order as the scalar walker, and adds the same terms in the same order
 //! (emission at depth d, the terms of the vertex at d, emission at d + 1, …), computed by
@@ -187,7 +187,7 @@ fn bounce<E: Estimator>(
     if !bsdf.is_delta() {
         deferred.at(index);
         let (state, radiance) = (&mut path.state, &mut path.radiance);
-        estimator.at_vertex_deferred(state, ctx, &v, path.beta, radiance, sampler, counters, deferred);
+        estimator.at_vertex(state, ctx, &v, path.beta, radiance, sampler, counters, deferred);
     }
 
     // ---- BSDF sampling and Russian roulette.

@@ -12,7 +12,7 @@ use super::mis::{Technique, Weighing};
 use super::points::PointLights;
 use super::subpath::{Counts, MisState, Scatter};
 use crate::geometry::Ray;
-use crate::integrator::deferred::{Deferred, LightSamples, Summed};
+use crate::integrator::deferred::Terms;
 use crate::integrator::direct::{Sampled, connect_emitters_at};
 use crate::integrator::walker::{Arrival, Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
@@ -60,7 +60,7 @@ impl Bidirectional<'_> {
         if path.connecting.rank() == 1 { self.light_samples } else { 1 }
     }
 
-    /// The terms of the non-delta vertex `v`: its light samples put in `samples`, each
+    /// The terms of the non-delta vertex `v`: its light samples summed in `samples`, each
     /// weighed bidirectionally, and the gather from the VPLs where the vertex connects
     /// (`None` where it does not), each per unit throughput.
     #[inline(always)]
@@ -71,7 +71,7 @@ impl Bidirectional<'_> {
         v: &Vertex,
         sampler: &mut Sampler,
         counters: &mut Counters,
-        samples: &mut impl LightSamples,
+        samples: &mut impl Terms,
     ) -> Option<Vec3> {
         let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
         let (counts, connect, state) = (self.counts, self.connect, path.mis);
@@ -88,7 +88,7 @@ impl Bidirectional<'_> {
         let count_previous = if path.connecting.previous_connects() { count_in } else { 0.0 };
         for u in sampler.next_2d_block(n) {
             let c = connect_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters);
-            samples.add(ctx, c, |l| {
+            samples.sum(ctx, c, |l| {
                 let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                 light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
             });
@@ -186,8 +186,9 @@ impl Estimator for Bidirectional<'_> {
         }
     }
 
-    /// Next-event estimation (`light_samples` samples at the first vertex) and the connections
-    /// to the VPLs.
+    /// Next-event estimation (`light_samples` samples at the first vertex, their mean) and
+    /// the connections to the VPLs.
+    #[inline]
     fn at_vertex(
         &self,
         path: &mut CameraPath,
@@ -197,33 +198,12 @@ impl Estimator for Bidirectional<'_> {
         radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
+        terms: &mut impl Terms,
     ) {
-        let mut direct = Summed::default();
-        let gathered = self.vertex(path, ctx, v, sampler, counters, &mut direct);
-        *radiance += beta * (direct.sum / self.samples_at(path) as f32);
+        let gathered = self.vertex(path, ctx, v, sampler, counters, terms);
+        terms.mean(beta, self.samples_at(path), radiance);
         if let Some(g) = gathered {
-            *radiance += beta * g;
-        }
-    }
-
-    /// [`Bidirectional::at_vertex`] with the light samples' shadow rays deferred (and the
-    /// gather after them).
-    #[inline]
-    fn at_vertex_deferred(
-        &self,
-        path: &mut CameraPath,
-        ctx: &RenderContext,
-        v: &Vertex,
-        beta: Vec3,
-        radiance: &mut Vec3,
-        sampler: &mut Sampler,
-        counters: &mut Counters,
-        deferred: &mut Deferred,
-    ) {
-        let gathered = self.vertex(path, ctx, v, sampler, counters, deferred);
-        deferred.mean(beta, self.samples_at(path));
-        if let Some(g) = gathered {
-            deferred.add(beta, g, radiance);
+            terms.add(beta, g, radiance);
         }
     }
 

@@ -10,9 +10,9 @@ use super::mis::{EmitterPath, Technique, Weighing};
 use super::points::PointLights;
 use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
-use crate::integrator::deferred::Deferred;
+use crate::integrator::deferred::Terms;
 use crate::integrator::direct::{LightSample, Sampled, emission_weighted, sample_emitters_weighted};
-use crate::integrator::path::{light_sample, light_sample_deferred};
+use crate::integrator::path::light_sample;
 use crate::integrator::scatter::scatter;
 use crate::integrator::walker::{Estimator, Vertex};
 use crate::integrator::{Counters, RenderContext};
@@ -41,30 +41,12 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
         radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
+        terms: &mut impl Terms,
     ) {
-        light_sample(ctx, v, beta, radiance, sampler, counters);
-        let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        *radiance += beta * self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
-    }
-
-    /// [`Gathering::at_vertex`] with the light sample's shadow ray deferred (and the gather
-    /// after it).
-    #[inline]
-    fn at_vertex_deferred(
-        &self,
-        _: &mut (),
-        ctx: &RenderContext,
-        v: &Vertex,
-        beta: Vec3,
-        radiance: &mut Vec3,
-        sampler: &mut Sampler,
-        counters: &mut Counters,
-        deferred: &mut Deferred,
-    ) {
-        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+        light_sample(ctx, v, beta, radiance, sampler, counters, terms);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let gathered = self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
-        deferred.add(beta, gathered, radiance);
+        terms.add(beta, gathered, radiance);
     }
 }
 
@@ -109,28 +91,11 @@ impl Estimator for WeighedGathering<'_> {
         radiance: &mut Vec3,
         sampler: &mut Sampler,
         counters: &mut Counters,
+        terms: &mut impl Terms,
     ) {
-        light_sample(ctx, v, beta, radiance, sampler, counters);
-        *radiance += beta * self.gather(ctx, v, sampler, counters);
-    }
-
-    /// [`WeighedGathering::at_vertex`] with the light sample's shadow ray deferred (and the
-    /// gather after it).
-    #[inline]
-    fn at_vertex_deferred(
-        &self,
-        _: &mut (),
-        ctx: &RenderContext,
-        v: &Vertex,
-        beta: Vec3,
-        radiance: &mut Vec3,
-        sampler: &mut Sampler,
-        counters: &mut Counters,
-        deferred: &mut Deferred,
-    ) {
-        light_sample_deferred(ctx, v, beta, radiance, sampler, counters, deferred);
+        light_sample(ctx, v, beta, radiance, sampler, counters, terms);
         let gathered = self.gather(ctx, v, sampler, counters);
-        deferred.add(beta, gathered, radiance);
+        terms.add(beta, gathered, radiance);
     }
 
     #[inline]
