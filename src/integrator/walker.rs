@@ -46,6 +46,7 @@ use super::deferred::{Immediate, Terms};
 use super::direct::{Sampled, emission, environment};
 use super::scatter::{scatter, survives_roulette};
 use super::{Counters, RenderContext};
+use crate::accel::Hit;
 use crate::geometry::{Ray, offset_origin};
 use crate::material::{Bsdf, BsdfSample, Material, TransportMode};
 use crate::sampling::Sampler;
@@ -173,117 +174,177 @@ pub trait Estimator {
     }
 }
 
+/// One camera path between the walker's steps: what the loop keeps.
+pub(super) struct Path<S> {
+    /// The ray to trace next.
+    pub ray: Ray,
+    pub radiance: Vec3,
+    beta: Vec3,
+    eta_scale: f32,
+    /// How `ray` was sampled: delta lobes (and the camera) get full emission.
+    how: Sampled,
+    /// `ray` left a non-delta vertex whose estimate covers the surfaces beyond it.
+    covered: bool,
+    /// Segments from the camera to the vertex `ray` left.
+    depth: u32,
+    /// The estimator's bookkeeping.
+    state: S,
+}
+
+impl<S> Path<S> {
+    /// The path that starts along the camera ray `ray` (unit direction).
+    #[inline]
+    pub(super) fn start<E: Estimator<State = S>>(estimator: &E, ray: Ray) -> Self {
+        Path {
+            ray,
+            radiance: Vec3::ZERO,
+            beta: Vec3::ONE,
+            eta_scale: 1.0,
+            how: Sampled::camera(ray.origin),
+            covered: false,
+            depth: 0,
+            state: estimator.start(&ray),
+        }
+    }
+}
+
 /// Radiance arriving along the camera ray `ray` (unit direction), estimated by `estimator`.
 pub fn walk<E: Estimator>(
     ctx: &RenderContext,
-    mut ray: Ray,
+    ray: Ray,
     estimator: &E,
     sampler: &mut Sampler,
     counters: &mut Counters,
 ) -> Vec3 {
-    let mut radiance = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let mut eta_scale = 1.0f32;
-    let mut state = estimator.start(&ray);
-    // How the current ray was sampled: delta lobes (and the camera) get full emission.
-    let mut how = Sampled::camera(ray.origin);
-    // The current ray left a non-delta vertex whose estimate covers the surfaces beyond it.
-    let mut covered = false;
-    let mut depth = 0u32;
+    let mut path = Path::start(estimator, ray);
+    let terms = &mut Immediate::default();
     loop {
         counters.rays += 1;
-        let Some(hit) = ctx.accel.intersect(&ray) else {
-            if !ctx.emitters.environments().is_empty() {
-                estimator.on_escape(&mut state, ctx, &ray, &how, beta, &mut radiance);
-            }
-            break;
-        };
-        if E::COVERS_SURFACES && covered {
-            let material = ctx.scene.material_of(hit.prim);
-            if !material.bsdf.is_delta() {
-                // The estimate carried everything beyond this vertex; only its emission is
-                // left (the BSDF-sampled half of direct light), and the bounce's share of what
-                // the estimate weighs against it.
-                let bounce = estimator.uses_bounces() && depth + 1 < ctx.max_depth;
-                // A plastic or a mask: the estimate covered its non-delta lobe only; the paths
-                // through its delta lobe go on ([`Bsdf::has_delta`]).
-                let through = material.bsdf.has_delta() && depth + 1 < ctx.max_depth;
-                if !(material.is_emitter() || bounce || through) {
-                    break;
-                }
-                let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
-                let wo = -ray.dir.normalize();
-                if material.is_emitter() {
-                    let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &how };
-                    estimator.on_hit(&mut state, ctx, &at, beta, &mut radiance);
-                }
-                if !(bounce || through) {
-                    break;
-                }
-                let bsdf = material.bsdf_at(sp.uv);
-                let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
-                if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &how, sampler, counters) {
-                    radiance += beta * l;
-                }
-                if !through {
-                    break;
-                }
-                // Sampled in full, kept only when the delta lobe was drawn: its weight
-                // f / p of the lobe's probability p is the delta paths' share, unbiased.
-                let Some(s) = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else {
-                    break;
-                };
-                if !s.delta {
-                    break;
-                }
-                depth += 1;
-                eta_scale *= s.eta * s.eta;
-                estimator.on_scatter(&mut state, &v, &s);
-                how = Sampled { from: sp.p, pdf: s.pdf, delta: true };
-                covered = false;
-                ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
-                continue;
-            }
-        }
-        depth += 1;
-        let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
-        let wo = -ray.dir.normalize();
-        let material = ctx.scene.material(sp.material);
-
-        // ---- Emission found by the camera ray or the BSDF sample.
-        estimator.on_hit(
-            &mut state,
-            ctx,
-            &Arrival { sp: &sp, wo, material, depth, how: &how },
-            beta,
-            &mut radiance,
-        );
-        if depth >= ctx.max_depth {
+        let hit = ctx.accel.intersect(&path.ray);
+        if !step(ctx, estimator, &mut path, hit, sampler, counters, terms) {
             break;
         }
-
-        // ---- Light sampling and the method's techniques (one more segment at least, so
-        // depth + 1 ≤ max_depth).
-        let bsdf = &material.bsdf_at(sp.uv);
-        let v = Vertex { sp: &sp, wo, bsdf, depth };
-        if !bsdf.is_delta() {
-            let terms = &mut Immediate::default();
-            estimator.at_vertex(&mut state, ctx, &v, beta, &mut radiance, sampler, counters, terms);
-        }
-
-        // ---- BSDF sampling: the MIS half of direct light, a delta bounce, or a full bounce.
-        let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta) else { break };
-        eta_scale *= s.eta * s.eta;
-        estimator.on_scatter(&mut state, &v, &s);
-        how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
-        covered = !s.delta;
-        if !E::COVERS_SURFACES
-            && depth >= ctx.scene.defaults().rr_depth
-            && !survives_roulette(beta.max_element() * eta_scale, &mut beta, sampler)
-        {
-            break;
-        }
-        ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }
-    radiance
+    path.radiance
+}
+
+/// One step of the walk, the loop body of both walkers ([`walk`] and
+/// [`super::wavefront::walk_batch`]): the path's ray found `hit` (`None`: it left the scene);
+/// the estimator's terms at the vertex go to `terms`. Whether the path goes on (its next ray
+/// in `path.ray`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn step<E: Estimator>(
+    ctx: &RenderContext,
+    estimator: &E,
+    path: &mut Path<E::State>,
+    hit: Option<Hit>,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+    terms: &mut impl Terms,
+) -> bool {
+    let Some(hit) = hit else {
+        if !ctx.emitters.environments().is_empty() {
+            estimator.on_escape(&mut path.state, ctx, &path.ray, &path.how, path.beta, &mut path.radiance);
+        }
+        return false;
+    };
+    if E::COVERS_SURFACES && path.covered && !ctx.scene.material_of(hit.prim).bsdf.is_delta() {
+        return covered_end(ctx, estimator, path, &hit, sampler, counters);
+    }
+    path.depth += 1;
+    let depth = path.depth;
+    let sp = ctx.scene.surface_of_hit(&hit, path.ray.dir);
+    let wo = -path.ray.dir.normalize();
+    let material = ctx.scene.material(sp.material);
+
+    // ---- Emission found by the camera ray or the BSDF sample.
+    let at = Arrival { sp: &sp, wo, material, depth, how: &path.how };
+    estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
+    if depth >= ctx.max_depth {
+        return false;
+    }
+
+    // ---- Light sampling and the method's techniques (one more segment at least, so
+    // depth + 1 ≤ max_depth).
+    let bsdf = &material.bsdf_at(sp.uv);
+    let v = Vertex { sp: &sp, wo, bsdf, depth };
+    if !bsdf.is_delta() {
+        let (state, radiance) = (&mut path.state, &mut path.radiance);
+        estimator.at_vertex(state, ctx, &v, path.beta, radiance, sampler, counters, terms);
+    }
+
+    // ---- BSDF sampling: the MIS half of direct light, a delta bounce, or a full bounce.
+    let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
+        return false;
+    };
+    path.eta_scale *= s.eta * s.eta;
+    estimator.on_scatter(&mut path.state, &v, &s);
+    path.how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
+    path.covered = !s.delta;
+    if !E::COVERS_SURFACES
+        && depth >= ctx.scene.defaults().rr_depth
+        && !survives_roulette(path.beta.max_element() * path.eta_scale, &mut path.beta, sampler)
+    {
+        return false;
+    }
+    path.ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    true
+}
+
+/// The non-delta vertex where a covered walk arrives (only when
+/// [`Estimator::COVERS_SURFACES`]): the estimate carried everything beyond the vertex before
+/// it; what is left is its emission (the BSDF-sampled half of direct light), the bounce's
+/// share of what the estimate weighs against it, and the delta lobe of a plastic or a mask,
+/// through which the path goes on. Whether it does (its next ray in `path.ray`).
+#[inline(never)]
+fn covered_end<E: Estimator>(
+    ctx: &RenderContext,
+    estimator: &E,
+    path: &mut Path<E::State>,
+    hit: &Hit,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+) -> bool {
+    let material = ctx.scene.material_of(hit.prim);
+    let depth = path.depth;
+    let bounce = estimator.uses_bounces() && depth + 1 < ctx.max_depth;
+    // A plastic or a mask: the estimate covered its non-delta lobe only; the paths through
+    // its delta lobe go on ([`Bsdf::has_delta`]).
+    let through = material.bsdf.has_delta() && depth + 1 < ctx.max_depth;
+    if !(material.is_emitter() || bounce || through) {
+        return false;
+    }
+    let sp = ctx.scene.surface_of_hit(hit, path.ray.dir);
+    let wo = -path.ray.dir.normalize();
+    if material.is_emitter() {
+        let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &path.how };
+        estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
+    }
+    if !(bounce || through) {
+        return false;
+    }
+    let bsdf = material.bsdf_at(sp.uv);
+    let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
+    if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &path.how, sampler, counters) {
+        path.radiance += path.beta * l;
+    }
+    if !through {
+        return false;
+    }
+    // Sampled in full, kept only when the delta lobe was drawn: its weight f / p of the
+    // lobe's probability p is the delta paths' share, unbiased.
+    let Some(s) = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
+        return false;
+    };
+    if !s.delta {
+        return false;
+    }
+    path.depth += 1;
+    path.eta_scale *= s.eta * s.eta;
+    estimator.on_scatter(&mut path.state, &v, &s);
+    path.how = Sampled { from: sp.p, pdf: s.pdf, delta: true };
+    path.covered = false;
+    path.ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    true
 }

@@ -7,11 +7,12 @@
 //! many-light methods' covered walks.
 //!
 //! One bounce: trace the rays of the live paths (finished paths are compacted away); shade
-//! each hit in the batch's order with the scalar walker's loop body ([`super::walker::walk`]:
-//! the emission found there, the estimator's terms at the vertex, the BSDF sample, Russian
-//! roulette), except that the light samples of the estimator's terms stop at their shadow
-//! rays, which are collected with the terms that wait for them ([`Deferred`], the
-//! [`Terms`](super::deferred::Terms) that [`Estimator::at_vertex`] is given); trace the collected shadow rays; add the kept terms
+//! each hit in the batch's order with the loop body of the scalar walker
+//! [`super::walker::walk`], which both share (`walker::step`: the emission found there, the
+//! estimator's terms at the vertex, the BSDF sample, Russian roulette), except that the light
+//! samples of the estimator's terms stop at their shadow rays, which are collected with the
+//! terms that wait for them ([`Deferred`], the [`Terms`](super::deferred::Terms) that
+//! [`Estimator::at_vertex`] is given); trace the collected shadow rays; add the kept terms
 //! to their paths, each path's in its order. Every path draws the same dimensions of its own
 //! sampler in the same order as the scalar walker, and adds the same terms in the same order
 //! (emission at depth d, the terms of the vertex at d, emission at d + 1, …), computed by
@@ -34,7 +35,7 @@
 //! deferring the shadow rays of next-event estimation into the bounce's batch the rest.
 //!
 //! **Versions picked at run time.** The default build targets plain x86-64 (SSE2), so
-//! [`walk_batch`], with the shading it inlines (`bounce`, [`scatter`], the light sample of
+//! [`walk_batch`], with the shading it inlines (`walker::step`, BSDF sampling, the light sample of
 //! [`connect_emitters_at`](super::direct::connect_emitters_at), the BSDFs' common cases), is
 //! compiled three times with the `multiversion` crate, as the BVH's traversal is: for AVX2 +
 //! FMA, for AVX-512 (CPUs with Ice Lake's set) and the baseline, the CPU's version picked at
@@ -47,32 +48,12 @@ use glam::Vec3;
 use multiversion::multiversion;
 
 use super::deferred::Deferred;
-use super::direct::Sampled;
-use super::scatter::{scatter, survives_roulette};
-use super::walker::{Arrival, Estimator, Vertex};
+use super::walker::{Estimator, Path, step};
 use super::{Counters, FilmSplat, Integrator, RenderContext};
 use crate::accel::Hit;
-use crate::geometry::{Ray, offset_origin};
-use crate::material::TransportMode;
+use crate::geometry::Ray;
 use crate::sampling::Sampler;
 use crate::scene::CameraRays;
-
-/// One camera path of a batch between bounces: what the scalar walker keeps in its loop.
-struct Path<S> {
-    /// The ray to trace next.
-    ray: Ray,
-    radiance: Vec3,
-    beta: Vec3,
-    eta_scale: f32,
-    /// How `ray` was sampled (the camera or a delta lobe: full emission).
-    how: Sampled,
-    /// `ray` left a non-delta vertex whose estimate covers the surfaces beyond it.
-    covered: bool,
-    /// Segments from the camera to the vertex `ray` left.
-    depth: u32,
-    /// The estimator's bookkeeping.
-    state: S,
-}
 
 /// Buffers of one batch, kept across bounces.
 #[derive(Default)]
@@ -100,19 +81,7 @@ pub fn walk_batch<E: Estimator>(
     out: &mut [Vec3],
 ) {
     assert!(rays.len() == samplers.len() && rays.len() == out.len());
-    let mut paths: Vec<Path<E::State>> = rays
-        .iter()
-        .map(|&ray| Path {
-            ray,
-            radiance: Vec3::ZERO,
-            beta: Vec3::ONE,
-            eta_scale: 1.0,
-            how: Sampled::camera(ray.origin),
-            covered: false,
-            depth: 0,
-            state: estimator.start(&ray),
-        })
-        .collect();
+    let mut paths: Vec<Path<E::State>> = rays.iter().map(|&ray| Path::start(estimator, ray)).collect();
     let mut b = Buffers { live: (0..rays.len() as u32).collect(), ..Buffers::default() };
     while !b.live.is_empty() {
         b.rays.clear();
@@ -126,7 +95,9 @@ pub fn walk_batch<E: Estimator>(
         for k in 0..b.live.len() {
             let i = b.live[k];
             let (path, sampler) = (&mut paths[i as usize], &mut samplers[i as usize]);
-            if bounce(ctx, estimator, i, path, b.hits[k], sampler, counters, &mut b.deferred) {
+            // (The light samples of the vertex's terms are kept in `deferred`, not tested.)
+            b.deferred.at(i);
+            if step(ctx, estimator, path, b.hits[k], sampler, counters, &mut b.deferred) {
                 b.live[kept] = i;
                 kept += 1;
             }
@@ -138,128 +109,6 @@ pub fn walk_batch<E: Estimator>(
     for (o, p) in out.iter_mut().zip(&paths) {
         *o = p.radiance;
     }
-}
-
-/// One step of path `index`, whose ray found `hit`: the scalar walker's loop body, with the
-/// light samples of the estimator's terms at the vertex kept in `deferred` instead of
-/// tested. Whether the path goes on (its next ray in `path.ray`).
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn bounce<E: Estimator>(
-    ctx: &RenderContext,
-    estimator: &E,
-    index: u32,
-    path: &mut Path<E::State>,
-    hit: Option<Hit>,
-    sampler: &mut Sampler,
-    counters: &mut Counters,
-    deferred: &mut Deferred,
-) -> bool {
-    let Some(hit) = hit else {
-        if !ctx.emitters.environments().is_empty() {
-            estimator.on_escape(&mut path.state, ctx, &path.ray, &path.how, path.beta, &mut path.radiance);
-        }
-        return false;
-    };
-    if E::COVERS_SURFACES && path.covered {
-        let material = ctx.scene.material_of(hit.prim);
-        if !material.bsdf.is_delta() {
-            return covered_end(ctx, estimator, path, &hit, sampler, counters);
-        }
-    }
-    path.depth += 1;
-    let depth = path.depth;
-    let sp = ctx.scene.surface_of_hit(&hit, path.ray.dir);
-    let wo = -path.ray.dir.normalize();
-    let material = ctx.scene.material(sp.material);
-
-    // ---- Emission found by the camera ray or the BSDF sample.
-    let at = Arrival { sp: &sp, wo, material, depth, how: &path.how };
-    estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
-    if depth >= ctx.max_depth {
-        return false;
-    }
-
-    // ---- Light sampling and the method's techniques, their shadow rays deferred to the
-    // bounce's batch.
-    let bsdf = &material.bsdf_at(sp.uv);
-    let v = Vertex { sp: &sp, wo, bsdf, depth };
-    if !bsdf.is_delta() {
-        deferred.at(index);
-        let (state, radiance) = (&mut path.state, &mut path.radiance);
-        estimator.at_vertex(state, ctx, &v, path.beta, radiance, sampler, counters, deferred);
-    }
-
-    // ---- BSDF sampling and Russian roulette.
-    let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
-        return false;
-    };
-    path.eta_scale *= s.eta * s.eta;
-    estimator.on_scatter(&mut path.state, &v, &s);
-    path.how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
-    if E::COVERS_SURFACES {
-        path.covered = !s.delta;
-    }
-    if !E::COVERS_SURFACES
-        && depth >= ctx.scene.defaults().rr_depth
-        && !survives_roulette(path.beta.max_element() * path.eta_scale, &mut path.beta, sampler)
-    {
-        return false;
-    }
-    path.ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
-    true
-}
-
-/// The non-delta vertex where a covered walk arrives (only when
-/// [`Estimator::COVERS_SURFACES`]): the scalar walker's covered branch, its emission, the
-/// bounce's share, and the delta lobe of a plastic or a mask, through which the path goes on.
-/// Whether it does (its next ray in `path.ray`).
-#[inline(never)]
-fn covered_end<E: Estimator>(
-    ctx: &RenderContext,
-    estimator: &E,
-    path: &mut Path<E::State>,
-    hit: &Hit,
-    sampler: &mut Sampler,
-    counters: &mut Counters,
-) -> bool {
-    let material = ctx.scene.material_of(hit.prim);
-    let depth = path.depth;
-    let bounce = estimator.uses_bounces() && depth + 1 < ctx.max_depth;
-    let through = material.bsdf.has_delta() && depth + 1 < ctx.max_depth;
-    if !(material.is_emitter() || bounce || through) {
-        return false;
-    }
-    let sp = ctx.scene.surface_of_hit(hit, path.ray.dir);
-    let wo = -path.ray.dir.normalize();
-    if material.is_emitter() {
-        let at = Arrival { sp: &sp, wo, material, depth: depth + 1, how: &path.how };
-        estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
-    }
-    if !(bounce || through) {
-        return false;
-    }
-    let bsdf = material.bsdf_at(sp.uv);
-    let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: depth + 1 };
-    if bounce && let Some(l) = estimator.at_bounce(ctx, &v, &path.how, sampler, counters) {
-        path.radiance += path.beta * l;
-    }
-    if !through {
-        return false;
-    }
-    let Some(s) = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
-        return false;
-    };
-    if !s.delta {
-        return false;
-    }
-    path.depth += 1;
-    path.eta_scale *= s.eta * s.eta;
-    estimator.on_scatter(&mut path.state, &v, &s);
-    path.how = Sampled { from: sp.p, pdf: s.pdf, delta: true };
-    path.covered = false;
-    path.ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
-    true
 }
 
 /// How the driver's batches of camera rays are traced (`--walker`): together, by the
