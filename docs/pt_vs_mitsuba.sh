@@ -62,11 +62,8 @@ if [[ -n $py ]] && ! "$py" -c 'import mitsuba' 2>/dev/null; then
     py=
 fi
 
-pir=${PIR:-}
-if [[ -z $pir ]]; then
-    cargo build --release --quiet
-    pir=target/release/pir
-fi
+# shellcheck source=docs/pir-binary.sh
+source docs/pir-binary.sh
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 

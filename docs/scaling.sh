@@ -14,11 +14,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 spp=${1:-8}
 shared=${SHARED:-../shared}
-pir=${PIR:-}
-if [[ -z $pir ]]; then
-    cargo build --release --quiet
-    pir=target/release/pir
-fi
+# shellcheck source=docs/pir-binary.sh
+source docs/pir-binary.sh
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 

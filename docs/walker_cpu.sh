@@ -16,11 +16,8 @@ spp=${1:-32}
 pairs=${PAIRS:-3}
 shared=${SHARED:-../shared}
 read -r -a extra <<<"${PIR_ARGS:-}"
-pir=${PIR:-}
-if [[ -z $pir ]]; then
-    cargo build --release --quiet
-    pir=target/release/pir
-fi
+# shellcheck source=docs/pir-binary.sh
+source docs/pir-binary.sh
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 samples=$((256 * 256 * spp))
