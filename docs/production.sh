@@ -15,7 +15,9 @@
 #   scene contract defines (albedo/π + specular · GGX) but no Mitsuba BSDF with reflectances
 #   in [0, 1] represents, and Mitsuba refuses larger ones. Reference: a long `pir reference`
 #   (pir's path tracer, checked against Mitsuba's on the living room and the shared scenes),
-#   REF_SECONDS of it, resumable through its checkpoint.
+#   REF_SECONDS of it, resumable through its checkpoint, at seed REF_SEED (default 1000): a
+#   reference at the study's seed would share the study's random numbers (`pir study` refuses
+#   it), since `pt`'s first iterations would be the reference's own.
 #
 # Every study line renders alone on all cores (`pir study`, then Mitsuba at the same wall
 # time, whole process, JIT and scene load included), so the machine should be otherwise idle.
@@ -72,7 +74,7 @@ reference() {
                 --spp 1000000 --checkpoint 300 --quiet
         else
             "$pir" render "$scene" --method pt --resolution "$w" "$h" --time "${REF_SECONDS:-21600}" \
-                --spp 1000000 --checkpoint 300 --out "$ref" --quiet
+                --spp 1000000 --checkpoint 300 --seed "${REF_SEED:-1000}" --out "$ref" --quiet
         fi
         cp "$ref" "$dir/reference.exr"
     fi

@@ -218,6 +218,50 @@ fn bad_input_fails_cleanly_before_rendering() {
     assert!(!d.join("study-cornell-box").exists());
 }
 
+/// A reference that pir rendered from the scene at the study's seed shares its random numbers
+/// with the study's lines (`pt`'s first iterations are its own): refused, naming the remedy.
+/// `pir reference` renders at a seed of its own, so a study at the scene's seed may use it.
+#[test]
+fn a_reference_at_the_studys_seed_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = scene();
+    let reference = make_reference(d);
+    let (_, attrs) = read_exr(&reference).unwrap();
+    let seed = attrs.iter().find(|(k, _)| k == "pir.seed").unwrap().1.clone();
+    assert_ne!(seed, "0", "the scene's seed");
+    let study = |reference: &str, seed: &str| {
+        let args = ["study", &s, "--reference", reference, "--methods", "pt", "--iterations", "1"];
+        pir(&[&args[..], &["--seed", seed, "--out", "out"]].concat(), d)
+    };
+    let o = study("ref.exr", &seed);
+    assert_clean_failure(&o, &["ref.exr", "same scene", &format!("seed {seed}"), "--seed"]);
+    let o = pir(
+        &[
+            "render",
+            &s,
+            "--method",
+            "pt",
+            "--spp",
+            "1",
+            "--resolution",
+            "32",
+            "32",
+            "--seed",
+            "5",
+            "-q",
+            "--out",
+            "same.exr",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = study("same.exr", "5");
+    assert_clean_failure(&o, &["same.exr", "seed 5"]);
+    let o = study("same.exr", "6");
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// SIGINT during a study ends the running line after its iteration and writes the study of
 /// the lines raced so far, with exit 0: an interrupted study loses nothing already raced.
 #[test]

@@ -1,6 +1,8 @@
 //! `pir reference SCENE --time SECONDS`: a long path-traced render to serve as the reference
 //! of studies, for scenes without an external one. The EXR records its sample count
-//! (`pir.spp`, `pir.iterations`) and render time.
+//! (`pir.spp`, `pir.iterations`) and render time. Without `--seed` it renders at a seed of its
+//! own, so that it is independent of renders and studies at the scene's seed
+//! ([`pir::study::independence`]).
 
 use anyhow::Result;
 use clap::Args;
@@ -11,13 +13,16 @@ use std::time::Duration;
 use pir::integrator::methods::Pt;
 use pir::integrator::{Method, MethodConfig};
 use pir::render::{Budget, Control, Renderer, SceneOptions};
+use pir::study::independence::reference_seed;
 
 use super::progress::{DEFAULT_LINE_INTERVAL, Progress};
 use super::setup::{check_exr_output, interrupt_flag, scene_stem, seconds};
 
 /// Render a reference image with the path tracer for a wall-clock budget.
 ///
-/// Ctrl-C or SIGTERM stops after the running iteration and writes what was rendered.
+/// Ctrl-C or SIGTERM stops after the running iteration and writes what was rendered. Without
+/// --seed the reference takes a seed of its own (the scene's offset by a constant), so that a
+/// study at the scene's seed does not share its random numbers.
 #[derive(Args, Debug)]
 pub struct ReferenceArgs {
     /// The scene file: pir's TOML, or a Mitsuba 3 scene (.xml).
@@ -40,7 +45,9 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     check_exr_output(&out)?;
 
     let scene = a.options.load(&a.scene)?;
-    let renderer = Renderer::new(&scene, &a.options)?;
+    let mut options = a.options.clone();
+    options.seed.get_or_insert(reference_seed(scene.defaults().seed));
+    let renderer = Renderer::new(&scene, &options)?;
     let (width, height) = renderer.resolution();
     eprintln!(
         "pir reference: {} at {width}×{height}, path tracer for {} s on {} threads",

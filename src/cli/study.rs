@@ -9,6 +9,7 @@ use std::sync::atomic::Ordering;
 use pir::image::read_exr;
 use pir::integrator::{MethodConfig, MethodParams, Parameter};
 use pir::render::{Renderer, SceneOptions};
+use pir::study::independence::check_reference;
 use pir::study::output::{StudyInfo, write_all};
 use pir::study::{Method, Run, Schedule, run_one};
 
@@ -198,6 +199,7 @@ pub fn run(a: StudyArgs) -> Result<()> {
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
     let scene = a.options.load(&a.scene)?;
+    check_reference(&a.reference, &ref_attrs, &scene.fingerprint(), a.options.seed(&scene))?;
     for run in &runs {
         run.config.check_scene(&scene)?;
     }

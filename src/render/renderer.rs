@@ -215,6 +215,7 @@ impl<'s> Renderer<'s> {
         let mut attrs: Vec<(String, String)> = vec![
             ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
             ("pir.scene".into(), self.scene.path().display().to_string()),
+            (crate::study::independence::FINGERPRINT_KEY.into(), self.scene.fingerprint()),
             ("pir.method".into(), config.method.name().into()),
             ("pir.max_depth".into(), self.max_depth.to_string()),
             ("pir.seed".into(), self.seed.to_string()),

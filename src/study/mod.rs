@@ -13,6 +13,7 @@
 
 pub mod chart;
 pub mod flip;
+pub mod independence;
 pub mod output;
 pub mod sheet;
 
