@@ -19,7 +19,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec2;
-use pir::accel::{Backend, build_accelerator};
+use pir::accel::Backend;
 use pir::integrator::many_light::light_set::LightSet;
 use pir::integrator::many_light::light_tree::LightTree;
 use pir::integrator::many_light::points::PointLights;
@@ -38,7 +38,7 @@ const SAMPLES: usize = 16;
 
 fn bench(c: &mut Criterion) {
     let scene = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.toml")).unwrap();
-    let accel = build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+    let accel = scene.accelerator(Backend::default_available()).unwrap();
     let emitters = Emitters::new(&scene).unwrap();
     let ctx = RenderContext {
         scene: &scene,

@@ -8,7 +8,7 @@
 mod common;
 
 use common::Job;
-use pir::accel::{Backend, build_accelerator};
+use pir::accel::Backend;
 use pir::integrator::{Clamping, InstantRadiosity, Integrator, PathTracer};
 
 fn compare(name: &str, make: &dyn Fn() -> Box<dyn Integrator>) {
@@ -21,7 +21,7 @@ fn compare(name: &str, make: &dyn Fn() -> Box<dyn Integrator>) {
     let images: Vec<_> = [Backend::Embree, Backend::Bvh]
         .into_iter()
         .map(|b| {
-            let accel = build_accelerator(b, scene.positions(), scene.indices()).unwrap();
+            let accel = scene.accelerator(b).unwrap();
             job.run_with(&scene, accel.as_ref(), make().as_mut()).image()
         })
         .collect();

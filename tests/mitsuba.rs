@@ -60,8 +60,12 @@ fn a_small_scene_loads_with_its_camera_shapes_and_materials() {
     assert!((c.fov_deg - 40.0).abs() < 1e-4 && c.eye == Vec3::new(0.0, 0.0, 5.0), "{c:?}");
     assert!((c.target - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-6 && c.up == Vec3::Y, "{c:?}");
     assert_eq!(s.defaults().max_depth, 6);
-    // 2 triangles of the rectangle, 20 · 4^5 of the sphere.
-    assert_eq!(s.triangle_count(), 2 + 20 * 1024);
+    // 2 triangles of the rectangle, and the analytic sphere.
+    assert_eq!((s.triangle_count(), s.spheres().len(), s.prim_count()), (2, 1, 3));
+    let sphere = s.spheres()[0].sphere;
+    assert_eq!((sphere.center, sphere.radius), (Vec3::new(0.0, 1.0, 2.0), 0.5));
+    assert_eq!(s.sphere_lights().len(), 1);
+    assert_eq!(s.sphere_lights()[0].prims, 2..3);
     // The floor: 6 × 6 at z = 0; the sphere within 0.5 of (0, 1, 2).
     let b = s.bounds();
     assert!((b.min - Vec3::new(-3.0, -3.0, 0.0)).length() < 1e-5, "{b:?}");
@@ -716,7 +720,7 @@ fn ply_and_serialized_meshes_load() {
     );
     let extra = r#"<shape type="ply"><string name="filename" value="quad.ply"/></shape>"#;
     let (s, _) = load(&write(dir.path(), "p.xml", &scene(extra)), &[]).unwrap();
-    assert_eq!(s.triangle_count(), 2 + 20 * 1024 + 2);
+    assert_eq!((s.triangle_count(), s.spheres().len()), (2 + 2, 1));
     assert_eq!(s.bounds().max.z, 9.0);
     let Some(shared) = common::shared_dir("ply_and_serialized_meshes_load") else { return };
     let file = shared.join("scenes/mitsuba/matpreview/matpreview.serialized");
@@ -726,7 +730,7 @@ fn ply_and_serialized_meshes_load() {
             file.display()
         );
         let (s, _) = load(&write(dir.path(), "s.xml", &scene(&extra)), &[]).unwrap();
-        assert_eq!(s.triangle_count() - 2 - 20 * 1024, triangles, "shape {index}");
+        assert_eq!(s.triangle_count() - 2, triangles, "shape {index}");
     }
 }
 
@@ -936,6 +940,16 @@ fn dielectrics_and_conductors() {
 
 /// The texture coordinates of the point `p` of the textured shapes of `s` (`None` off them).
 fn uv_at(s: &Scene, p: Vec3) -> Option<glam::Vec2> {
+    for (k, shape) in s.spheres().iter().enumerate() {
+        let d = p - shape.sphere.center;
+        if s.material(shape.material).textures.is_none() {
+            continue;
+        }
+        if (d.length() - shape.sphere.radius).abs() <= 1e-5 * shape.sphere.radius {
+            let prim = (s.triangle_count() + k) as u32;
+            return Some(s.surface_at(prim, pir::geometry::octahedral_encode(d.normalize())).uv);
+        }
+    }
     for prim in 0..s.triangle_count() as u32 {
         if s.material_of(prim).textures.is_none() {
             continue;
@@ -986,26 +1000,33 @@ fn texture_coordinates_are_mitsubas() {
     let disk = one("disk", "");
     close(at(&disk, [0.0, 0.5, 0.0]), [0.5, 0.25], 1e-3);
     close(at(&disk, [0.3, -0.4, 0.0]), [0.5, 1.0 - (4f32).atan2(3.0) / std::f32::consts::TAU], 1e-3);
+    // The analytic sphere: (φ / 2π, θ / π) of the point, exactly; in its own frame when
+    // `to_world` turns it (a quarter turn about z takes its φ = 0 to the world's +y).
     let sphere = one("sphere", "");
-    // Points of the tessellation near the exact ones: (φ / 2π, θ / π) of the point found.
+    let turned = {
+        let extra = format!(
+            "<shape type=\"sphere\"><transform name=\"to_world\"><rotate z=\"1\" angle=\"90\"/><translate z=\"-10\"/></transform>{tex}</shape>"
+        );
+        load(&write(dir.path(), "turned.xml", &scene(&extra)), &[]).unwrap().0
+    };
     for (x, y, z) in
         [(0.866, 0.05, 0.5), (0.866, -0.05, 0.5), (0.0, 1.0, 0.0), (-0.5, -0.5, 0.7), (0.6, -0.1, -0.79)]
     {
         let d = Vec3::new(x, y, z).normalize();
-        // The triangle under d: the point where the ray from the centre meets the mesh.
-        let hit = (0..sphere.triangle_count() as u32).find_map(|prim| {
-            sphere.material_of(prim).textures.as_ref()?;
-            let [a, b, c] = sphere.triangle(prim).map(|q| q + Vec3::Z * 10.0);
-            let n = (b - a).cross(c - a);
-            let t = a.dot(n) / d.dot(n);
-            let p = d * t;
-            let area = n.length_squared();
-            let (u, v) = ((p - a).cross(c - a).dot(n) / area, (b - a).cross(p - a).dot(n) / area);
-            (t > 0.0 && u >= 0.0 && v >= 0.0 && u + v <= 1.0)
-                .then(|| sphere.surface_at(prim, glam::Vec2::new(u, v)).uv)
-        });
         let phi = d.y.atan2(d.x).rem_euclid(std::f32::consts::TAU);
-        close(hit, [phi / std::f32::consts::TAU, d.z.acos() / std::f32::consts::PI], 2e-3);
+        close(
+            at(&sphere, d.to_array()),
+            [phi / std::f32::consts::TAU, d.z.acos() / std::f32::consts::PI],
+            1e-6,
+        );
+        // u is cyclic: 1 and 0 are the same seam.
+        let want = (phi / std::f32::consts::TAU - 0.25).rem_euclid(1.0);
+        let got = at(&turned, d.to_array()).expect("a point on the sphere");
+        let du = (got.x - want).rem_euclid(1.0);
+        assert!(
+            du.min(1.0 - du) < 1e-5 && (got.y - d.z.acos() / std::f32::consts::PI).abs() < 1e-5,
+            "{d}: {got}"
+        );
     }
     let cube = one("cube", "");
     for (p, want) in [

@@ -9,7 +9,7 @@ mod common;
 use std::path::PathBuf;
 
 use glam::{DVec3, Vec2, Vec3};
-use pir::accel::{Backend, build_accelerator};
+use pir::accel::Backend;
 use pir::geometry::Ray;
 use pir::integrator::direct::sample_emitters_at;
 use pir::integrator::{Counters, RenderContext};
@@ -63,8 +63,7 @@ fn cone_and_area_sampling_agree_at_every_point() {
     let with_cones = scene();
     assert_eq!(with_cones.sphere_lights().len(), 3);
     let by_area = with_cones.clone().with_sphere_lights(Vec::new()).unwrap();
-    let accel = build_accelerator(Backend::default_available(), with_cones.positions(), with_cones.indices())
-        .unwrap();
+    let accel = with_cones.accelerator(Backend::default_available()).unwrap();
     let context = |scene: &Scene, f: &mut dyn FnMut(&RenderContext)| {
         let emitters = Emitters::new(scene).unwrap();
         f(&RenderContext {

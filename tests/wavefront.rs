@@ -13,7 +13,7 @@ mod common;
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
-use pir::accel::{Backend, build_accelerator};
+use pir::accel::Backend;
 use pir::geometry::Ray;
 use pir::integrator::{Counters, Integrator, MethodConfig, RayByRay};
 use pir::sampling::{Sampler, SamplerKind, Streams};
@@ -80,7 +80,7 @@ fn compare_paths(
     sampler: SamplerKind,
     batch: usize,
 ) -> Agreement {
-    let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
+    let accel = scene.accelerator(backend).unwrap();
     let job = Job { width, height, max_depth, seed: 3, sampler, ..Job::default() };
     let camera = scene.camera().with_resolution(width as u32, height as u32).rays();
     let mut integrator = method.integrator(scene.bounds().diagonal());
@@ -231,7 +231,7 @@ fn driver_batches_give_the_ray_by_ray_film() {
         ("pir-mis", Backend::default_available(), (37, 23)),
     ];
     for (method, backend, (width, height)) in cases {
-        let accel = build_accelerator(backend, scene.positions(), scene.indices()).unwrap();
+        let accel = scene.accelerator(backend).unwrap();
         let mut films = Vec::new();
         for threads in [1, 3] {
             let job = Job { width, height, iterations: 2, threads, ..Job::default() };
@@ -254,7 +254,7 @@ fn driver_batches_give_the_ray_by_ray_film() {
 #[test]
 fn degenerate_rays_in_a_batch() {
     let scene = load("scenes/cornell-box/scene.toml");
-    let accel = build_accelerator(Backend::Bvh, scene.positions(), scene.indices()).unwrap();
+    let accel = scene.accelerator(Backend::Bvh).unwrap();
     for method in ["pt", "pir-bdpt"] {
         let mut integrator = integrator(method, &scene);
         Job::default().with_context_on(&scene, accel.as_ref(), |ctx| {

@@ -5,12 +5,15 @@
 //! batches. It returns a minimal [`Hit`] (distance, primitive, barycentrics); the scene turns
 //! that into a shading point once, for every backend (`Scene::surface_at`).
 //!
+//! Analytic spheres join any backend through [`WithSpheres`].
+//!
 //! Backends: [`Bvh`] (pure Rust, binned SAH), [`BruteForce`] (the test oracle) and, when built
 //! with Embree, `Embree` (see [`embree`]; [`embree_status`] says whether it is built in).
 //! [`Backend`] names them and [`build_accelerator`] builds one behind `Box<dyn Accelerator>`.
 
 mod brute;
 mod bvh;
+mod spheres;
 // FTZ/DAZ needs two MXCSR instructions, which only inline assembly can issue.
 #[allow(unsafe_code)]
 mod denormals;
@@ -28,6 +31,7 @@ pub use denormals::{flush_denormals_enabled, set_flush_denormals};
 #[cfg(pir_embree)]
 pub use embree::Embree;
 pub use embree::embree_status;
+pub use spheres::{MAX_SPHERES, WithSpheres};
 
 use std::fmt;
 use std::str::FromStr;

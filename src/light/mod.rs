@@ -10,8 +10,8 @@
 //! of light paths. A scene without other lights builds exactly the table it always did.
 //!
 //! An emitting sphere of a Mitsuba scene ([`SphereLight`]) is one entry of the table, its
-//! power its triangles' (a table of its own picks among them by power, as the scene's table
-//! would). Next-event estimation from outside it samples the cone of the exact sphere instead
+//! power its primitives' (one analytic sphere, or the triangles of a tessellated one, among
+//! which a table of its own picks by power, as the scene's table would). Next-event estimation from outside it samples the cone of the exact sphere instead
 //! of a point ([`Emitters::choose_from`], [`sphere`]); every MIS weight that uses the density
 //! of next-event estimation asks [`Emitters::cone_pdf`] for it. Light paths start on its
 //! triangles by area, as from any others. A scene without spheres builds the table it always
@@ -33,8 +33,8 @@ pub use sphere::SphereLight;
 
 use glam::{Vec2, Vec3};
 
+use crate::sampling::AliasTable;
 use crate::sampling::reuse::{refined, to_unit_f32};
-use crate::sampling::{AliasTable, uniform_triangle};
 use crate::scene::Scene;
 
 pub struct Emitters {
@@ -125,7 +125,7 @@ impl Emitters {
         // The spheres whose every triangle emits; their triangles leave the scene's list.
         let spheres: Vec<&SphereLight> =
             scene.sphere_lights().iter().filter(|s| s.prims.clone().all(|p| power(p) > 0.0)).collect();
-        let mut in_sphere = vec![false; if spheres.is_empty() { 0 } else { scene.indices().len() }];
+        let mut in_sphere = vec![false; if spheres.is_empty() { 0 } else { scene.prim_count() }];
         for s in &spheres {
             for p in s.prims.clone() {
                 in_sphere[p as usize] = true;
@@ -133,7 +133,7 @@ impl Emitters {
         }
         let mut prims = Vec::new();
         let mut weights = Vec::new();
-        for prim in 0..scene.indices().len() as u32 {
+        for prim in 0..scene.prim_count() as u32 {
             if in_sphere.get(prim as usize) == Some(&true) {
                 continue;
             }
@@ -161,7 +161,7 @@ impl Emitters {
             }
         }
         let dist = AliasTable::new(&weights)?;
-        let mut pdf_area = vec![0.0f32; scene.indices().len()];
+        let mut pdf_area = vec![0.0f32; scene.prim_count()];
         for (i, &prim) in prims.iter().enumerate() {
             pdf_area[prim as usize] = dist.pmf(i) / scene.area(prim);
         }
@@ -252,11 +252,12 @@ impl Emitters {
         self.area_sample(scene, self.prims[i], rest, u.y)
     }
 
-    /// A uniform point on emitter triangle `prim` from what is left of the first number,
+    /// A uniform point on emitter `prim` (a triangle or an analytic sphere,
+    /// [`Scene::uniform_point`]) from what is left of the first number,
     /// `rest`, and the second, `v`.
     #[inline(always)]
     fn area_sample(&self, scene: &Scene, prim: u32, rest: f64, v: f32) -> EmitterSample {
-        let b = uniform_triangle(Vec2::new(to_unit_f32(rest), v));
+        let b = scene.uniform_point(prim, Vec2::new(to_unit_f32(rest), v));
         let (p, ng) = scene.point_at(prim, b);
         EmitterSample {
             point: EmitterPoint { p, ng, prim },

@@ -29,7 +29,7 @@ use std::path::Path;
 use super::options::{SceneOptions, check_resolution};
 use super::state::{Job, Shard, write_state};
 use super::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
-use crate::accel::{Accelerator, build_accelerator, set_flush_denormals};
+use crate::accel::{Accelerator, set_flush_denormals};
 use crate::image::{RgbImage, write_exr, write_preview};
 use crate::integrator::{Counters, Integrator, MethodConfig, RayByRay, RenderContext, Walker};
 use crate::light::Emitters;
@@ -73,9 +73,7 @@ impl<'s> Renderer<'s> {
         // Built on the worker pool, so that `threads` bounds the BVH's build as it does the
         // render (Embree builds on its own TBB threads, one per core). The pool's threads flush
         // denormals to zero, which the BVH's boxes allow for (padding, `bvh/traverse.rs`).
-        let accel = pool
-            .install(|| build_accelerator(options.backend(), scene.positions(), scene.indices()))
-            .map_err(anyhow::Error::msg)?;
+        let accel = pool.install(|| scene.accelerator(options.backend())).map_err(anyhow::Error::msg)?;
         Ok(Renderer {
             scene,
             emitters,

@@ -17,6 +17,10 @@ impl Scene {
             h.u32s(t);
         }
         h.u32s(&self.tri_material);
+        // Analytic spheres, only where there are some (older scenes keep their fingerprints).
+        for s in &self.spheres {
+            h.bytes(format!("{s:?}").as_bytes());
+        }
         for m in &self.materials {
             // The Debug form spells out every field of the BSDF and its emission exactly; the
             // two-sided flag is added only where it is set, so that the fingerprints of scenes

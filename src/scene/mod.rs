@@ -14,11 +14,13 @@ mod mtl;
 mod obj;
 pub mod ply;
 pub mod serialized;
+mod spheres;
 mod transform;
 
 pub use camera::{Camera, CameraRays, LensConnection, ThinLens};
 pub use filter::Filter;
 pub use load::{SceneError, load, load_with};
+pub use spheres::SphereShape;
 
 use glam::{Vec2, Vec3};
 use std::path::PathBuf;
@@ -79,6 +81,8 @@ pub struct Scene {
     /// The emitting spheres whose triangles next-event estimation samples by the cone of
     /// the exact sphere (Mitsuba's `sphere` shapes).
     sphere_lights: Vec<crate::light::SphereLight>,
+    /// Analytic spheres, primitives `indices.len()..` ([`Scene::with_spheres`]).
+    spheres: Vec<SphereShape>,
 }
 
 /// What [`Scene::surface_at`] needs of a triangle, computed once at load: its corners, the
@@ -102,6 +106,9 @@ struct TriangleShading {
     textured: bool,
     /// Its material has a normal or bump map ([`crate::material::shading_map`]).
     mapped: bool,
+    /// The primitive is an analytic sphere ([`spheres`]): only `material` and `two_sided`
+    /// hold, and every surface function asks [`Scene::sphere_of`].
+    sphere: bool,
 }
 
 /// The triangles of a scene, as [`Scene::new`] takes them.
@@ -192,6 +199,7 @@ impl Scene {
                     two_sided: materials[material as usize].two_sided,
                     textured: !uvs.is_empty() && tri.iter().all(|&i| uvs[i as usize].is_finite()),
                     mapped: materials[material as usize].textures.as_ref().is_some_and(|t| t.map.is_some()),
+                    sphere: false,
                 }
             })
             .collect();
@@ -211,6 +219,7 @@ impl Scene {
             filter: Filter::Box,
             lights: Vec::new(),
             sphere_lights: Vec::new(),
+            spheres: Vec::new(),
         })
     }
 
@@ -225,18 +234,17 @@ impl Scene {
         &self.lights
     }
 
-    /// The scene with `spheres`: emitting spheres, each the exact sphere that a consecutive
-    /// range of its triangles tessellates (inscribed, front faces outwards). Spheres whose
-    /// range is out of bounds or not in increasing order are an error.
+    /// The scene with `spheres`: emitting spheres, each an analytic sphere's primitive or the
+    /// exact sphere that a consecutive range of its triangles tessellates (inscribed, front
+    /// faces outwards). Spheres whose range is out of bounds or not in increasing order are an
+    /// error.
     pub fn with_sphere_lights(
         mut self,
         spheres: Vec<crate::light::SphereLight>,
     ) -> Result<Scene, SceneError> {
         let mut end = 0;
         for s in &spheres {
-            if s.prims.start < end
-                || s.prims.start >= s.prims.end
-                || s.prims.end as usize > self.indices.len()
+            if s.prims.start < end || s.prims.start >= s.prims.end || s.prims.end as usize > self.prim_count()
             {
                 return Err(SceneError::Invalid {
                     path: self.path.clone(),
@@ -373,23 +381,33 @@ impl Scene {
     }
 
     /// A point of triangle `prim` at barycentrics `(u, v)` with the triangle's unit geometric
-    /// normal: the part of [`Scene::surface_at`] that emitter sampling needs.
+    /// normal (of a sphere at its octahedral coordinates, [`spheres`]): the part of
+    /// [`Scene::surface_at`] that emitter sampling needs.
     #[inline]
     pub fn point_at(&self, prim: u32, uv: Vec2) -> (Vec3, Vec3) {
         let t = &self.shading[prim as usize];
+        if t.sphere
+            && let Some(s) = self.sphere_of(prim)
+        {
+            return Self::sphere_point(s, uv);
+        }
         let [a, b, c] = t.corners;
         (a * (1.0 - uv.x - uv.y) + b * uv.x + c * uv.y, t.flat.n)
     }
 
-    /// Area of a triangle.
+    /// Area of a primitive.
     pub fn area(&self, prim: u32) -> f32 {
+        if let Some(s) = self.sphere_of(prim) {
+            return s.sphere.area();
+        }
         let [a, b, c] = self.triangle(prim);
         0.5 * (b - a).cross(c - a).length()
     }
 
-    /// The surface point at barycentrics `(u, v)` of triangle `prim`: the one function that
-    /// turns any backend's hit (or a sampled point) into shading data. Its frame is the
-    /// perturbed one where the material has a normal or bump map.
+    /// The surface point at barycentrics `(u, v)` of triangle `prim` (of a sphere at its
+    /// octahedral coordinates, [`spheres`]): the one function that turns any backend's hit (or
+    /// a sampled point) into shading data. Its frame is the perturbed one where the material
+    /// has a normal or bump map.
     #[inline]
     pub fn surface_at(&self, prim: u32, uv: Vec2) -> SurfacePoint {
         let sp = self.surface_unmapped(prim, uv);
@@ -400,6 +418,11 @@ impl Scene {
     #[inline(always)]
     fn surface_unmapped(&self, prim: u32, uv: Vec2) -> SurfacePoint {
         let t = &self.shading[prim as usize];
+        if t.sphere
+            && let Some(s) = self.sphere_of(prim)
+        {
+            return Self::sphere_surface(s, prim, uv);
+        }
         let [a, b, c] = t.corners;
         let w = 1.0 - uv.x - uv.y;
         let p = a * w + b * uv.x + c * uv.y;
@@ -419,11 +442,15 @@ impl Scene {
     }
 
     /// The texture coordinates at barycentrics `(u, v)` of triangle `prim`: its vertices'
-    /// interpolated where the triangle has some, else the barycentrics themselves.
+    /// interpolated where the triangle has some, else the barycentrics themselves; a sphere's
+    /// are Mitsuba's (φ / 2π, θ / π).
     #[inline(always)]
     fn texture_coordinates(&self, prim: u32, uv: Vec2) -> Vec2 {
         if !self.shading[prim as usize].textured {
-            return uv;
+            return match self.sphere_of(prim) {
+                Some(s) => Self::sphere_texture_coordinates(s, uv),
+                None => uv,
+            };
         }
         let [ia, ib, ic] = self.indices[prim as usize];
         let (ta, tb, tc) = (self.uvs[ia as usize], self.uvs[ib as usize], self.uvs[ic as usize]);

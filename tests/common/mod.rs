@@ -12,7 +12,7 @@ pub use require::{embree_available, shared_dir};
 use glam::Vec3;
 use std::path::PathBuf;
 
-use pir::accel::{Accelerator, Backend, build_accelerator};
+use pir::accel::{Accelerator, Backend};
 use pir::image::RgbImage;
 use pir::integrator::{Integrator, RenderContext};
 use pir::light::Emitters;
@@ -167,16 +167,14 @@ impl Default for Job {
 impl Job {
     /// Renders `scene` with the default backend (Embree when built in, else pir's BVH).
     pub fn run(&self, scene: &Scene, integrator: &mut dyn Integrator) -> Rendered {
-        let accel =
-            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+        let accel = scene.accelerator(Backend::default_available()).unwrap();
         self.run_with(scene, accel.as_ref(), integrator)
     }
 
     /// Calls `f` with the render context of `scene` on the default backend, with this job's
     /// path length, seed and sampler (and no cached pilot).
     pub fn with_context<R>(&self, scene: &Scene, f: impl FnOnce(&RenderContext) -> R) -> R {
-        let accel =
-            build_accelerator(Backend::default_available(), scene.positions(), scene.indices()).unwrap();
+        let accel = scene.accelerator(Backend::default_available()).unwrap();
         self.with_context_on(scene, accel.as_ref(), f)
     }
 

@@ -45,7 +45,8 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3};
 
 use super::format::MAX_DEPTH;
-use super::{DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError};
+use super::{DEFAULT_RR_DEPTH, Filter, Geometry, RenderDefaults, Scene, SceneError, SphereShape};
+use crate::accel::MAX_SPHERES;
 use crate::light::SphereLight;
 use crate::material::composite::{Composite, Part};
 use crate::material::shading_map::{BackSide, Perturbation, ShadingMap};
@@ -116,18 +117,45 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         let b = &b;
         shape_elements.par_iter().map(|&(e, outer)| b.shape(e, outer)).collect()
     };
-    // The emitting spheres' triangles, for next-event estimation by their cones.
+    // The emitting spheres' primitives, for next-event estimation by their cones.
     let mut spheres = Vec::new();
+    // Analytic spheres (the first MAX_SPHERES), with whether they emit and their triangles in
+    // case the scene has no other triangles.
+    let mut analytic: Vec<(SphereShape, bool, WorldMesh)> = Vec::new();
     for shape in shapes {
-        let (mesh, material, sphere) = shape?;
+        let Shape { mesh, material, exact, analytic: sphere } = shape?;
+        let emits = material.is_emitter();
         let material = b.material(material);
+        if let Some(s) = sphere
+            && analytic.len() < MAX_SPHERES
+        {
+            analytic.push((SphereShape { material, ..s }, emits, mesh));
+            continue;
+        }
         let start = b.geometry.indices.len() as u32;
         b.add(mesh, material);
         let end = b.geometry.indices.len() as u32;
-        if let Some((center, radius)) = sphere
+        if let Some((center, radius)) = exact
             && end > start
         {
             spheres.push(SphereLight { center, radius, prims: start..end });
+        }
+    }
+    // A scene needs triangles: one of spheres only is tessellated after all.
+    if b.geometry.indices.is_empty() {
+        for (s, _, mesh) in analytic.drain(..) {
+            b.add(mesh, s.material);
+        }
+    }
+    let first = b.geometry.indices.len() as u32;
+    for (k, (s, emits, _)) in analytic.iter().enumerate() {
+        if *emits && !s.flip {
+            let prim = first + k as u32;
+            spheres.push(SphereLight {
+                center: s.sphere.center,
+                radius: s.sphere.radius,
+                prims: prim..prim + 1,
+            });
         }
     }
     // Texture coordinates of the vertices after the last textured shape's.
@@ -146,6 +174,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     }
     let mut scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?
         .with_lights(lights)
+        .with_spheres(analytic.into_iter().map(|(s, _, _)| s).collect())?
         .with_sphere_lights(spheres)?;
     scene.set_filter(b.filter);
     let mut warnings = b.warnings;
@@ -156,9 +185,17 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     Ok((scene, warnings))
 }
 
-/// A shape as [`Builder::shape`] reads it: its triangles, its material, and for an emitting
-/// sphere the centre and radius of the exact sphere.
-type Shape = (WorldMesh, Material, Option<(Vec3, f32)>);
+/// A shape as [`Builder::shape`] reads it.
+struct Shape {
+    /// Its triangles (a `sphere`'s tessellation too, used where it cannot stay analytic).
+    mesh: WorldMesh,
+    material: Material,
+    /// For an emitting tessellated sphere, the centre and radius of the exact sphere.
+    exact: Option<(Vec3, f32)>,
+    /// A `sphere` that can be analytic ([`shapes::analytic_sphere`]; its material index is
+    /// set when the scene is assembled).
+    analytic: Option<SphereShape>,
+}
 
 /// Every element with an id, by id (a second element of the same id is an error).
 fn collect_ids<'a>(
@@ -600,8 +637,14 @@ impl<'a> Builder<'a> {
         } else if mesh.uvs.is_empty() {
             mesh = shapes::barycentric_uvs(mesh, flip);
         }
+        // Analytic where Mitsuba's sphere is a sphere (a similarity placement that does not
+        // mirror it) and no normal or bump map needs the tessellation's tangents.
+        let analytic = (e.type_name() == "sphere" && textures.as_ref().is_none_or(|t| t.map.is_none()))
+            .then(|| shapes::analytic_sphere(to_world, flip))
+            .flatten();
         let textures = textures.map(std::sync::Arc::new);
-        Ok((mesh, Material { name, bsdf, emission, two_sided, textures }, sphere))
+        let material = Material { name, bsdf, emission, two_sided, textures };
+        Ok(Shape { mesh, material, exact: sphere, analytic })
     }
 
     /// The index of `m` among the scene's materials (equal ones are stored once).

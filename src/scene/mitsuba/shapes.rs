@@ -4,8 +4,11 @@
 //! - `cube`: the cube [−1, 1]³, normals outwards, flat;
 //! - `disk`: the unit disk of the plane z = 0, normal +z, as a fan of [`DISK_SEGMENTS`]
 //!   triangles inscribed in the circle;
-//! - `sphere` (`center`, `radius`): an icosphere subdivided [`SPHERE_SUBDIVISIONS`] times,
-//!   its vertices on the sphere and its shading normals the sphere's own, normals outwards;
+//! - `sphere` (`center`, `radius`): an analytic sphere ([`crate::scene::SphereShape`],
+//!   [`analytic_sphere`]) where `to_world` is a similarity that does not mirror, its material
+//!   has no normal or bump map and the scene has fewer than [`crate::accel::MAX_SPHERES`]
+//!   before it; otherwise an icosphere subdivided [`SPHERE_SUBDIVISIONS`] times, its vertices
+//!   on the sphere and its shading normals the sphere's own, normals outwards;
 //! - `obj` ([`obj`]), `ply` and `serialized` ([`from_data`]): meshes read from files.
 //!
 //! Texture coordinates are Mitsuba 3's (checked against its ray intersections): the rectangle's
@@ -23,7 +26,7 @@
 //! A mesh without vertex normals gets Mitsuba's (the angle-weighted mean of its faces'
 //! normals, Thürmer and Wüthrich 1998) unless `face_normals` asks for flat shading.
 //!
-//! The tessellated disk and sphere are inscribed: their areas are those of the exact shapes
+//! The tessellated disk and sphere (where it is not analytic) are inscribed: their areas are those of the exact shapes
 //! times 0.99990 (disk) and 0.9996 (sphere), and so is an emitter's power.
 
 use std::f32::consts::PI;
@@ -33,8 +36,9 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 
 use super::transform::parse_number;
 use super::xml::Element;
-use crate::scene::SceneError;
+use crate::geometry::Sphere;
 use crate::scene::error::read_text;
+use crate::scene::{SceneError, SphereShape};
 
 /// Triangles of the tessellated disk.
 pub const DISK_SEGMENTS: u32 = 512;
@@ -427,6 +431,21 @@ pub fn sphere_placement(shape: &Element, center: Vec3, radius: f32) -> Result<Ma
         return Err(shape.error(format!("radius {radius}: must be a positive number")));
     }
     Ok(Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)))
+}
+
+/// The analytic sphere of a `sphere` shape placed by `to_world` (with its centre and radius),
+/// with `flip_normals`: `None` where `to_world` is not a similarity of positive determinant
+/// (Mitsuba would draw a sphere there too, but pir keeps tessellating what `to_world` makes
+/// of it). Its material is set by the caller.
+pub fn analytic_sphere(to_world: Mat4, flip: bool) -> Option<SphereShape> {
+    let m = Mat3::from_mat4(to_world);
+    let center = to_world.transform_point3(Vec3::ZERO);
+    let radius = m.x_axis.length();
+    let rotation = m * (1.0 / radius);
+    let similar = (rotation.transpose() * rotation).abs_diff_eq(Mat3::IDENTITY, 1e-5);
+    let valid =
+        similar && rotation.determinant() > 0.0 && radius > 0.0 && radius.is_finite() && center.is_finite();
+    valid.then_some(SphereShape { sphere: Sphere { center, radius }, rotation, flip, material: 0 })
 }
 
 /// The exact sphere that a `sphere` shape's world-space triangles `mesh` are inscribed in, for

@@ -1,6 +1,7 @@
 //! A loaded scene written as a Mitsuba 3 scene file, so that Mitsuba can render any pir scene
 //! (`pir convert`): the triangles of each material as a binary PLY beside the XML (world
 //! space, with their shading normals where every vertex has one, else `face_normals`), the
+//! analytic spheres as `sphere` shapes placed by a `to_world` matrix, the
 //! camera as a `perspective` sensor (a `thinlens` one where it has a lens) with a `lookat`, a
 //! vertical field of view and its clip planes (Mitsuba's defaults where it has none), a
 //! box-filtered `hdrfilm`, the `path` integrator with the scene's `max_depth`, and each
@@ -20,7 +21,7 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 
 use crate::image::write_atomically;
 use crate::material::{Bsdf, Material};
@@ -167,6 +168,34 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         let _ = writeln!(xml, "        <string name=\"filename\" value=\"{}\"/>", escape(&name));
         if !smooth {
             let _ = writeln!(xml, "        <boolean name=\"face_normals\" value=\"true\"/>");
+        }
+        xml.push_str(&bsdf_xml(m, "        "));
+        if m.is_emitter() {
+            let _ = writeln!(
+                xml,
+                "        <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>",
+                v3(m.emission)
+            );
+        }
+        let _ = writeln!(xml, "    </shape>");
+    }
+    // Analytic spheres: Mitsuba's own, placed by a matrix (centre, rotation, radius).
+    for s in scene.spheres() {
+        let m = scene.material(s.material);
+        let to_world = Mat4::from_translation(s.sphere.center)
+            * Mat4::from_mat3(s.rotation)
+            * Mat4::from_scale(Vec3::splat(s.sphere.radius));
+        let values: Vec<String> =
+            to_world.transpose().to_cols_array().iter().map(|x| format!("{x:?}")).collect();
+        let _ = writeln!(xml, "    <!-- material {:?} -->", m.name);
+        let _ = writeln!(xml, "    <shape type=\"sphere\">");
+        let _ = writeln!(
+            xml,
+            "        <transform name=\"to_world\"><matrix value=\"{}\"/></transform>",
+            values.join(" ")
+        );
+        if s.flip {
+            let _ = writeln!(xml, "        <boolean name=\"flip_normals\" value=\"true\"/>");
         }
         xml.push_str(&bsdf_xml(m, "        "));
         if m.is_emitter() {
