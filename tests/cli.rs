@@ -301,6 +301,36 @@ fn help_documents_every_command() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("--error-map"));
 }
 
+/// `pir rays` measures every workload on the scene's backend with and without batches, and
+/// reports hit shares that fit the scene: the Cornell box's camera sees a wall through nearly
+/// every pixel, and half its bounce rays leave through the open front.
+#[test]
+fn rays_reports_each_workloads_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scene();
+    let args = ["rays", s.to_str().unwrap(), "--rays", "4096", "--resolution", "32", "32", "--threads", "2"];
+    let o = pir(&args, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(text.contains("32×32, 4096 rays per workload, 2 threads"), "{text}");
+    let row = |name: &str| -> Vec<f64> {
+        let line = text.lines().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("no {name}: {text}"));
+        line[name.len()..].split_whitespace().filter_map(|w| w.parse().ok()).collect()
+    };
+    for name in ["camera, closest hit", "bounce, closest hit", "bounce, occlusion"] {
+        let v = row(name);
+        assert!(v.len() == 3 && v[0] > 0.0 && v[1] > 0.0, "{name}: {v:?}");
+    }
+    let (camera, bounce, occluded) =
+        (row("camera")[2], row("bounce, closest")[2], row("bounce, occlusion")[2]);
+    assert!(camera > 80.0 && (20.0..95.0).contains(&bounce), "{camera} {bounce}");
+    assert_eq!(bounce, occluded);
+    let o = pir(&["rays", s.to_str().unwrap(), "--rays", "3"], dir.path());
+    assert_clean_failure(&o, &["--rays 3"]);
+    let o = pir(&["rays", "missing.toml"], dir.path());
+    assert_clean_failure(&o, &["missing.toml"]);
+}
+
 #[test]
 fn time_budget_stops_the_render() {
     let dir = tempfile::tempdir().unwrap();

@@ -4,6 +4,7 @@ mod compare;
 mod convert;
 mod merge;
 mod progress;
+mod rays;
 mod reference;
 mod render;
 mod setup;
@@ -30,6 +31,7 @@ pub enum Command {
     Study(study::StudyArgs),
     Reference(reference::ReferenceArgs),
     Convert(convert::ConvertArgs),
+    Rays(rays::RaysArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -40,5 +42,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Study(a) => study::run(a),
         Command::Reference(a) => reference::run(a),
         Command::Convert(a) => convert::run(a),
+        Command::Rays(a) => rays::run(a),
     }
 }
