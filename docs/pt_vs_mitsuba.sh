@@ -39,6 +39,16 @@
 #                   reads it as Mitsuba 3 would. Its reference (Mitsuba, 4,096 spp, about a minute)
 #                   is rendered into target/bench-refs/ when missing and Mitsuba is there.
 #
+#   CALLGRIND      1: also count pir's instructions per sample under callgrind (valgrind's
+#                   tool; slow): two renders at 64×64 of 2 and 4 spp on one thread, their
+#                   difference per pixel sample, so that loading and building count for
+#                   nothing. Valgrind's CPU has no AVX-512, so Embree and pir run their AVX2 code.
+#
+# After each scene's rows, pir's rays per second in the render (its summary's Mrays/s, all
+# threads) against `pir rays`' rate for the scene's bounce rays traced in 16-wide batches
+# with nothing else done (the same threads and backend): the share of the backend's own
+# limit that the path tracer reaches.
+#
 # The first lines say which vector width each renderer runs at: the CPU's widest vector ISA
 # (from /proc/cpuinfo's flags), the packet width pir's Embree wrapper picks for its batch
 # queries (from pir's render summary), and the lane count of Mitsuba's LLVM backend (Dr.Jit's
@@ -148,6 +158,7 @@ echo "pir: ${pir_packets:-?}-wide Embree packets for batch queries (accelerator:
 echo "pir pt vs Mitsuba 3 path, $spp spp, seed $seed, $(nproc) threads, $(date -u +%Y-%m-%d), load average $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '%-13s %-17s %8s %8s %12s %11s %12s %12s\n' scene renderer wall/s cpu/s "rel. MSE" efficiency \
     "pir/Mi wall" "pir/Mi cpu"
+rates=()
 for entry in "${scenes[@]}"; do
     read -r name scene ref width height <<<"$entry"
     [[ " $wanted " == *" $name "* ]] || continue
@@ -179,5 +190,22 @@ for entry in "${scenes[@]}"; do
             row="$row $(printf '%12s %12s' "$(ratio "$w_pir" "$w_mi")" "$(ratio "$c_pir" "$c_mi")")"
         fi
         echo "$row"
+        rates+=("$(sed -n 's/.* \([0-9.]*\) Mrays\/s .*/\1/p' "$tmp/log" | head -1)")
     done
+    # The backend's own rate for this scene's bounce rays, batched, on the same threads.
+    raw=$("$pir" rays "$scene" "${size[@]}" "${pir_args[@]}" 2>/dev/null | awk '/^bounce, closest hit/ { print $4 }')
+    printf '%-13s rays: %s Mrays/s in the renders (%s), %s Mrays/s for bounce rays alone (pir rays): %s\n' \
+        "$name" "${rates[*]}" "$samplers" "${raw:-?}" \
+        "$(awk -v r="${rates[0]:-0}" -v b="${raw:-0}" 'BEGIN { if (b > 0) printf "%.0f %% of the limit", 100 * r / b; else print "?" }')"
+    rates=()
+    if [[ ${CALLGRIND:-0} == 1 ]]; then
+        instructions() {
+            valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.out" "$pir" render "$scene" --method pt \
+                --spp "$1" --resolution 64 64 --threads 1 --seed "$seed" -o "$tmp/cg.exr" >/dev/null 2>&1
+            sed -n 's/^summary: \([0-9]*\).*/\1/p' "$tmp/cg.out"
+        }
+        i2=$(instructions 2) i4=$(instructions 4)
+        printf '%-13s instructions per pixel sample (callgrind, pir default sampler, 64×64, one thread): %s\n' \
+            "$name" "$(awk -v a="$i2" -v b="$i4" 'BEGIN { printf "%.0f", (b - a) / (64 * 64 * 2) }')"
+    fi
 done
