@@ -453,6 +453,13 @@ fn thin_lens_converts_and_is_in_the_fingerprint() {
     assert!(
         text.contains("<sensor type=\"thinlens\">") && text.contains("\"aperture_radius\" value=\"0.2\"")
     );
+    // The analytic sphere light comes back as one, with its placement and its light.
+    let (sa, sb) = (a.spheres()[0], b.spheres()[0]);
+    assert_eq!((a.spheres().len(), b.spheres().len(), b.sphere_lights().len()), (1, 1, 1));
+    assert!((sa.sphere.center - sb.sphere.center).length() < 1e-6, "{sa:?} {sb:?}");
+    assert!((sa.sphere.radius - sb.sphere.radius).abs() < 1e-6 && sa.flip == sb.flip, "{sa:?} {sb:?}");
+    assert!(sa.rotation.abs_diff_eq(sb.rotation, 1e-6), "{sa:?} {sb:?}");
+    assert_eq!(b.material(sb.material).emission, Vec3::splat(4.0));
     // Another aperture, focus or clip plane is another scene, and so is a pinhole.
     let fingerprint = |changes: &[(&str, &str)]| {
         let mut text = thin_lens.clone();

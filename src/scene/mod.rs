@@ -520,7 +520,8 @@ mod tests {
     use super::*;
     use crate::material::Bsdf;
 
-    fn parts() -> (Geometry, Vec<Material>) {
+    /// One triangle of an emitting white material.
+    pub(super) fn parts() -> (Geometry, Vec<Material>) {
         let geometry = Geometry {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             normals: vec![Vec3::ZERO; 3],

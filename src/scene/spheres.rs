@@ -171,27 +171,12 @@ fn sphere_uv(local: Vec3) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::{Bsdf, Material};
-    use crate::scene::{Camera, Geometry, RenderDefaults};
+    use crate::scene::{Camera, RenderDefaults};
 
     fn scene_with(spheres: Vec<SphereShape>) -> Result<Scene, SceneError> {
-        let geometry = Geometry {
-            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-            normals: vec![Vec3::ZERO; 3],
-            uvs: vec![],
-            indices: vec![[0, 1, 2]],
-            tri_material: vec![0],
-            degenerate_dropped: 0,
-        };
-        let m = Material {
-            name: "m".into(),
-            bsdf: Bsdf::Diffuse { albedo: Vec3::splat(0.5) },
-            emission: Vec3::ZERO,
-            two_sided: false,
-            textures: None,
-        };
+        let (geometry, materials) = crate::scene::tests::parts();
         let camera = Camera::pinhole(Vec3::Z * 5.0, Vec3::ZERO, Vec3::Y, 40.0, 4, 4);
-        Scene::new("s.xml".into(), camera, RenderDefaults::default(), geometry, vec![m])?
+        Scene::new("s.xml".into(), camera, RenderDefaults::default(), geometry, materials)?
             .with_spheres(spheres)
     }
 

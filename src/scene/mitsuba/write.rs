@@ -169,14 +169,7 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         if !smooth {
             let _ = writeln!(xml, "        <boolean name=\"face_normals\" value=\"true\"/>");
         }
-        xml.push_str(&bsdf_xml(m, "        "));
-        if m.is_emitter() {
-            let _ = writeln!(
-                xml,
-                "        <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>",
-                v3(m.emission)
-            );
-        }
+        xml.push_str(&material_xml(m));
         let _ = writeln!(xml, "    </shape>");
     }
     // Analytic spheres: Mitsuba's own, placed by a matrix (centre, rotation, radius).
@@ -197,20 +190,26 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
         if s.flip {
             let _ = writeln!(xml, "        <boolean name=\"flip_normals\" value=\"true\"/>");
         }
-        xml.push_str(&bsdf_xml(m, "        "));
-        if m.is_emitter() {
-            let _ = writeln!(
-                xml,
-                "        <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>",
-                v3(m.emission)
-            );
-        }
+        xml.push_str(&material_xml(m));
         let _ = writeln!(xml, "    </shape>");
     }
     let _ = writeln!(xml, "</scene>");
     write_atomically(out, |w| Ok(w.write_all(xml.as_bytes())?))?;
     files.push(out.to_path_buf());
     Ok(files)
+}
+
+/// A shape's material as Mitsuba XML: its BSDF and, where it emits, its area emitter.
+fn material_xml(m: &Material) -> String {
+    let mut xml = bsdf_xml(m, "        ");
+    if m.is_emitter() {
+        let _ = writeln!(
+            xml,
+            "        <emitter type=\"area\"><rgb name=\"radiance\" value=\"{}\"/></emitter>",
+            v3(m.emission)
+        );
+    }
+    xml
 }
 
 /// The material's BSDF as Mitsuba XML, indented by `pad`.
