@@ -12,7 +12,8 @@
 //! the point.
 
 use super::{Accelerator, Hit};
-use crate::geometry::{Ray, Sphere, octahedral_encode};
+use crate::geometry::{Aabb, Ray, Sphere, octahedral_encode};
+use glam::Vec3;
 
 /// The most spheres a scene keeps analytic: each costs every ray one test.
 pub const MAX_SPHERES: usize = 64;
@@ -21,18 +22,39 @@ pub const MAX_SPHERES: usize = 64;
 pub struct WithSpheres<'a> {
     triangles: Box<dyn Accelerator + 'a>,
     spheres: Vec<Sphere>,
+    /// The box around every sphere: a ray that misses it misses them all.
+    bounds: Aabb,
     /// The primitive index of the first sphere (the triangle count).
     first: u32,
 }
 
 impl<'a> WithSpheres<'a> {
     pub fn new(triangles: Box<dyn Accelerator + 'a>, spheres: Vec<Sphere>, first: u32) -> Self {
-        WithSpheres { triangles, spheres, first }
+        let bounds = spheres.iter().fold(Aabb::EMPTY, |b, s| {
+            b.grow(s.center - Vec3::splat(s.radius)).grow(s.center + Vec3::splat(s.radius))
+        });
+        WithSpheres { triangles, spheres, bounds, first }
+    }
+
+    /// Whether `ray` passes through the spheres' box within `(tmin, tmax)` (slabs, with a
+    /// margin of 10⁻⁴ of the box so that rounding never culls a sphere the exact test hits).
+    #[inline]
+    fn near(&self, ray: &Ray, tmax: f32) -> bool {
+        let pad = (self.bounds.max - self.bounds.min) * 1e-4;
+        let inv = ray.dir.recip();
+        let a = (self.bounds.min - pad - ray.origin) * inv;
+        let b = (self.bounds.max + pad - ray.origin) * inv;
+        let (lo, hi) = (a.min(b).max_element(), a.max(b).min_element());
+        // A zero direction component gives slabs of ±∞, which `min` and `max` order.
+        !(lo > hi || hi < ray.tmin || lo > tmax)
     }
 
     /// The nearest sphere hit of `ray` before `tmax`.
     #[inline]
     fn nearest_sphere(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
+        if !self.near(ray, tmax) {
+            return None;
+        }
         let mut best: Option<(f32, usize)> = None;
         let mut tmax = tmax;
         for (k, s) in self.spheres.iter().enumerate() {
@@ -48,7 +70,7 @@ impl<'a> WithSpheres<'a> {
 
     #[inline]
     fn any_sphere(&self, ray: &Ray) -> bool {
-        self.spheres.iter().any(|s| s.hit(ray).is_some())
+        self.near(ray, ray.tmax) && self.spheres.iter().any(|s| s.hit(ray).is_some())
     }
 }
 
@@ -126,6 +148,7 @@ mod tests {
             .collect();
         for backend in [Backend::Brute, Backend::Bvh, Backend::Embree] {
             let Ok(inner) = build_accelerator(backend, &p, &t) else { continue };
+            let inner_hits: Vec<Option<Hit>> = rays.iter().map(|r| inner.intersect(r)).collect();
             let acc = WithSpheres::new(inner, spheres.clone(), 2);
             assert!(acc.describe().ends_with("and 2 analytic spheres"));
             let mut batch = vec![None; rays.len()];
@@ -136,6 +159,13 @@ mod tests {
             for (k, ray) in rays.iter().enumerate() {
                 let hit = acc.intersect(ray);
                 assert_eq!(hit, batch[k], "{backend}: ray {k}");
+                // Every sphere the exact test hits before the triangles is found (the box
+                // around the spheres culls none of them).
+                let direct = spheres.iter().filter_map(|s| s.hit(ray)).reduce(f32::min);
+                let tri = inner_hits[k].map_or(f32::INFINITY, |h: Hit| h.t);
+                if let Some(t) = direct.filter(|&t| t < tri) {
+                    assert_eq!(hit.map(|h| h.t), Some(t), "{backend}: ray {k}");
+                }
                 assert_eq!(hit.is_some(), acc.occluded(ray), "{backend}: ray {k}");
                 assert_eq!(hit.is_some(), blocked[k], "{backend}: ray {k}");
                 let Some(h) = hit else { continue };
