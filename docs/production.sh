@@ -17,7 +17,8 @@
 #   (pir's path tracer, checked against Mitsuba's on the living room and the shared scenes),
 #   REF_SECONDS of it, resumable through its checkpoint, at seed REF_SEED (default 1000): a
 #   reference at the study's seed would share the study's random numbers (`pir study` refuses
-#   it), since `pt`'s first iterations would be the reference's own.
+#   it), since `pt`'s first iterations would be the reference's own. A reference made at the
+#   scene's seed by an older version of this script cannot be resumed at REF_SEED: delete it.
 #
 # Every study line renders alone on all cores (`pir study`, then Mitsuba at the same wall
 # time, whole process, JIT and scene load included), so the machine should be otherwise idle.
@@ -71,7 +72,7 @@ reference() {
         local ref=$dir/ref/reference.exr
         if [[ -f $ref ]]; then
             "$pir" render "$scene" --method pt --resolution "$w" "$h" --resume "$ref" --time "${REF_SECONDS:-21600}" \
-                --spp 1000000 --checkpoint 300 --quiet
+                --spp 1000000 --checkpoint 300 --seed "${REF_SEED:-1000}" --quiet
         else
             "$pir" render "$scene" --method pt --resolution "$w" "$h" --time "${REF_SECONDS:-21600}" \
                 --spp 1000000 --checkpoint 300 --seed "${REF_SEED:-1000}" --out "$ref" --quiet

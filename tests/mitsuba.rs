@@ -1458,6 +1458,28 @@ fn instances_copy_their_shapegroup() {
     assert!(e.contains("n2.xml") && e.contains("plain shapes"), "{e}");
 }
 
+/// Which spheres are analytic: a scene of spheres alone is tessellated (a scene needs
+/// triangles), its emitting sphere still sampled by its cone; an ellipsoid stays tessellated
+/// beside analytic spheres.
+#[test]
+fn spheres_are_analytic_where_they_can_be() {
+    let dir = tempfile::tempdir().unwrap();
+    let sensor = r#"<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>"#;
+    let light = r#"<shape type="sphere"><point name="center" x="0" y="0" z="-5"/><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#;
+    let ball = r#"<shape type="sphere"><point name="center" x="2" y="0" z="-5"/></shape>"#;
+    let ellipsoid =
+        r#"<shape type="sphere"><transform name="to_world"><scale x="2" y="1" z="1"/></transform></shape>"#;
+    let scene = |shapes: &str| format!(r#"<scene version="3.0.0">{sensor}{shapes}</scene>"#);
+    let (s, _) = load(&write(dir.path(), "only.xml", &scene(&format!("{light}{ball}"))), &[]).unwrap();
+    assert_eq!((s.spheres().len(), s.triangle_count()), (0, 2 * 20 * 1024));
+    assert_eq!(s.sphere_lights().len(), 1);
+    assert_eq!(s.sphere_lights()[0].prims, 0..20 * 1024);
+    let (s, _) =
+        load(&write(dir.path(), "mixed.xml", &scene(&format!("{light}{ball}{ellipsoid}"))), &[]).unwrap();
+    assert_eq!((s.spheres().len(), s.triangle_count()), (2, 20 * 1024));
+    assert_eq!(s.sphere_lights()[0].prims, 20 * 1024..20 * 1024 + 1);
+}
+
 /// A `roughdielectric`'s `alpha` may be a texture, as in Mitsuba's "rough glass with textured
 /// alpha": each point takes its texture's value (here a checkerboard of 0.05 and 0.4), the
 /// distribution kept.

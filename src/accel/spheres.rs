@@ -37,13 +37,16 @@ impl<'a> WithSpheres<'a> {
     }
 
     /// Whether `ray` passes through the spheres' box within `(tmin, tmax)` (slabs, with a
-    /// margin of 10⁻⁴ of the box so that rounding never culls a sphere the exact test hits).
+    /// margin of 10⁻⁴ of the box and of 16 ulps of its largest coordinate, so that rounding
+    /// never culls a sphere the exact test hits, small and far from the origin included).
     #[inline]
     fn near(&self, ray: &Ray, tmax: f32) -> bool {
-        let pad = (self.bounds.max - self.bounds.min) * 1e-4;
+        let (min, max) = (self.bounds.min, self.bounds.max);
+        let far = min.abs().max(max.abs()).max_element();
+        let pad = (max - min) * 1e-4 + Vec3::splat(far * 16.0 * f32::EPSILON);
         let inv = ray.dir.recip();
-        let a = (self.bounds.min - pad - ray.origin) * inv;
-        let b = (self.bounds.max + pad - ray.origin) * inv;
+        let a = (min - pad - ray.origin) * inv;
+        let b = (max + pad - ray.origin) * inv;
         let (lo, hi) = (a.min(b).max_element(), a.max(b).min_element());
         // A zero direction component gives slabs of ±∞, which `min` and `max` order.
         !(lo > hi || hi < ray.tmin || lo > tmax)
@@ -184,6 +187,16 @@ mod tests {
                 }
             }
             assert!(seen.iter().all(|&n| n > 10), "{backend}: {seen:?}");
+            // A small sphere far from the origin (radius 1 at 10⁴, where a box margin of 10⁻⁴
+            // of its size is below the coordinates' rounding): the box around it culls none of
+            // the grazing rays the exact test hits.
+            let sun = Sphere { center: Vec3::new(1e4, 0.0, 0.0), radius: 1.0 };
+            let far = WithSpheres::new(build_accelerator(backend, &p, &t).unwrap(), vec![sun], 2);
+            for k in 0..=2000 {
+                let y = k as f32 / 1000.0 - 1.0;
+                let ray = Ray::new(Vec3::new(0.0, 0.0, 50.0), Vec3::new(1e4, y, -50.0));
+                assert_eq!(far.intersect(&ray).map(|h| h.t), sun.hit(&ray), "{backend}: y {y}");
+            }
             // The segment that stops above the top sphere hits nothing.
             assert_eq!(batch[rays.len() - 1], None);
         }

@@ -78,6 +78,8 @@ pub fn run(a: MergeArgs) -> Result<()> {
         ("pir.version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
         ("pir.method".to_string(), job.config.method.name().to_string()),
         ("pir.seed".to_string(), job.seed.to_string()),
+        ("pir.sampler".to_string(), job.sampler.name().to_string()),
+        (pir::study::independence::FINGERPRINT_KEY.to_string(), job.scene_fingerprint.clone()),
         ("pir.max_depth".to_string(), job.max_depth.to_string()),
         ("pir.iterations".to_string(), total.to_string()),
         ("pir.spp".to_string(), total.to_string()),

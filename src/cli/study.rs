@@ -199,7 +199,8 @@ pub fn run(a: StudyArgs) -> Result<()> {
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("study-{}", scene_stem(&a.scene))));
     let scene = a.options.load(&a.scene)?;
-    check_reference(&a.reference, &ref_attrs, &scene.fingerprint(), a.options.seed(&scene))?;
+    let (seed, sampler) = (a.options.seed(&scene), a.options.sampler());
+    check_reference(&a.reference, &ref_attrs, &scene.fingerprint(), seed, sampler.name())?;
     for run in &runs {
         run.config.check_scene(&scene)?;
     }

@@ -43,6 +43,8 @@ pub struct Renderer<'s> {
     pool: rayon::ThreadPool,
     accel: Box<dyn Accelerator + 's>,
     accel_description: String,
+    /// The scene's fingerprint, for every file's attributes (hashing a big scene takes a while).
+    fingerprint: String,
     width: u32,
     height: u32,
     seed: u64,
@@ -79,6 +81,7 @@ impl<'s> Renderer<'s> {
             emitters,
             pool,
             accel_description: accel.describe(),
+            fingerprint: scene.fingerprint(),
             accel,
             width,
             height,
@@ -213,7 +216,7 @@ impl<'s> Renderer<'s> {
         let mut attrs: Vec<(String, String)> = vec![
             ("pir.version".into(), env!("CARGO_PKG_VERSION").into()),
             ("pir.scene".into(), self.scene.path().display().to_string()),
-            (crate::study::independence::FINGERPRINT_KEY.into(), self.scene.fingerprint()),
+            (crate::study::independence::FINGERPRINT_KEY.into(), self.fingerprint.clone()),
             ("pir.method".into(), config.method.name().into()),
             ("pir.max_depth".into(), self.max_depth.to_string()),
             ("pir.seed".into(), self.seed.to_string()),

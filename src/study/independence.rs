@@ -10,6 +10,9 @@
 //! `pir reference` renders at a seed of its own ([`reference_seed`]) so that its references
 //! are independent of studies at the scene's seed.
 //!
+//! A reference of another sampler (`pir.sampler`) draws other numbers from the same seed and
+//! is independent.
+//!
 //! The reference's scene is known by the fingerprint pir writes (`pir.scene.fingerprint`, or
 //! the one in a resumable file's job); a pir file without one (written before it was recorded)
 //! counts as the same scene, so at the same seed it is refused too. References that pir did not
@@ -30,16 +33,19 @@ pub fn reference_seed(scene_seed: u64) -> u64 {
 }
 
 /// Refuses a reference (read from `path`, with EXR `attributes`) that pir rendered from the
-/// scene of fingerprint `fingerprint` at `seed`, the study's seed.
+/// scene of fingerprint `fingerprint` at `seed`, the study's seed, with `sampler`, the study's
+/// sampler (`--sampler`'s name: Sobol points and independent numbers of one seed are
+/// different numbers).
 pub fn check_reference(
     path: &Path,
     attributes: &[(String, String)],
     fingerprint: &str,
     seed: u64,
+    sampler: &str,
 ) -> Result<()> {
     let attr = |k: &str| attributes.iter().find(|(key, _)| key == k).map(|(_, v)| v.as_str());
     let Some(ref_seed) = attr("pir.seed").and_then(|s| s.trim().parse::<u64>().ok()) else { return Ok(()) };
-    if ref_seed != seed {
+    if ref_seed != seed || attr("pir.sampler").is_some_and(|s| s != sampler) {
         return Ok(());
     }
     let ref_fingerprint =
@@ -74,12 +80,17 @@ mod tests {
     fn a_reference_of_the_same_scene_and_seed_is_refused() {
         let p = Path::new("ref.exr");
         let same = attrs(&[("pir.seed", "0"), (FINGERPRINT_KEY, "abc")]);
-        let e = check_reference(p, &same, "abc", 0).unwrap_err().to_string();
+        let e = check_reference(p, &same, "abc", 0, "sobol").unwrap_err().to_string();
         assert!(e.contains("ref.exr") && e.contains("seed 0") && e.contains("--seed"), "{e}");
         // Another seed, another scene, or a reference pir did not render: independent.
-        check_reference(p, &same, "abc", 1).unwrap();
-        check_reference(p, &same, "other", 0).unwrap();
-        check_reference(p, &attrs(&[("mitsuba.spp", "1024")]), "abc", 0).unwrap();
+        check_reference(p, &same, "abc", 1, "sobol").unwrap();
+        check_reference(p, &same, "other", 0, "sobol").unwrap();
+        check_reference(p, &attrs(&[("mitsuba.spp", "1024")]), "abc", 0, "sobol").unwrap();
+        // Another sampler draws other numbers from the same seed.
+        let independent =
+            attrs(&[("pir.seed", "0"), (FINGERPRINT_KEY, "abc"), ("pir.sampler", "independent")]);
+        check_reference(p, &independent, "abc", 0, "sobol").unwrap();
+        assert!(check_reference(p, &independent, "abc", 0, "independent").is_err());
     }
 
     #[test]
@@ -87,10 +98,10 @@ mod tests {
         let p = Path::new("ref.exr");
         let state = r#"{"job":{"scene_fingerprint":"abc","seed":0},"iterations":3}"#;
         let resumable = attrs(&[("pir.seed", "0"), ("pir.job.state", state)]);
-        assert!(check_reference(p, &resumable, "abc", 0).is_err());
-        check_reference(p, &resumable, "xyz", 0).unwrap();
+        assert!(check_reference(p, &resumable, "abc", 0, "sobol").is_err());
+        check_reference(p, &resumable, "xyz", 0, "sobol").unwrap();
         // Without any fingerprint the scene counts as the same one.
-        assert!(check_reference(p, &attrs(&[("pir.seed", "0")]), "xyz", 0).is_err());
+        assert!(check_reference(p, &attrs(&[("pir.seed", "0")]), "xyz", 0, "sobol").is_err());
     }
 
     #[test]

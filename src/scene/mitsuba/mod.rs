@@ -121,7 +121,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     let mut spheres = Vec::new();
     // Analytic spheres (the first MAX_SPHERES), with whether they emit and their triangles in
     // case the scene has no other triangles.
-    let mut analytic: Vec<(SphereShape, bool, WorldMesh)> = Vec::new();
+    let mut analytic: Vec<PendingSphere> = Vec::new();
     for shape in shapes {
         let Shape { mesh, material, exact, analytic: sphere } = shape?;
         let emits = material.is_emitter();
@@ -129,7 +129,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
         if let Some(s) = sphere
             && analytic.len() < MAX_SPHERES
         {
-            analytic.push((SphereShape { material, ..s }, emits, mesh));
+            analytic.push((SphereShape { material, ..s }, emits, mesh, exact));
             continue;
         }
         let start = b.geometry.indices.len() as u32;
@@ -143,12 +143,19 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     }
     // A scene needs triangles: one of spheres only is tessellated after all.
     if b.geometry.indices.is_empty() {
-        for (s, _, mesh) in analytic.drain(..) {
+        for (s, _, mesh, exact) in analytic.drain(..) {
+            let start = b.geometry.indices.len() as u32;
             b.add(mesh, s.material);
+            let end = b.geometry.indices.len() as u32;
+            if let Some((center, radius)) = exact
+                && end > start
+            {
+                spheres.push(SphereLight { center, radius, prims: start..end });
+            }
         }
     }
     let first = b.geometry.indices.len() as u32;
-    for (k, (s, emits, _)) in analytic.iter().enumerate() {
+    for (k, (s, emits, _, _)) in analytic.iter().enumerate() {
         if *emits && !s.flip {
             let prim = first + k as u32;
             spheres.push(SphereLight {
@@ -174,7 +181,7 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     }
     let mut scene = Scene::new(path.to_path_buf(), camera, render, b.geometry, b.materials)?
         .with_lights(lights)
-        .with_spheres(analytic.into_iter().map(|(s, _, _)| s).collect())?
+        .with_spheres(analytic.into_iter().map(|(s, ..)| s).collect())?
         .with_sphere_lights(spheres)?;
     scene.set_filter(b.filter);
     let mut warnings = b.warnings;
@@ -184,6 +191,10 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
     warnings.extend(late);
     Ok((scene, warnings))
 }
+
+/// An analytic sphere while the scene is assembled: the sphere, whether it emits, and its
+/// tessellation and exact sphere in case the scene has no triangles besides the spheres.
+type PendingSphere = (SphereShape, bool, WorldMesh, Option<(Vec3, f32)>);
 
 /// A shape as [`Builder::shape`] reads it.
 struct Shape {
