@@ -109,13 +109,19 @@ seconds() {
 
 relmse() { "$pir" compare "$1" "$2" | awk '/^relative MSE/ { print $3 }'; }
 
-# measure REFERENCE OUT.exr COMMAND… : "wall cpu relmse" of the median-wall-time run
+# measure REFERENCE OUT.exr COMMAND… : "wall cpu relmse" of the median-wall-time run, whose
+# log is left in $tmp/log
 measure() {
     local ref=$1 out=$2
     shift 2
-    local runs_out=()
-    for _ in $(seq "$runs"); do runs_out+=("$(seconds "$@") $(relmse "$out" "$ref")"); done
-    printf '%s\n' "${runs_out[@]}" | sort -g | awk '{ v[NR] = $0 } END { print v[int((NR + 1) / 2)] }'
+    local runs_out=() i median
+    for i in $(seq "$runs"); do
+        runs_out+=("$(seconds "$@") $(relmse "$out" "$ref") $i")
+        cp "$tmp/log" "$tmp/log.$i"
+    done
+    median=$(printf '%s\n' "${runs_out[@]}" | sort -g | awk '{ v[NR] = $0 } END { print v[int((NR + 1) / 2)] }')
+    cp "$tmp/log.${median##* }" "$tmp/log"
+    echo "${median% *}"
 }
 
 eff() { awk -v t="$1" -v e="$2" 'BEGIN { printf "%.4g", 1 / (t * e) }'; }
