@@ -22,7 +22,9 @@ pub const MAX_SPHERES: usize = 64;
 pub struct WithSpheres<'a> {
     triangles: Box<dyn Accelerator + 'a>,
     spheres: Vec<Sphere>,
-    /// The box around every sphere: a ray that misses it misses them all.
+    /// The box around every sphere, grown by a margin of 10⁻⁴ of its size and of 16 ulps of
+    /// its largest coordinate, so that rounding never culls a sphere the exact test hits
+    /// (small and far from the origin included): a ray that misses it misses them all.
     bounds: Aabb,
     /// The primitive index of the first sphere (the triangle count).
     first: u32,
@@ -30,23 +32,21 @@ pub struct WithSpheres<'a> {
 
 impl<'a> WithSpheres<'a> {
     pub fn new(triangles: Box<dyn Accelerator + 'a>, spheres: Vec<Sphere>, first: u32) -> Self {
-        let bounds = spheres.iter().fold(Aabb::EMPTY, |b, s| {
+        let exact = spheres.iter().fold(Aabb::EMPTY, |b, s| {
             b.grow(s.center - Vec3::splat(s.radius)).grow(s.center + Vec3::splat(s.radius))
         });
+        let far = exact.min.abs().max(exact.max.abs()).max_element();
+        let pad = (exact.max - exact.min) * 1e-4 + Vec3::splat(far * 16.0 * f32::EPSILON);
+        let bounds = Aabb { min: exact.min - pad, max: exact.max + pad };
         WithSpheres { triangles, spheres, bounds, first }
     }
 
-    /// Whether `ray` passes through the spheres' box within `(tmin, tmax)` (slabs, with a
-    /// margin of 10⁻⁴ of the box and of 16 ulps of its largest coordinate, so that rounding
-    /// never culls a sphere the exact test hits, small and far from the origin included).
+    /// Whether `ray` passes through the spheres' box within `(tmin, tmax)` (slabs).
     #[inline]
     fn near(&self, ray: &Ray, tmax: f32) -> bool {
-        let (min, max) = (self.bounds.min, self.bounds.max);
-        let far = min.abs().max(max.abs()).max_element();
-        let pad = (max - min) * 1e-4 + Vec3::splat(far * 16.0 * f32::EPSILON);
         let inv = ray.dir.recip();
-        let a = (min - pad - ray.origin) * inv;
-        let b = (max + pad - ray.origin) * inv;
+        let a = (self.bounds.min - ray.origin) * inv;
+        let b = (self.bounds.max - ray.origin) * inv;
         let (lo, hi) = (a.min(b).max_element(), a.max(b).min_element());
         // A zero direction component gives slabs of ±∞, which `min` and `max` order.
         !(lo > hi || hi < ray.tmin || lo > tmax)

@@ -446,11 +446,14 @@ impl Scene {
     /// are Mitsuba's (φ / 2π, θ / π).
     #[inline(always)]
     fn texture_coordinates(&self, prim: u32, uv: Vec2) -> Vec2 {
-        if !self.shading[prim as usize].textured {
-            return match self.sphere_of(prim) {
-                Some(s) => Self::sphere_texture_coordinates(s, uv),
-                None => uv,
-            };
+        let t = &self.shading[prim as usize];
+        if t.sphere
+            && let Some(s) = self.sphere_of(prim)
+        {
+            return Self::sphere_texture_coordinates(s, uv);
+        }
+        if !t.textured {
+            return uv;
         }
         let [ia, ib, ic] = self.indices[prim as usize];
         let (ta, tb, tc) = (self.uvs[ia as usize], self.uvs[ib as usize], self.uvs[ic as usize]);
