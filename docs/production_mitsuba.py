@@ -102,24 +102,21 @@ def fixed_spp(a):
 def main():
     ap = argparse.ArgumentParser()
     sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("reference")
-    r.add_argument("scene")
-    r.add_argument("outdir")
-    r.add_argument("width", type=int)
-    r.add_argument("height", type=int)
+
+    def command(name, out):
+        """A sub-command of SCENE OUT WIDTH HEIGHT, OUT named `out`."""
+        p = sub.add_parser(name)
+        p.add_argument("scene")
+        p.add_argument(out)
+        p.add_argument("width", type=int)
+        p.add_argument("height", type=int)
+        return p
+
+    r = command("reference", "outdir")
     r.add_argument("--chunk-spp", type=int, default=32)
     r.add_argument("--chunks", type=int, default=128)
-    e = sub.add_parser("equal-time")
-    e.add_argument("scene")
-    e.add_argument("out")
-    e.add_argument("width", type=int)
-    e.add_argument("height", type=int)
-    e.add_argument("--seconds", type=float, required=True)
-    f = sub.add_parser("spp")
-    f.add_argument("scene")
-    f.add_argument("out")
-    f.add_argument("width", type=int)
-    f.add_argument("height", type=int)
+    command("equal-time", "out").add_argument("--seconds", type=float, required=True)
+    f = command("spp", "out")
     f.add_argument("--spp", type=int, required=True)
     f.add_argument("--seed", type=int, default=1)
     a = ap.parse_args()
