@@ -174,23 +174,24 @@ fn the_progressive_bound_recovers_what_a_constant_bound_removes() {
     assert!(expected - m_p < 0.5 * (expected - m_k), "the progressive bound must remove most of the bias");
 }
 
-/// Same seed, same image, whatever the thread count: in the glossy cube, and with a thin lens
+/// Same seed, same image, whatever the thread count: in the glossy cube, with a thin lens
 /// and a tent filter (`tests/data/mitsuba-thinlens.xml`), where the light traced to the camera
-/// draws its lens points from the light paths and splats through the filter.
+/// draws its lens points from the light paths and splats through the filter, and in the
+/// mirror-and-glass caustic, where the camera merges with the light paths' photons.
 #[test]
 fn bidirectional_gather_does_not_depend_on_the_thread_count() {
-    let mut lens = pir::scene::load(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba-thinlens.xml"),
-    )
-    .unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut lens = pir::scene::load(&root.join("tests/data/mitsuba-thinlens.xml")).unwrap();
     lens.set_filter(pir::scene::Filter::Tent { radius: 1.5 });
-    for scene in [closed_cube(glossy(1.0)), lens] {
+    let caustic = pir::scene::load(&root.join("scenes/stress/caustic/scene.toml")).unwrap();
+    for scene in [closed_cube(glossy(1.0)), lens, caustic] {
         let run = |threads| {
             Job { iterations: 4, threads, width: 24, height: 18, max_depth: 4, ..Job::default() }
                 .run(
                     &scene,
                     &mut bdpt(Clamping::progressive(1.0), 16)
-                        .with_gather(Gather::Resampled { candidates: 32, samples: 4 }),
+                        .with_gather(Gather::Resampled { candidates: 32, samples: 4 })
+                        .with_merging(2.0, 0.6),
                 )
                 .image()
         };
@@ -223,7 +224,7 @@ fn light_tracing_alone_gives_the_furnace_its_value() {
                 (1..=iterations)
                     .map(|i| {
                         let counts = Counts::uniform(paths as f32);
-                        let t = trace_light_paths(ctx, i, paths, counts, depth - 2, Some(&to_camera));
+                        let t = trace_light_paths(ctx, i, paths, counts, depth - 2, Some(&to_camera), false);
                         let mut image = vec![0.0; w * h];
                         for s in &t.splats {
                             image[s.film.y as usize * w + s.film.x as usize] += s.value.x as f64;

@@ -312,6 +312,12 @@ fn print_summary(
             stats.pixel_time.as_secs_f64(),
             stats.shadow_rays_per_second() / 1e6
         );
+        if stats.counters.photons > 0 {
+            eprintln!(
+                "pir: {:.1} photons per iteration merged with where the camera sees through a mirror or glass",
+                per_iteration(stats.counters.photons)
+            );
+        }
     }
     // What a method chose by the scene's pilot (`pir-bdpt`'s light samples), read from the
     // EXR's attributes, so that a user sees it without opening them.

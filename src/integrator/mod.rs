@@ -95,6 +95,8 @@ pub struct Counters {
     pub light_paths: u64,
     /// Virtual lights created.
     pub vpls: u64,
+    /// Photons left for vertex merging (`pir-bdpt`).
+    pub photons: u64,
     /// Queries of a pilot before the first iteration (its light paths' closest hits and its
     /// light samples' occlusion tests), counted by the render that runs it.
     pub pilot_rays: u64,
@@ -107,6 +109,7 @@ impl std::ops::AddAssign for Counters {
         self.light_rays += o.light_rays;
         self.light_paths += o.light_paths;
         self.vpls += o.vpls;
+        self.photons += o.photons;
         self.pilot_rays += o.pilot_rays;
     }
 }

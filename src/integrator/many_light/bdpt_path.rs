@@ -8,6 +8,7 @@ use glam::Vec3;
 use super::bidirectional::{CameraEnd, escape_weight, hit_weight, light_weight};
 use super::config::{Connect, Connecting};
 use super::light_set::LightSet;
+use super::merging::{Caustic, Merging};
 use super::mis::{Technique, Weighing};
 use super::points::PointLights;
 use super::subpath::{Counts, MisState, Scatter};
@@ -33,6 +34,9 @@ pub struct Bidirectional<'a> {
     /// The camera that the light paths splat into ([`super::to_camera`]), whose density of
     /// the camera ray starts the weights' sums; none: no light tracing to the camera.
     pub camera: Option<&'a CameraRays>,
+    /// The iteration's photons, merged with at the first non-delta vertex after a delta chain
+    /// ([`super::merging`]); none: no merging.
+    pub merging: Option<&'a Merging>,
 }
 
 /// The camera subpath's bookkeeping along the walk.
@@ -49,6 +53,8 @@ pub struct CameraPath {
     /// The non-delta vertices the path has passed, and which of them connect (the last
     /// one's rank: 1 for the first non-delta vertex, whatever delta vertices came before it).
     connecting: Connecting,
+    /// Where the path is in the class of paths that merging makes.
+    caustic: Caustic,
 }
 
 impl Bidirectional<'_> {
@@ -113,8 +119,21 @@ impl Estimator for Bidirectional<'_> {
 
     #[inline]
     fn start(&self, ray: &Ray) -> CameraPath {
-        let mis = self.camera.map_or(MisState::CAMERA, |c| MisState::from_camera(c.direction_pdf(ray.dir)));
-        CameraPath { mis, from: ray.origin, previous: None, depth: 0, connecting: Connecting::CAMERA }
+        let pdf_dir = self.camera.map(|c| c.direction_pdf(ray.dir));
+        let mis = pdf_dir.map_or(MisState::CAMERA, MisState::from_camera);
+        // The pixel's angle: its solid angle is 1 / the density (a pixel the unit of area).
+        let caustic = match (self.merging, pdf_dir) {
+            (Some(_), Some(pdf)) => Caustic::start(pdf.recip().sqrt()),
+            _ => Caustic::Off,
+        };
+        CameraPath {
+            mis,
+            from: ray.origin,
+            previous: None,
+            depth: 0,
+            connecting: Connecting::CAMERA,
+            caustic,
+        }
     }
 
     /// The environments found by a ray that leaves the scene, each weighed against
@@ -168,6 +187,7 @@ impl Estimator for Bidirectional<'_> {
         let cos_in = sp.ng.dot(at.wo).abs();
         let dist2 = (sp.p - path.from).length_squared();
         path.mis.arrive(dist2, cos_in);
+        path.caustic.arrive(dist2.sqrt());
         let le = sp.emitted(at.material.emission_at(sp.uv), at.wo);
         if le != Vec3::ZERO {
             let pdf_area = ctx.emitters.pdf_area(sp.prim);
@@ -182,7 +202,8 @@ impl Estimator for Bidirectional<'_> {
                 0 => 1.0,
                 _ => hit_weight(&path.mis, pdf_nee, pdf_area, cos_in, self.counts.paths, left_samples),
             };
-            *radiance += beta * le * w;
+            let share = self.merging.map_or(1.0, |m| path.caustic.hit_share(m, pdf_area));
+            *radiance += beta * le * (w * share);
         }
     }
 
@@ -205,6 +226,11 @@ impl Estimator for Bidirectional<'_> {
         if let Some(g) = gathered {
             terms.add(beta, g, radiance);
         }
+        if let Some(merging) = self.merging
+            && let Some(r2) = path.caustic.merge_at(merging)
+        {
+            terms.add(beta, merging.estimate(v, r2, ctx.max_depth), radiance);
+        }
     }
 
     /// The camera subpath's sums extended by the sampled direction.
@@ -222,6 +248,7 @@ impl Estimator for Bidirectional<'_> {
         // (At a delta vertex nothing is folded in, whatever `fold` says.)
         let fold = path.connecting.previous_connects();
         path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, fold, count_in));
+        path.caustic.scatter(bsdf, sp.ng, wo, s.wi, s.pdf, s.delta);
         path.previous = Some(*bsdf);
         path.from = sp.p;
         path.depth = v.depth;

@@ -12,6 +12,7 @@ use super::config::{Clamping, Gather, VirtualLights};
 use super::gathering::{Gathering, WeighedGathering};
 use super::light_paths::{Vpl, trace_light_paths};
 use super::light_set::LightSet;
+use super::merging::Merging;
 use super::path_count::{AutoPaths, Pilot};
 use super::points::PointLights;
 use super::spheres::SphereLights;
@@ -52,6 +53,11 @@ pub struct InstantRadiosity {
     set: IterationLights,
     /// The current iteration's light traced to the camera, in path order.
     splats: Vec<FilmSplat>,
+    /// [`VirtualLights::Bidirectional`] with a camera: vertex merging's r_1 in pixels and the
+    /// exponent α of its schedule ([`super::merging`]; none: no merging).
+    merge: Option<(f32, f32)>,
+    /// The current iteration's photons.
+    merging: Option<Merging>,
 }
 
 /// The current iteration's lights (none before the first iteration).
@@ -82,7 +88,17 @@ impl InstantRadiosity {
             camera: None,
             set: IterationLights::None,
             splats: Vec::new(),
+            merge: None,
+            merging: None,
         }
+    }
+
+    /// The same method merging the caustics seen through delta surfaces (for
+    /// [`VirtualLights::Bidirectional`]) within `pixels` pixels' footprint, shrunk by the
+    /// schedule of exponent `alpha` ([`super::merging`]); 0 pixels: no merging.
+    pub fn with_merging(self, pixels: f32, alpha: f32) -> Self {
+        let merge = (pixels > 0.0).then_some((pixels, alpha));
+        InstantRadiosity { merge, ..self }
     }
 
     /// The same method with its light paths chosen by the scene's yield of VPLs; `paths`
@@ -186,9 +202,22 @@ impl Integrator for InstantRadiosity {
             }
             _ => None,
         };
-        let traced = trace_light_paths(ctx, iteration, self.paths, counts, max_vpl_depth, to_camera.as_ref());
+        let merge = self.merge.filter(|_| to_camera.is_some());
+        let traced = trace_light_paths(
+            ctx,
+            iteration,
+            self.paths,
+            counts,
+            max_vpl_depth,
+            to_camera.as_ref(),
+            merge.is_some(),
+        );
         let (vpls, rays) = (traced.vpls, traced.rays);
         self.splats = traced.splats;
+        self.merging = merge.map(|(pixels, alpha)| {
+            counters.photons += traced.photons.len() as u64;
+            Merging::new(traced.photons, counts.paths, pixels, alpha, iteration)
+        });
         counters.light_rays += rays;
         counters.shadow_rays += traced.shadow_rays;
         counters.light_paths += self.paths as u64;
@@ -297,8 +326,16 @@ impl InstantRadiosity {
                 VirtualLights::Bidirectional(_, connect) => {
                     let light_samples = self.light_samples;
                     let camera = self.camera.as_ref();
-                    let camera_path =
-                        Bidirectional { set, connect, light_samples, counts: *counts, bound: *bound, camera };
+                    let merging = self.merging.as_ref();
+                    let camera_path = Bidirectional {
+                        set,
+                        connect,
+                        light_samples,
+                        counts: *counts,
+                        bound: *bound,
+                        camera,
+                        merging,
+                    };
                     w.walk(ctx, &camera_path);
                 }
                 VirtualLights::WeighedPoints(_) => {

@@ -34,6 +34,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::config::glossy_vertex;
+use super::merging::{LightChain, Photon};
 use super::subpath::{Counts, MisState, Scatter};
 use super::to_camera::{LightVertex, ToCamera};
 use crate::geometry::{Frame, Ray, offset_origin};
@@ -140,7 +141,7 @@ pub fn trace_vpls(
     counts: Counts,
     max_vpl_depth: u32,
 ) -> (Vec<Vpl>, u64) {
-    let traced = trace_light_paths(ctx, iteration, paths, counts, max_vpl_depth, None);
+    let traced = trace_light_paths(ctx, iteration, paths, counts, max_vpl_depth, None, false);
     (traced.vpls, traced.rays)
 }
 
@@ -150,6 +151,9 @@ pub fn trace_vpls(
 pub struct Traced {
     pub vpls: Vec<Vpl>,
     pub splats: Vec<FilmSplat>,
+    /// With `photons`: the first non-delta vertex after a delta chain from an area emitter
+    /// ([`super::merging`]), within the VPLs' depth.
+    pub photons: Vec<Photon>,
     /// Closest-hit queries.
     pub rays: u64,
     /// Occlusion queries (light tracing to the camera).
@@ -157,7 +161,8 @@ pub struct Traced {
 }
 
 /// [`trace_vpls`], and with `to_camera` light tracing to the camera from every non-delta
-/// vertex within `ctx.max_depth` − 1 segments of the emitter.
+/// vertex within `ctx.max_depth` − 1 segments of the emitter; with `photons` the photons of
+/// vertex merging too.
 pub fn trace_light_paths(
     ctx: &RenderContext,
     iteration: u64,
@@ -165,10 +170,11 @@ pub fn trace_light_paths(
     counts: Counts,
     max_vpl_depth: u32,
     to_camera: Option<&ToCamera>,
+    photons: bool,
 ) -> Traced {
     const CHUNK: usize = 64;
     let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
-    let depths = Depths::new(ctx, max_vpl_depth, to_camera);
+    let depths = Depths::new(ctx, max_vpl_depth, to_camera, photons);
     let chunks: Vec<Traced> = (0..paths.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -184,26 +190,29 @@ pub fn trace_light_paths(
     for c in chunks {
         traced.vpls.extend(c.vpls);
         traced.splats.extend(c.splats);
+        traced.photons.extend(c.photons);
         traced.rays += c.rays;
         traced.shadow_rays += c.shadow_rays;
     }
     traced
 }
 
-/// How deep a light path goes: VPLs within `vpl` segments of the emitter, splats (with
-/// `to_camera`) within `camera`; the path is traced to the deeper of the two.
+/// How deep a light path goes: VPLs (and photons, where `photons` says) within `vpl`
+/// segments of the emitter, splats (with `to_camera`) within `camera`; the path is traced to
+/// the deeper of the two.
 #[derive(Clone, Copy)]
 struct Depths<'a> {
     vpl: u32,
     camera: u32,
     to_camera: Option<&'a ToCamera>,
+    photons: bool,
 }
 
 impl<'a> Depths<'a> {
-    fn new(ctx: &RenderContext, vpl: u32, to_camera: Option<&'a ToCamera>) -> Self {
+    fn new(ctx: &RenderContext, vpl: u32, to_camera: Option<&'a ToCamera>, photons: bool) -> Self {
         // A vertex of s segments from the emitter and one to the camera: s + 1 ≤ max_depth.
         let camera = if to_camera.is_some() { ctx.max_depth.saturating_sub(1) } else { 0 };
-        Depths { vpl, camera, to_camera }
+        Depths { vpl, camera, to_camera, photons }
     }
 
     fn last(&self) -> u32 {
@@ -243,6 +252,7 @@ fn trace_path(
                     at_infinity: e.at_infinity,
                     nee: if light.is_delta() { NeeAt::Delta } else { NeeAt::Environment(index, pmf) },
                     mis: MisState::light_source(nee, e.density, counts.paths),
+                    chain: None,
                 };
                 return follow(ctx, sampler, start, counts, depths, out);
             }
@@ -267,6 +277,7 @@ fn trace_path(
         at_infinity: false,
         nee: NeeAt::Area { p: es.point.p, prim: es.point.prim, pdf_area: es.pdf_area, cos_e: local.z },
         mis: MisState::light(es.pdf_area, local.z, counts.paths),
+        chain: depths.photons.then(|| LightChain::start(es.pdf_area)),
     };
     follow(ctx, sampler, start, counts, depths, out)
 }
@@ -297,6 +308,8 @@ struct Start {
     at_infinity: bool,
     nee: NeeAt,
     mis: MisState,
+    /// Where photons are wanted and the light has an area: the chain of delta vertices.
+    chain: Option<LightChain>,
 }
 
 /// Follows a light path from its start, appending its VPLs and splats.
@@ -308,7 +321,7 @@ fn follow(
     depths: Depths,
     out: &mut Traced,
 ) {
-    let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis } = start;
+    let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis, mut chain } = start;
     let beta0 = beta.max_element();
     // The BSDF of the light path's previous vertex (none at the emitter).
     let mut previous: Option<Bsdf> = None;
@@ -386,6 +399,19 @@ fn follow(
                 count_out: count,
             });
         }
+        // The first non-delta vertex after the emitter ends the chain, a photon where delta
+        // vertices came before it.
+        if let Some(c) = chain
+            && !bsdf.is_delta()
+        {
+            if depth <= depths.vpl
+                && bsdf.reflects_from(&sp.geometry(), w_in)
+                && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
+            {
+                out.photons.push(photon);
+            }
+            chain = None;
+        }
         if let Some(to_camera) = depths.to_camera
             && depth <= depths.camera
             && !bsdf.is_delta()
@@ -402,6 +428,9 @@ fn follow(
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
         let glossy = glossy_vertex(bsdf);
+        if let Some(c) = &mut chain {
+            c.through(sp.ng.dot(w_in).abs(), sp.ng.dot(s.wi).abs());
+        }
         mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count, glossy));
         previous = Some(*bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {

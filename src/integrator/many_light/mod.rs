@@ -57,6 +57,7 @@ pub mod light_paths;
 pub mod light_set;
 pub mod light_tree;
 pub mod lobe;
+pub mod merging;
 pub mod mis;
 pub mod path_count;
 pub mod points;

@@ -27,6 +27,7 @@ use std::sync::RwLock;
 
 use super::many_light::AutoPaths;
 use super::many_light::Connect;
+use super::many_light::merging::DEFAULT_MERGE_PIXELS;
 use super::{Clamping, DEFAULT_PATHS, Gather, InstantRadiosity, Integrator, Radius, VirtualLights};
 use params::{
     DEFAULT_GATHER_CANDIDATES, DEFAULT_GATHER_SAMPLES, DEFAULT_LIGHT_SAMPLES, GatherKind, MethodParams,
@@ -157,6 +158,8 @@ pub struct Settings {
     pub clamp: f32,
     pub radius: Radius,
     pub alpha: f32,
+    /// Vertex merging's r_1 in pixels (`pir-bdpt`; 0: none).
+    pub merge_radius: f32,
 }
 
 impl Settings {
@@ -173,6 +176,7 @@ impl Settings {
             LightSamples::ByScene { base } => ir.with_auto_light_samples(base),
         };
         let ir = if self.connect.is_none() { ir.with_auto_connect() } else { ir };
+        let ir = ir.with_merging(self.merge_radius, self.alpha);
         Box::new(match self.auto_paths {
             Some(auto) => ir.with_auto_paths(auto),
             None => ir,
@@ -419,6 +423,7 @@ impl MethodConfig {
             clamp: p.clamp.unwrap_or_else(|| Clamping::default_bound(scene_diagonal)),
             radius: p.radius.map_or(Radius::Density, Radius::Global),
             alpha: p.alpha,
+            merge_radius: p.merge_radius.unwrap_or(DEFAULT_MERGE_PIXELS),
         }
     }
 
@@ -450,6 +455,7 @@ impl MethodConfig {
                 connect: if uses(Parameter::Connect) { s.connect } else { None },
                 // Chosen by the scene when not given, like the light paths.
                 light_samples: if uses(Parameter::LightSamples) { p.light_samples } else { None },
+                merge_radius: uses(Parameter::MergeRadius).then_some(s.merge_radius),
             },
         }
     }

@@ -1,6 +1,6 @@
 //! The parameter table every method draws from: the flags (`--vpls`, `--gather`,
 //! `--gather-candidates`, `--gather-samples`, `--connect`, `--light-samples`, `--clamp`,
-//! `--radius`, `--alpha`) as one clap and serde struct ([`MethodParams`]), and each parameter
+//! `--radius`, `--alpha`, `--merge-radius`) as one clap and serde struct ([`MethodParams`]), and each parameter
 //! by name ([`Parameter`]) with its key, its check and how its resolved value reads in the
 //! metadata. A method says which of them it uses ([`super::MethodSpec::parameters`]); the
 //! flags it does not use are accepted (a study passes one set of flags to several methods)
@@ -76,6 +76,15 @@ pub struct MethodParams {
     #[arg(long, value_name = "N")]
     #[serde(default)]
     pub light_samples: Option<u32>,
+    /// pir-bdpt: the radius r_1 of vertex merging, in pixels (its footprint where the camera
+    /// sees the surface through a mirror or glass), which merges the light paths' caustics with
+    /// the camera paths that see them through delta surfaces; shrinks as r_i = r_1 ·
+    /// i^((α−1)/2); 0: no merging [default: 2].
+    /// (Left out of the JSON when not set, so that the identities of the methods without it,
+    /// and of jobs stored before it, read as before.)
+    #[arg(long, value_name = "PIXELS", allow_negative_numbers = true)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub merge_radius: Option<f32>,
 }
 
 impl Default for MethodParams {
@@ -90,6 +99,7 @@ impl Default for MethodParams {
             gather_candidates: None,
             connect: None,
             light_samples: None,
+            merge_radius: None,
         }
     }
 }
@@ -107,6 +117,7 @@ impl MethodParams {
             Parameter::Alpha => self.alpha = value,
             Parameter::Clamp => self.clamp = Some(value),
             Parameter::Radius => self.radius = Some(value),
+            Parameter::MergeRadius => self.merge_radius = Some(value),
             _ => {}
         }
     }
@@ -149,6 +160,8 @@ pub const DEFAULT_GATHER_CANDIDATES: usize = 128;
 /// `docs/measurements.md`, "Light samples at the first vertex" and "Stratified light
 /// samples".
 pub const DEFAULT_LIGHT_SAMPLES: u32 = 2;
+/// The largest `--merge-radius`, in pixels.
+pub const MAX_MERGE_PIXELS: f32 = 64.0;
 
 /// One parameter of the table: its flag, its check, and its value in the metadata.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -163,11 +176,12 @@ pub enum Parameter {
     Clamp,
     Radius,
     Alpha,
+    MergeRadius,
 }
 
 impl Parameter {
     /// Every parameter, in the order of the metadata (`pir.param.*`).
-    pub const ALL: [Parameter; 9] = [
+    pub const ALL: [Parameter; 10] = [
         Parameter::Vpls,
         Parameter::Gather,
         Parameter::GatherCandidates,
@@ -177,6 +191,7 @@ impl Parameter {
         Parameter::Clamp,
         Parameter::Radius,
         Parameter::Alpha,
+        Parameter::MergeRadius,
     ];
 
     /// The flag's name without dashes: `--sweep KEY=…` and the metadata's `pir.param.KEY`.
@@ -191,6 +206,7 @@ impl Parameter {
             Parameter::Clamp => "clamp",
             Parameter::Radius => "radius",
             Parameter::Alpha => "alpha",
+            Parameter::MergeRadius => "merge-radius",
         }
     }
 
@@ -211,6 +227,7 @@ impl Parameter {
             Parameter::Clamp => "the bound b (or b_1), in 1/length²",
             Parameter::Radius => "the radius r (or r_1) of the virtual spherical lights",
             Parameter::Alpha => "the exponent α of the progressive schedules",
+            Parameter::MergeRadius => "the radius r_1 of vertex merging, in pixels (0: none)",
         }
     }
 
@@ -234,7 +251,7 @@ impl Parameter {
 
     /// Whether a study can sweep it (a number: `--sweep alpha=…`, `clamp=…`, `radius=…`).
     pub fn sweepable(self) -> bool {
-        matches!(self, Parameter::Alpha | Parameter::Clamp | Parameter::Radius)
+        matches!(self, Parameter::Alpha | Parameter::Clamp | Parameter::Radius | Parameter::MergeRadius)
     }
 
     /// Whether the number `value` is in a sweepable parameter's range ([`Parameter::range`]).
@@ -242,6 +259,7 @@ impl Parameter {
         match self {
             Parameter::Alpha => value > 0.0 && value < 1.0,
             Parameter::Clamp | Parameter::Radius => value.is_finite() && value > 0.0,
+            Parameter::MergeRadius => value.is_finite() && (0.0..=MAX_MERGE_PIXELS).contains(&value),
             _ => false,
         }
     }
@@ -250,6 +268,7 @@ impl Parameter {
     pub fn range(self) -> &'static str {
         match self {
             Parameter::Alpha => "0 < α < 1",
+            Parameter::MergeRadius => "0 (none) to 64 pixels",
             _ => "must be positive",
         }
     }
@@ -276,6 +295,12 @@ impl Parameter {
                 bail!("--alpha {}: must lie strictly between 0 and 1", p.alpha)
             }
             Parameter::Alpha => Ok(()),
+            Parameter::MergeRadius => match p.merge_radius {
+                Some(v) if !self.accepts(v) => {
+                    bail!("--merge-radius {v}: must be 0 (no merging) to 64 pixels")
+                }
+                _ => Ok(()),
+            },
         }
     }
 
@@ -292,6 +317,7 @@ impl Parameter {
             Parameter::Clamp => p.clamp.is_some(),
             Parameter::Radius => p.radius.is_some(),
             Parameter::Alpha => p.alpha != DEFAULT_ALPHA,
+            Parameter::MergeRadius => p.merge_radius.is_some(),
         }
     }
 
@@ -326,6 +352,7 @@ impl Parameter {
                 Radius::Density => spheres::density_radius_name(),
             },
             Parameter::Alpha => s.alpha.to_string(),
+            Parameter::MergeRadius => s.merge_radius.to_string(),
         })
     }
 }

@@ -48,7 +48,7 @@ impl MethodSpec for PirBdpt {
     }
     fn parameters(&self) -> &'static [Parameter] {
         use Parameter::*;
-        &[Vpls, Gather, GatherCandidates, GatherSamples, Connect, LightSamples, Clamp, Alpha]
+        &[Vpls, Gather, GatherCandidates, GatherSamples, Connect, LightSamples, Clamp, Alpha, MergeRadius]
     }
     fn defaults(&self) -> Defaults {
         Defaults { paths: Paths::ByScene(BDPT_AUTO_PATHS), gather: BDPT_GATHER, ..Defaults::COMMON }

@@ -75,6 +75,7 @@ fn identities_are_the_stored_ones() {
         gather_candidates: Some(77),
         connect: Some(Connect::All),
         light_samples: Some(3),
+        merge_radius: Some(1.5),
     };
     let expected = [
         (
@@ -114,8 +115,8 @@ fn identities_are_the_stored_ones() {
         ),
         (
             "pir-bdpt",
-            r#"{"method":"pir-bdpt","vpls":null,"clamp":25.0,"radius":null,"alpha":0.6,"gather":"resample","gather_samples":4,"gather_candidates":128,"connect":null,"light_samples":null}"#,
-            r#"{"method":"pir-bdpt","vpls":7,"clamp":3.5,"radius":null,"alpha":0.3,"gather":"tree","gather_samples":5,"gather_candidates":null,"connect":"all","light_samples":3}"#,
+            r#"{"method":"pir-bdpt","vpls":null,"clamp":25.0,"radius":null,"alpha":0.6,"gather":"resample","gather_samples":4,"gather_candidates":128,"connect":null,"light_samples":null,"merge_radius":2.0}"#,
+            r#"{"method":"pir-bdpt","vpls":7,"clamp":3.5,"radius":null,"alpha":0.3,"gather":"tree","gather_samples":5,"gather_candidates":null,"connect":"all","light_samples":3,"merge_radius":1.5}"#,
         ),
     ];
     for (name, default, given) in expected {
@@ -163,7 +164,7 @@ fn reports_are_the_recorded_ones() {
     assert_eq!(
         text(c("pir-bdpt").report(2.0, measured)),
         "vpls=525;gather=resample;gather-candidates=128;gather-samples=4;connect=glossy;lit-share=0.040;\
-         light-samples=4;emitter-visibility=0.120;clamp=25;alpha=0.6"
+         light-samples=4;emitter-visibility=0.120;clamp=25;alpha=0.6;merge-radius=2"
     );
 }
 
@@ -238,6 +239,7 @@ fn configs_round_trip_through_json_exactly() {
                 gather_candidates: Some(77),
                 connect: Some(Connect::All),
                 light_samples: Some(3),
+                merge_radius: Some(v.abs()),
             },
         };
         let back: MethodConfig = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();

@@ -1,0 +1,475 @@
+//! Vertex merging for the caustics seen through delta surfaces (`pir-bdpt`): a path
+//! camera → S⁺ → x → S⁺ → emitter, with x non-delta and every S a delta vertex (mirror,
+//! glass), is one that no connection, no light sample and no light tracing to the camera can
+//! make (each needs a non-delta vertex next to its end or two adjacent ones); only the camera
+//! path's BSDF sample at x that runs through the delta chain into the emitter finds it, which
+//! for a small emitter is rare and bright: the fireflies of a caustic seen in a mirror or
+//! through glass. Vertex merging (Hachisuka and Jensen's progressive photon mapping, as
+//! Georgiev et al.'s vertex connection and merging weighs it) makes the same path from the
+//! other side: a light path from the emitter through the delta chain leaves a **photon** at
+//! its first non-delta vertex y, and the camera vertex x merges with every photon of the
+//! iteration within the radius r of it, as if y were x.
+//!
+//! **Which paths.** Merging is limited to this class: the camera merges at its first non-delta
+//! vertex after at least one delta vertex, with photons that a light path from an area
+//! emitter left at its first non-delta vertex after at least one delta vertex. Every other path
+//! keeps the techniques and weights of [`super::bidirectional`]; for the paths of the class those
+//! give the emitter hit weight 1 (no other technique has a density there), so the balance
+//! heuristic between the two is all there is to weigh:
+//! w_merge = R / (1 + R), w_hit = 1 / (1 + R), R = p_merge / p_hit. After Georgiev's report
+//! (its d_VM sums through a delta chain), with η = π r² N the merging's count of N light paths
+//! within the disc,
+//!
+//!   R = η · p_A · (cos θ_e / π) · cos θ_x · Π_s (cos θ_s^light / cos θ_s^camera)
+//!       / (cos θ_e · p_σ(x: ω_o → ω)),
+//!
+//! p_A the light paths' area density of the emitter point (its selection included), cos θ_e / π
+//! their direction density there (cosine-distributed), θ_x the angle at x of the direction ω
+//! towards the chain, p_σ the camera BSDF's solid-angle density of ω at x, and at each delta
+//! vertex s the cosine of the segment towards the light over that of the segment towards the
+//! camera; the distances cancel through the chain. So R = r² N p_A cos θ_x Π / p_σ: the emitter
+//! hit computes it from the camera path ([`Caustic`]), the merge from the photon, which carries
+//! p_A cos θ_y Π ([`Photon::density`], y standing in for x).
+//!
+//! **Consistency.** A merge is biased by its kernel (the light of the disc instead of the
+//! point's); the radius shrinks with the iterations as progressive photon mapping's does,
+//! r_i² = r_1² · i^(α−1) (Knaus and Zwicker 2011; the same schedule as the thesis' spherical
+//! lights, [`super::schedule`]), so the bias vanishes while each iteration's merges still count
+//! N paths. r_1 is `--merge-radius` pixels' footprint at x: the camera ray's pixel angle
+//! times the path's length to x (through the delta chain), so that the blur is about as wide
+//! in the image at every resolution. A photon counts when it is within r of x and its surface
+//! faces the same way as x's (a photon on the other side of a thin wall does not); both
+//! limits vanish with r.
+//!
+//! What this leaves to the emitter hit alone: the caustics of two or more non-delta vertices
+//! each separated by delta chains (camera → S → x → S → z → S → emitter), and those of lights
+//! without area (a point light's caustic seen in a mirror, which `pt` cannot render either).
+
+use glam::Vec3;
+
+use super::knn::{KdTree, Located};
+use crate::integrator::walker::Vertex;
+use crate::material::{Bsdf, PreparedBsdf, TransportMode};
+
+/// `--merge-radius` when not given: r_1 of two pixels' footprint.
+pub const DEFAULT_MERGE_PIXELS: f32 = 2.0;
+
+/// A light path's first non-delta vertex after one or more delta ones: where its light can be
+/// merged.
+#[derive(Clone, Copy, Debug)]
+pub struct Photon {
+    pub p: Vec3,
+    pub ng: Vec3,
+    /// Unit direction towards the previous vertex of the light path (the last delta vertex).
+    pub w_in: Vec3,
+    /// Incident flux Φ / N, as a VPL's ([`super::Vpl::flux`]).
+    pub flux: Vec3,
+    /// Segments from the emitter.
+    pub depth: u32,
+    /// p_A · cos θ_y · Π_s (cos θ_s^light / cos θ_s^camera): the light path's part of the merge's
+    /// density ratio R (see the module docs).
+    pub density: f32,
+}
+
+impl Located for Photon {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
+/// A light path's bookkeeping for photons: present while every vertex after its area emitter
+/// was delta.
+#[derive(Clone, Copy, Debug)]
+pub struct LightChain {
+    /// The emitter point's area density p_A (with the emitter's selection).
+    pdf_area: f32,
+    /// Π_s cos θ_s^light / cos θ_s^camera over the delta vertices passed.
+    product: f32,
+    /// Delta vertices passed.
+    deltas: u32,
+}
+
+impl LightChain {
+    /// A light path that starts on an area emitter picked with area density `pdf_area`.
+    pub fn start(pdf_area: f32) -> Self {
+        LightChain { pdf_area, product: 1.0, deltas: 0 }
+    }
+
+    /// Through a delta vertex, arriving at cosine `cos_in` (the segment towards the light)
+    /// and leaving at `cos_out` (towards the camera side).
+    #[inline]
+    pub fn through(&mut self, cos_in: f32, cos_out: f32) {
+        self.product *= cos_in / cos_out;
+        self.deltas += 1;
+    }
+
+    /// The photon at the non-delta vertex at `p` (geometric normal `ng`) that the chain
+    /// reaches, `depth` segments from the emitter, with the light's throughput `flux` arriving
+    /// from `w_in`; none right after the emitter (a caustic needs a delta vertex) or where the
+    /// ratio is not finite.
+    pub fn photon(&self, p: Vec3, ng: Vec3, w_in: Vec3, flux: Vec3, depth: u32) -> Option<Photon> {
+        let density = self.pdf_area * self.product * ng.dot(w_in).abs();
+        (self.deltas > 0 && density.is_finite() && density > 0.0).then_some(Photon {
+            p,
+            ng,
+            w_in,
+            flux,
+            depth,
+            density,
+        })
+    }
+}
+
+/// An iteration's photons and radius: what the camera merges with.
+pub struct Merging {
+    photons: KdTree<Photon>,
+    /// N, the iteration's light paths.
+    paths: f32,
+    /// r_i over the pixel footprint: r_1 in pixels times i^((α−1)/2).
+    pixels: f32,
+}
+
+impl Merging {
+    /// The photons of iteration `iteration` (from 1) of `paths` light paths, merged within
+    /// `pixels` pixels' footprint (r_1) shrunk by the schedule of exponent `alpha`.
+    pub fn new(photons: Vec<Photon>, paths: f32, pixels: f32, alpha: f32, iteration: u64) -> Self {
+        let i = iteration.max(1) as f32;
+        let pixels = pixels * i.powf(0.5 * (alpha - 1.0));
+        Merging { photons: KdTree::from_vec(photons), paths, pixels }
+    }
+
+    pub fn photons(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// r² at a camera vertex whose footprint (pixel angle × path length) is `footprint`.
+    #[inline]
+    fn radius2(&self, footprint: f32) -> f32 {
+        let r = self.pixels * footprint;
+        r * r
+    }
+
+    /// The merges at the camera vertex `v` (the first non-delta one after a delta chain) of
+    /// squared radius `r2`, each weighed against the emitter hit, per unit throughput:
+    /// Σ f(ω_o, ω_y) Φ_y w_merge / (π r²) over the photons within r whose surface faces as x's
+    /// and whose path with the camera's is at most `max_depth` segments long.
+    pub fn estimate(&self, v: &Vertex, r2: f32, max_depth: u32) -> Vec3 {
+        if self.photons.is_empty() || r2.is_nan() || r2 <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let (sp, bsdf) = (v.sp, v.bsdf);
+        let fx = PreparedBsdf::new(*bsdf, sp.geometry(), v.wo, TransportMode::Radiance);
+        if !fx.is_active() {
+            return Vec3::ZERO;
+        }
+        let mut sum = Vec3::ZERO;
+        self.photons.within(sp.p, r2, |y| {
+            if y.depth + v.depth > max_depth || y.ng.dot(sp.ng) <= 0.0 {
+                return;
+            }
+            let (f_cos, pdf) = fx.eval_pdf(y.w_in);
+            let cos = y.w_in.dot(sp.frame.n).abs();
+            if f_cos == Vec3::ZERO || cos.is_nan() || cos <= 0.0 {
+                return;
+            }
+            let w = merge_weight(r2 * self.paths * y.density, pdf);
+            sum += f_cos / cos * y.flux * w;
+        });
+        let out = sum / (std::f32::consts::PI * r2);
+        if out.is_finite() { out } else { Vec3::ZERO }
+    }
+}
+
+/// The merge's weight against the emitter hit, R / (1 + R) with R = `numerator` / p_σ (1 where
+/// the camera's BSDF cannot sample the direction, 0 where R or p_σ is not a number).
+#[inline]
+fn merge_weight(numerator: f32, pdf: f32) -> f32 {
+    if pdf.is_nan() {
+        return 0.0;
+    }
+    if pdf <= 0.0 {
+        return 1.0;
+    }
+    let r = numerator / pdf;
+    if r.is_nan() {
+        0.0
+    } else if r.is_infinite() {
+        1.0
+    } else {
+        r / (1.0 + r)
+    }
+}
+
+/// The emitter hit's weight against the merge, 1 / (1 + R) with R = `numerator` / p_σ.
+#[inline]
+fn hit_weight(numerator: f32, pdf: f32) -> f32 {
+    1.0 - merge_weight(numerator, pdf)
+}
+
+/// The camera path's bookkeeping for merging.
+#[derive(Clone, Copy, Debug, Default)]
+pub enum Caustic {
+    /// No merge on this path (no merging, or a non-delta vertex before any delta one).
+    #[default]
+    Off,
+    /// Every vertex so far was delta: the pixel angle of the camera ray, the path's length
+    /// and the delta vertices passed.
+    Prefix { pixel: f32, length: f32, deltas: u32 },
+    /// The camera merged at x with squared radius `r2`; the BSDF sample there is next.
+    Merged { r2: f32 },
+    /// After the BSDF sample at x of density `pdf` and cosine `cos_x`: delta vertices only,
+    /// with Π_s cos θ_s^light / cos θ_s^camera.
+    Suffix { r2: f32, cos_x: f32, pdf: f32, product: f32, deltas: u32 },
+}
+
+impl Caustic {
+    /// A camera path whose first ray's pixel subtends `pixel` radians.
+    pub fn start(pixel: f32) -> Self {
+        if pixel.is_finite() && pixel > 0.0 {
+            Caustic::Prefix { pixel, length: 0.0, deltas: 0 }
+        } else {
+            Caustic::Off
+        }
+    }
+
+    /// The camera path arrives at its next vertex, `distance` further.
+    #[inline]
+    pub fn arrive(&mut self, distance: f32) {
+        if let Caustic::Prefix { length, .. } = self {
+            *length += distance;
+        }
+    }
+
+    /// At a non-delta vertex: the squared radius to merge with where it is the first after a
+    /// delta chain (then the state waits for the BSDF sample), else none (and no merge further
+    /// on this path).
+    #[inline]
+    pub fn merge_at(&mut self, merging: &Merging) -> Option<f32> {
+        let r2 = match *self {
+            Caustic::Prefix { pixel, length, deltas } if deltas > 0 => Some(merging.radius2(pixel * length)),
+            _ => None,
+        };
+        *self = match r2 {
+            Some(r2) => Caustic::Merged { r2 },
+            None => Caustic::Off,
+        };
+        r2
+    }
+
+    /// The BSDF at a vertex of geometric normal `ng` (delta or not: `bsdf`) sampled the
+    /// direction `wi` with density `pdf` (`delta`: a delta lobe), the path arriving from `wo`.
+    #[inline]
+    pub fn scatter(&mut self, bsdf: &Bsdf, ng: Vec3, wo: Vec3, wi: Vec3, pdf: f32, delta: bool) {
+        *self = match *self {
+            Caustic::Prefix { pixel, length, deltas } if bsdf.is_delta() => {
+                Caustic::Prefix { pixel, length, deltas: deltas + 1 }
+            }
+            Caustic::Merged { r2 } if !delta => {
+                Caustic::Suffix { r2, cos_x: ng.dot(wi).abs(), pdf, product: 1.0, deltas: 0 }
+            }
+            Caustic::Suffix { r2, cos_x, pdf, product, deltas } if bsdf.is_delta() => {
+                let product = product * ng.dot(wi).abs() / ng.dot(wo).abs();
+                Caustic::Suffix { r2, cos_x, pdf, product, deltas: deltas + 1 }
+            }
+            _ => Caustic::Off,
+        };
+    }
+
+    /// The share of an emitter hit that the merge leaves it: 1 / (1 + R) on a path of the class
+    /// (after x and a delta chain), at an emitter point that the light paths pick with area
+    /// density `pdf_area`; 1 on any other path.
+    #[inline]
+    pub fn hit_share(&self, merging: &Merging, pdf_area: f32) -> f32 {
+        match *self {
+            Caustic::Suffix { r2, cos_x, pdf, product, deltas } if deltas > 0 => {
+                hit_weight(r2 * merging.paths * pdf_area * cos_x * product, pdf)
+            }
+            _ => 1.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Frame;
+    use crate::material::LocalGeometry;
+    use crate::sampling::{Domain, Sampler};
+    use crate::scene::SurfacePoint;
+    use glam::Vec2;
+    use std::f32::consts::PI;
+
+    fn random_point(s: &mut Sampler) -> Vec3 {
+        Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 4.0
+    }
+
+    /// A unit normal facing both neighbours, tilted at random.
+    fn normal(s: &mut Sampler, p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
+        let n = (a - p).normalize() + (b - p).normalize();
+        let tilt = Vec3::new(s.next_f32() - 0.5, s.next_f32() - 0.5, s.next_f32() - 0.5) * 0.6;
+        (n.normalize_or(Vec3::Z) + tilt).normalize()
+    }
+
+    fn cos(n: Vec3, from: Vec3, to: Vec3) -> f32 {
+        n.dot((to - from).normalize()).abs()
+    }
+
+    fn dist2(a: Vec3, b: Vec3) -> f32 {
+        (a - b).length_squared()
+    }
+
+    /// On paths camera → S^a → x → S^b → emitter (a, b from 1 to 3, every S declared delta,
+    /// the cosines at them unequal as at a refraction), the emitter hit's share and the
+    /// merge's weight, each computed from its own subpath, sum to one where the photon lies at
+    /// x; and the ratio R is the merge's density over the hit's with the densities written out
+    /// (the distances and the delta vertices' Dirac factors cancel), with η = π r² N.
+    #[test]
+    fn the_merge_and_the_emitter_hit_weigh_to_one() {
+        let mut s = Sampler::new(17, 0, Domain::LightPath, 0);
+        let mirror = Bsdf::Mirror { specular: Vec3::splat(0.9) };
+        let diffuse = Bsdf::Diffuse { albedo: Vec3::splat(0.7) };
+        let (paths, p_a, pixel) = (64.0, 3.0, 0.01);
+        let merging = Merging::new(Vec::new(), paths, 2.0, 0.6, 5);
+        for trial in 0..300 {
+            let (a, b) = (1 + trial % 3, 1 + trial / 3 % 3);
+            // z[0] the camera, z[a + 1] = x, z[a + b + 2] = z[k] the emitter point.
+            let z: Vec<Vec3> = (0..a + b + 3).map(|_| random_point(&mut s)).collect();
+            let (k, xi) = (z.len() - 1, a + 1);
+            let n: Vec<Vec3> = (0..=k)
+                .map(|j| if j == 0 || j == k { Vec3::ZERO } else { normal(&mut s, z[j], z[j - 1], z[j + 1]) })
+                .collect();
+            let n_e = (z[k - 1] - z[k]).normalize();
+            let (x, n_x) = (z[xi], n[xi]);
+            let g_x = LocalGeometry { ng: n_x, frame: Frame::from_normal(n_x) };
+            let (wo_x, wi_x) = ((z[xi - 1] - x).normalize(), (z[xi + 1] - x).normalize());
+            let pdf_x = diffuse.pdf(&g_x, wo_x, wi_x);
+            // The camera path.
+            let mut c = Caustic::start(pixel);
+            for j in 1..=k {
+                c.arrive((z[j] - z[j - 1]).length());
+                if j == k {
+                    break;
+                }
+                let (wo, wi) = ((z[j - 1] - z[j]).normalize(), (z[j + 1] - z[j]).normalize());
+                if j == xi {
+                    assert!(c.merge_at(&merging).is_some(), "x merges");
+                    c.scatter(&diffuse, n[j], wo, wi, pdf_x, false);
+                } else {
+                    c.scatter(&mirror, n[j], wo, wi, 1.0, true);
+                }
+            }
+            let share = c.hit_share(&merging, p_a);
+            let r2 = merging.radius2(pixel * (1..=xi).map(|j| (z[j] - z[j - 1]).length()).sum::<f32>());
+            // The light path, from the emitter through the delta chain to x.
+            let mut chain = LightChain::start(p_a);
+            for j in (xi + 1..k).rev() {
+                chain.through(cos(n[j], z[j], z[j + 1]), cos(n[j], z[j], z[j - 1]));
+            }
+            let photon = chain.photon(x, n_x, wi_x, Vec3::ONE, (k - xi) as u32).unwrap();
+            let w_merge = merge_weight(r2 * paths * photon.density, pdf_x);
+            assert!((share + w_merge - 1.0).abs() < 1e-4, "a {a}, b {b}: {share} + {w_merge}");
+            // The densities written out, per unit area of each vertex the subpath samples.
+            let mut p_hit = pdf_x;
+            let mut p_light = p_a * cos(n_e, z[k], z[k - 1]) / PI;
+            for j in xi + 1..=k {
+                let n_j = if j == k { n_e } else { n[j] };
+                p_hit *= cos(n_j, z[j], z[j - 1]) / dist2(z[j], z[j - 1]);
+            }
+            for j in (xi..k).rev() {
+                p_light *= cos(n[j], z[j], z[j + 1]) / dist2(z[j], z[j + 1]);
+            }
+            let ratio = PI * r2 * paths * p_light / p_hit;
+            let expected = 1.0 / (1.0 + ratio);
+            assert!(
+                (share - expected).abs() < 1e-3 * expected.max(1e-3),
+                "a {a}, b {b}: {share} against {expected}"
+            );
+        }
+    }
+
+    /// Paths outside the class keep the emitter hit whole: no delta vertex before x (light
+    /// tracing's), none after it (next-event estimation's), a second non-delta vertex, a delta
+    /// lobe sampled at x; and no merging without a camera ray's pixel.
+    #[test]
+    fn only_the_class_is_shared() {
+        let merging = Merging::new(Vec::new(), 64.0, 2.0, 0.6, 1);
+        let mirror = Bsdf::Mirror { specular: Vec3::ONE };
+        let diffuse = Bsdf::Diffuse { albedo: Vec3::splat(0.5) };
+        let (n, w) = (Vec3::Z, Vec3::new(0.0, 0.6, 0.8));
+        let walk = |steps: &[(&Bsdf, bool)]| {
+            let mut c = Caustic::start(0.01);
+            for &(bsdf, delta) in steps {
+                c.arrive(1.0);
+                if !bsdf.is_delta() {
+                    c.merge_at(&merging);
+                }
+                c.scatter(bsdf, n, w, w, 0.3, delta);
+            }
+            c.arrive(1.0);
+            c.hit_share(&merging, 50.0)
+        };
+        assert!(walk(&[(&mirror, true), (&diffuse, false), (&mirror, true)]) < 0.5, "the class");
+        assert_eq!(walk(&[(&diffuse, false), (&mirror, true)]), 1.0);
+        assert_eq!(walk(&[(&mirror, true), (&diffuse, false)]), 1.0);
+        assert_eq!(
+            walk(&[(&mirror, true), (&diffuse, false), (&mirror, true), (&diffuse, false), (&mirror, true)]),
+            1.0
+        );
+        assert_eq!(walk(&[(&mirror, true), (&diffuse, true), (&mirror, true)]), 1.0);
+        assert!(matches!(Caustic::start(f32::INFINITY), Caustic::Off));
+        // A light path's photon needs a delta vertex before it.
+        let chain = LightChain::start(1.0);
+        assert!(chain.photon(Vec3::ZERO, n, w, Vec3::ONE, 1).is_none());
+    }
+
+    /// The merge at a Lambertian x: each photon within r, facing as x, within `max_depth`,
+    /// adds albedo / π · Φ · w / (π r²); the others nothing. The radius shrinks as
+    /// i^((α−1)/2).
+    #[test]
+    fn a_merge_adds_the_photons_within_the_radius() {
+        let (n, albedo) = (Vec3::Z, Vec3::new(0.5, 0.6, 0.7));
+        let diffuse = Bsdf::Diffuse { albedo };
+        let sp = SurfacePoint {
+            p: Vec3::ZERO,
+            ng: n,
+            frame: Frame::from_normal(n),
+            prim: 0,
+            material: 0,
+            uv: Vec2::ZERO,
+            back: false,
+        };
+        let v = Vertex { sp: &sp, wo: Vec3::new(0.0, 0.6, 0.8), bsdf: &diffuse, depth: 3 };
+        let w_in = Vec3::new(0.8, 0.0, 0.6);
+        let photon = |p: Vec3, ng: Vec3, depth: u32, flux: f32| Photon {
+            p,
+            ng,
+            w_in,
+            flux: Vec3::splat(flux),
+            depth,
+            density: 2.0,
+        };
+        let photons = vec![
+            photon(Vec3::new(0.05, 0.0, 0.0), n, 2, 1.0),
+            photon(Vec3::new(0.0, -0.08, 0.0), n, 3, 2.0),
+            photon(Vec3::new(0.2, 0.0, 0.0), n, 2, 100.0), // beyond r
+            photon(Vec3::new(0.0, 0.05, 0.0), -n, 2, 100.0), // the other side
+            photon(Vec3::new(0.0, 0.0, 0.01), n, 6, 100.0), // too deep
+        ];
+        let (paths, r2) = (16.0, 0.01);
+        let merging = Merging::new(photons, paths, 2.0, 0.6, 1);
+        let got = merging.estimate(&v, r2, 8);
+        let pdf = w_in.z / PI;
+        let w = merge_weight(r2 * paths * 2.0, pdf);
+        let expected = albedo / PI * 3.0 * w / (PI * r2);
+        assert!(
+            (got - expected).abs().max_element() < 1e-4 * expected.max_element(),
+            "{got} against {expected}"
+        );
+        assert_eq!(merging.estimate(&v, 0.0, 8), Vec3::ZERO);
+        // r_i² = r_1² i^(α−1).
+        let first = Merging::new(Vec::new(), paths, 2.0, 0.6, 1).radius2(1.0);
+        let later = Merging::new(Vec::new(), paths, 2.0, 0.6, 16).radius2(1.0);
+        assert!((first - 4.0).abs() < 1e-6 && (later / first - 16f32.powf(-0.4)).abs() < 1e-5);
+    }
+}
