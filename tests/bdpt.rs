@@ -152,6 +152,52 @@ fn bidirectional_weights_match_the_path_tracer_with_mirror_and_glass() {
     }
 }
 
+/// With vertex merging in a cube whose face in view is a mirror (and two more faces a mirror
+/// and glass): the paths camera → mirror → wall → mirror or glass → emitting wall are shared
+/// between the merge and the emitter hit, and the image's mean is still `pt`'s (every wall
+/// emits, so the light is smooth and the kernel's bias far below the noise); the merge's share
+/// is large enough that leaving the merges out would fail.
+#[test]
+fn merging_matches_the_path_tracer_through_mirrors_and_glass() {
+    let mirror = Material {
+        name: "mirror".into(),
+        bsdf: Bsdf::Mirror { specular: Vec3::splat(0.9) },
+        emission: Vec3::ZERO,
+        two_sided: false,
+        textures: None,
+    };
+    let glass = Material {
+        name: "glass".into(),
+        bsdf: Bsdf::Glass { ior: 1.5 },
+        emission: Vec3::ZERO,
+        two_sided: false,
+        textures: None,
+    };
+    // Face 4 is the one in view (z = −1), face 5 behind the camera.
+    let scene = closed_cube_of(vec![diffuse(0.6, 1.0), mirror, glass], |face| match face {
+        4 | 1 => 1,
+        0 => 2,
+        _ => 0,
+    });
+    let job = Job { iterations: 64, max_depth: 6, ..Job::default() };
+    let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
+    let gather = Gather::Resampled { candidates: 32, samples: 4 };
+    let r = job.run(&scene, &mut bdpt(Clamping::None, 64).with_gather(gather).with_merging(0.5, 0.6));
+    assert!(r.stats.counters.photons > 0, "no photons");
+    let (m, p, z) = z_between(&r, &pt);
+    eprintln!("mirror in view, merging: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
+    assert!(z.abs() < Z, "merging: z = {z:.2}");
+    // The same seed without merging draws the same numbers: the difference is the merges less
+    // the emitter hits' share they took, zero in expectation, and large per pixel.
+    let alone = job.run(&scene, &mut bdpt(Clamping::None, 64).with_gather(gather));
+    let (a, b) = (r.image(), alone.image());
+    let moved =
+        a.pixels.iter().zip(&b.pixels).filter(|(x, y)| (**x - **y).abs().max_element() > 1e-4).count();
+    let diff: f32 = a.pixels.iter().zip(&b.pixels).map(|(x, y)| (*x - *y).abs().x).sum::<f32>() / m as f32;
+    eprintln!("merging moved {moved} of {} pixels, by {diff:.2} of the mean in all", a.pixels.len());
+    assert!(moved > a.pixels.len() / 2, "merging moved only {moved} pixels");
+}
+
 /// A harsh constant bound on the weighted connection darkens the glossy cube for ever; the
 /// progressive bound of `pir-bdpt` gives most of it back in the late iterations.
 #[test]

@@ -314,7 +314,7 @@ fn print_summary(
         );
         if stats.counters.photons > 0 {
             eprintln!(
-                "pir: {:.1} photons per iteration merged with where the camera sees through a mirror or glass",
+                "pir: {:.1} photons per iteration (caustics, merged where the camera sees them through a mirror or glass)",
                 per_iteration(stats.counters.photons)
             );
         }

@@ -86,7 +86,7 @@ fn sweep_help() -> String {
 fn parse_sweep(s: &str) -> Result<(Parameter, Vec<f32>)> {
     let (k, vs) = s.split_once('=').with_context(|| format!("--sweep {s:?}: expected KEY=V1,V2,…"))?;
     let Some(key) = Parameter::from_key(k.trim()).filter(|p| p.sweepable()) else {
-        bail!("--sweep: unknown parameter {:?}: expected alpha, clamp or radius", k.trim());
+        bail!("--sweep: unknown parameter {:?}: expected alpha, clamp, radius or merge-radius", k.trim());
     };
     let mut values = Vec::new();
     for v in vs.split(',') {

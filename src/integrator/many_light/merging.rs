@@ -34,10 +34,11 @@
 //! **Consistency.** A merge is biased by its kernel (the light of the disc instead of the
 //! point's); the radius shrinks with the iterations as progressive photon mapping's does,
 //! r_i² = r_1² · i^(α−1) (Knaus and Zwicker 2011; the same schedule as the thesis' spherical
-//! lights, [`super::schedule`]), so the bias vanishes while each iteration's merges still count
-//! N paths. r_1 is `--merge-radius` pixels' footprint at x: the camera ray's pixel angle
-//! times the path's length to x (through the delta chain), so that the blur is about as wide
-//! in the image at every resolution. A photon counts when it is within r of x and its surface
+//! lights, [`super::schedule`], with the same `--alpha`), so the bias vanishes while each
+//! iteration's merges still count N paths. r_1 is `--merge-radius` pixels' footprint at x: the
+//! camera ray's pixel angle times the path's length to x (through the delta chain), so that
+//! the blur is about as wide in the image at every resolution (behind curved glass, which
+//! magnifies, it is not; the bias vanishes either way). A photon counts when it is within r of x and its surface
 //! faces the same way as x's (a photon on the other side of a thin wall does not); both
 //! limits vanish with r.
 //!
@@ -152,8 +153,9 @@ impl Merging {
 
     /// The merges at the camera vertex `v` (the first non-delta one after a delta chain) of
     /// squared radius `r2`, each weighed against the emitter hit, per unit throughput:
-    /// Σ f(ω_o, ω_y) Φ_y w_merge / (π r²) over the photons within r whose surface faces as x's
-    /// and whose path with the camera's is at most `max_depth` segments long.
+    /// Σ f(ω_o, ω_y) |ω_y · n_s| / |ω_y · n_g| Φ_y w_merge / (π r²) over the photons within r
+    /// whose surface faces as x's and whose path with the camera's is at most `max_depth`
+    /// segments long (Φ_y per unit of geometric area, the shading cosine the BSDF sample's).
     pub fn estimate(&self, v: &Vertex, r2: f32, max_depth: u32) -> Vec3 {
         if self.photons.is_empty() || r2.is_nan() || r2 <= 0.0 {
             return Vec3::ZERO;
@@ -168,8 +170,10 @@ impl Merging {
             if y.depth + v.depth > max_depth || y.ng.dot(sp.ng) <= 0.0 {
                 return;
             }
+            // f |ω·n_s| over the geometric cosine: a photon's flux is per unit of geometric area,
+            // and the emitter hit it stands in for weighs the shading cosine.
             let (f_cos, pdf) = fx.eval_pdf(y.w_in);
-            let cos = y.w_in.dot(sp.frame.n).abs();
+            let cos = y.w_in.dot(sp.ng).abs();
             if f_cos == Vec3::ZERO || cos.is_nan() || cos <= 0.0 {
                 return;
             }
@@ -423,17 +427,20 @@ mod tests {
         assert!(chain.photon(Vec3::ZERO, n, w, Vec3::ONE, 1).is_none());
     }
 
-    /// The merge at a Lambertian x: each photon within r, facing as x, within `max_depth`,
-    /// adds albedo / π · Φ · w / (π r²); the others nothing. The radius shrinks as
+    /// The merge at a Lambertian x with a tilted shading normal: each photon within r, facing
+    /// as x, within `max_depth`, adds albedo / π · |ω·n_s| / |ω·n_g| · Φ · w / (π r²); the
+    /// others nothing. The radius shrinks as
     /// i^((α−1)/2).
     #[test]
     fn a_merge_adds_the_photons_within_the_radius() {
         let (n, albedo) = (Vec3::Z, Vec3::new(0.5, 0.6, 0.7));
         let diffuse = Bsdf::Diffuse { albedo };
+        // A shading normal tilted from the geometric one.
+        let ns = Vec3::new(0.3, 0.1, 1.0).normalize();
         let sp = SurfacePoint {
             p: Vec3::ZERO,
             ng: n,
-            frame: Frame::from_normal(n),
+            frame: Frame::from_normal(ns),
             prim: 0,
             material: 0,
             uv: Vec2::ZERO,
@@ -459,9 +466,10 @@ mod tests {
         let (paths, r2) = (16.0, 0.01);
         let merging = Merging::new(photons, paths, 2.0, 0.6, 1);
         let got = merging.estimate(&v, r2, 8);
-        let pdf = w_in.z / PI;
+        let pdf = w_in.dot(ns) / PI;
         let w = merge_weight(r2 * paths * 2.0, pdf);
-        let expected = albedo / PI * 3.0 * w / (PI * r2);
+        // f |ω·n_s| / |ω·n_g|: the flux per geometric area, the shading cosine the hit's.
+        let expected = albedo / PI * w_in.dot(ns) / w_in.z * 3.0 * w / (PI * r2);
         assert!(
             (got - expected).abs().max_element() < 1e-4 * expected.max_element(),
             "{got} against {expected}"

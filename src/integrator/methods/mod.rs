@@ -170,17 +170,22 @@ impl Settings {
 
     /// The many-light integrator of `lights` with these light paths, gather and light samples.
     pub fn instant_radiosity(&self, lights: VirtualLights) -> Box<dyn Integrator> {
+        Box::new(self.many_light(lights))
+    }
+
+    /// [`Settings::instant_radiosity`] unboxed, for a method that sets more of it (vertex
+    /// merging, [`InstantRadiosity::with_merging`]).
+    pub fn many_light(&self, lights: VirtualLights) -> InstantRadiosity {
         let ir = InstantRadiosity::new(lights, self.paths).with_gather(self.gather);
         let ir = match self.light_samples {
             LightSamples::Given(n) => ir.with_light_samples(n),
             LightSamples::ByScene { base } => ir.with_auto_light_samples(base),
         };
         let ir = if self.connect.is_none() { ir.with_auto_connect() } else { ir };
-        let ir = ir.with_merging(self.merge_radius, self.alpha);
-        Box::new(match self.auto_paths {
+        match self.auto_paths {
             Some(auto) => ir.with_auto_paths(auto),
             None => ir,
-        })
+        }
     }
 }
 

@@ -80,8 +80,8 @@ pub struct MethodParams {
     /// sees the surface through a mirror or glass), which merges the light paths' caustics with
     /// the camera paths that see them through delta surfaces; shrinks as r_i = r_1 ·
     /// i^((α−1)/2); 0: no merging [default: 2].
-    /// (Left out of the JSON when not set, so that the identities of the methods without it,
-    /// and of jobs stored before it, read as before.)
+    /// (Left out of the JSON when not set, so that the identities of the methods without it
+    /// read as before; `pir-bdpt`'s always hold it.)
     #[arg(long, value_name = "PIXELS", allow_negative_numbers = true)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub merge_radius: Option<f32>,
@@ -249,7 +249,8 @@ impl Parameter {
         Parameter::ALL.into_iter().find(|p| p.key() == key)
     }
 
-    /// Whether a study can sweep it (a number: `--sweep alpha=…`, `clamp=…`, `radius=…`).
+    /// Whether a study can sweep it (a number: `--sweep alpha=…`, `clamp=…`, `radius=…`,
+    /// `merge-radius=…`).
     pub fn sweepable(self) -> bool {
         matches!(self, Parameter::Alpha | Parameter::Clamp | Parameter::Radius | Parameter::MergeRadius)
     }

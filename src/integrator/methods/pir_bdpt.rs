@@ -56,6 +56,7 @@ impl MethodSpec for PirBdpt {
     fn integrator(&self, s: &Settings) -> Box<dyn Integrator> {
         // (A rule chosen by the scene replaces this one before the first iteration.)
         let connect = s.connect.unwrap_or_default();
-        s.instant_radiosity(VirtualLights::Bidirectional(s.progressive_clamping(), connect))
+        let lights = VirtualLights::Bidirectional(s.progressive_clamping(), connect);
+        Box::new(s.many_light(lights).with_merging(s.merge_radius, s.alpha))
     }
 }

@@ -39,6 +39,9 @@ fn validate_names_the_flag() {
         (MethodParams { gather_candidates: Some(0), ..ok }, "--gather-candidates 0"),
         (MethodParams { light_samples: Some(0), ..ok }, "--light-samples 0"),
         (MethodParams { light_samples: Some(65), ..ok }, "--light-samples 65"),
+        (MethodParams { merge_radius: Some(-1.0), ..ok }, "--merge-radius -1: must be 0"),
+        (MethodParams { merge_radius: Some(65.0), ..ok }, "--merge-radius 65"),
+        (MethodParams { merge_radius: Some(f32::NAN), ..ok }, "--merge-radius NaN"),
     ] {
         let e = bad.validate().unwrap_err().to_string();
         assert!(e.starts_with(flag), "{e}");
