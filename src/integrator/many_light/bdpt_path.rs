@@ -248,7 +248,7 @@ impl Estimator for Bidirectional<'_> {
         // (At a delta vertex nothing is folded in, whatever `fold` says.)
         let fold = path.connecting.previous_connects();
         path.mis.scatter(Scatter::camera(s.pdf, pdf_rev, cos_out, s.delta, fold, count_in));
-        path.caustic.scatter(bsdf, sp.ng, wo, s.wi, s.pdf, s.delta);
+        path.caustic.scatter(bsdf, &sp.geometry(), wo, s.wi, s.pdf, s.delta);
         path.previous = Some(*bsdf);
         path.from = sp.p;
         path.depth = v.depth;

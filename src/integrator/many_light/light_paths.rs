@@ -399,18 +399,14 @@ fn follow(
                 count_out: count,
             });
         }
-        // The first non-delta vertex after the emitter ends the chain, a photon where delta
-        // vertices came before it.
+        // A photon at a non-delta vertex that a delta chain of the class reaches.
         if let Some(c) = chain
             && !bsdf.is_delta()
+            && depth <= depths.vpl
+            && bsdf.reflects_from(&sp.geometry(), w_in)
+            && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
         {
-            if depth <= depths.vpl
-                && bsdf.reflects_from(&sp.geometry(), w_in)
-                && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
-            {
-                out.photons.push(photon);
-            }
-            chain = None;
+            out.photons.push(photon);
         }
         if let Some(to_camera) = depths.to_camera
             && depth <= depths.camera
@@ -428,9 +424,8 @@ fn follow(
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
         let glossy = glossy_vertex(bsdf);
-        if let Some(c) = &mut chain {
-            c.through(sp.ng.dot(w_in).abs(), sp.ng.dot(s.wi).abs());
-        }
+        chain =
+            chain.and_then(|c| c.scatter(bsdf, sp.ng.dot(w_in).abs(), sp.ng.dot(s.wi).abs(), s.pdf, pdf_rev));
         mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count, glossy));
         previous = Some(*bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
