@@ -241,17 +241,18 @@ fn caustic_light_is_traced_to_the_camera_by_pir_bdpt() {
 }
 
 /// The caustic seen in the mirror and through the glass (camera → mirror or glass → diffuse →
-/// mirror or glass → light), which before vertex merging only the camera's BSDF samples into the
-/// small light found: `pir-bdpt` merges it with the light paths' photons, and its relative MSE
-/// falls below 0.75× that of `pir-bdpt --merge-radius 0` at equal iterations, summed over two
-/// seeds (measured 0.64× and 0.29×; the worst pixels left are the light's own images through
-/// the glass, which only the camera can find), with the image's mean as close to the
-/// reference's (within 1.5 %: the fireflies of 64 iterations move it by about 1 %).
+/// mirror or glass → light, and the caustics of caustics), which before vertex merging only
+/// the camera's BSDF samples into the small light found: `pir-bdpt` merges it with the light
+/// paths' photons, and its relative MSE falls below half that of `pir-bdpt --merge-radius 0`
+/// at equal iterations, summed over two seeds (measured 0.41× and 0.30×), its worse worst
+/// pixel too (measured 78 against 153), with the image's mean as close to the reference's
+/// (within 1.5 %: the fireflies of 64 iterations move it by about 1 %).
 #[test]
 fn caustic_seen_through_mirror_and_glass_is_merged_by_pir_bdpt() {
     let d = stress("caustic");
     let (scene, reference) = (d.join("scene.toml"), d.join("reference-128.exr"));
     let (mut merged, mut alone) = (0.0, 0.0);
+    let (mut merged_worst, mut alone_worst) = (0.0f64, 0.0f64);
     for seed in [5, 7] {
         let rows = study_sweep(&scene, &reference, "pir-bdpt", "merge-radius=0,2", 64, seed);
         let (m, a) = (last(&rows, "pir-bdpt merge-radius=2"), last(&rows, "pir-bdpt merge-radius=0"));
@@ -262,10 +263,16 @@ fn caustic_seen_through_mirror_and_glass_is_merged_by_pir_bdpt() {
         );
         merged += m.rel_mse;
         alone += a.rel_mse;
+        merged_worst = merged_worst.max(m.max_rel_se);
+        alone_worst = alone_worst.max(a.max_rel_se);
     }
     assert!(
-        merged < 0.75 * alone,
-        "pir-bdpt's relative MSE with merging {merged:.3e} must be below 0.75x that without it, {alone:.3e}"
+        merged < 0.5 * alone,
+        "pir-bdpt's relative MSE with merging {merged:.3e} must be below half that without it, {alone:.3e}"
+    );
+    assert!(
+        merged_worst < alone_worst,
+        "pir-bdpt's worst pixel with merging {merged_worst:.3e} against {alone_worst:.3e} without"
     );
 }
 
