@@ -151,8 +151,8 @@ pub fn trace_vpls(
 pub struct Traced {
     pub vpls: Vec<Vpl>,
     pub splats: Vec<FilmSplat>,
-    /// With `photons`: the first non-delta vertex after a delta chain from an area emitter
-    /// ([`super::merging`]), within the VPLs' depth.
+    /// With `photons`: the non-delta vertices that a delta vertex led a light path of the
+    /// class from an area emitter to ([`super::merging`]), within the VPLs' depth.
     pub photons: Vec<Photon>,
     /// Closest-hit queries.
     pub rays: u64,
@@ -308,7 +308,8 @@ struct Start {
     at_infinity: bool,
     nee: NeeAt,
     mis: MisState,
-    /// Where photons are wanted and the light has an area: the chain of delta vertices.
+    /// Where photons are wanted and the light has an area: the path's bookkeeping for them
+    /// while it is of the class.
     chain: Option<LightChain>,
 }
 
@@ -424,8 +425,7 @@ fn follow(
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
         let glossy = glossy_vertex(bsdf);
-        chain =
-            chain.and_then(|c| c.scatter(bsdf, sp.ng.dot(w_in).abs(), sp.ng.dot(s.wi).abs(), s.pdf, pdf_rev));
+        chain = chain.and_then(|c| c.scatter(bsdf, &sp.geometry(), w_in, &s));
         mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count, glossy));
         previous = Some(*bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {

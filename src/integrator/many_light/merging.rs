@@ -58,13 +58,13 @@ use glam::Vec3;
 
 use super::knn::{KdTree, Located};
 use crate::integrator::walker::Vertex;
-use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
+use crate::material::{Bsdf, BsdfSample, LocalGeometry, PreparedBsdf, TransportMode};
 
 /// `--merge-radius` when not given: r_1 of two pixels' footprint.
 pub const DEFAULT_MERGE_PIXELS: f32 = 2.0;
 
-/// A light path's first non-delta vertex after one or more delta ones: where its light can be
-/// merged.
+/// A non-delta vertex of a light path of the class that a delta vertex led to: where its
+/// light can be merged.
 #[derive(Clone, Copy, Debug)]
 pub struct Photon {
     pub p: Vec3,
@@ -75,8 +75,8 @@ pub struct Photon {
     pub flux: Vec3,
     /// Segments from the emitter.
     pub depth: u32,
-    /// p_A · cos θ_y · Π_s (cos θ_s^light / cos θ_s^camera): the light path's part of the merge's
-    /// density ratio R (see the module docs).
+    /// p_A · cos θ_y · Π_w (cos θ_w^light / cos θ_w^camera) · Π (p_L / p_C): the light path's
+    /// part of the merge's density ratio R (see the module docs).
     pub density: f32,
 }
 
@@ -107,18 +107,18 @@ impl LightChain {
         LightChain { pdf_area, product: 1.0, last_delta: false }
     }
 
-    /// The light path leaves a vertex of BSDF `bsdf` that it reached at cosine `cos_in` (the
-    /// segment towards the light) in the direction of cosine `cos_out` (towards the camera
-    /// side), sampled with density `pdf` where the camera's BSDF sampling would pick the
-    /// light's direction with `pdf_rev`: the chain through it, or none where the path leaves
-    /// the class (a non-delta vertex after another, or one with a delta lobe among others).
+    /// The light path, arrived from `w_in` at a vertex of BSDF `bsdf` and geometry `g`, leaves
+    /// it along the sample `s`: the chain through it, or none where the path leaves the class
+    /// (a non-delta vertex after another, or one with a delta lobe among others). At a
+    /// non-delta vertex p_L is the sample's density and p_C the density with which the camera's
+    /// BSDF sampling, arriving along the sample, would pick `w_in`.
     #[inline]
-    pub fn scatter(self, bsdf: &Bsdf, cos_in: f32, cos_out: f32, pdf: f32, pdf_rev: f32) -> Option<Self> {
-        let cosines = cos_in / cos_out;
+    pub fn scatter(self, bsdf: &Bsdf, g: &LocalGeometry, w_in: Vec3, s: &BsdfSample) -> Option<Self> {
+        let cosines = g.ng.dot(w_in).abs() / g.ng.dot(s.wi).abs();
         let (product, last_delta) = if bsdf.is_delta() {
             (self.product * cosines, true)
         } else if self.last_delta && !bsdf.has_delta() {
-            (self.product * cosines * (pdf / pdf_rev), false)
+            (self.product * cosines * (s.pdf / bsdf.pdf(g, s.wi, w_in)), false)
         } else {
             return None;
         };
@@ -224,10 +224,24 @@ fn merge_weight(numerator: f32, pdf: f32) -> f32 {
     }
 }
 
-/// The emitter hit's weight against the merge, 1 / (1 + R) with R = `numerator` / p_σ.
+/// The emitter hit's weight against the merge, 1 / (1 + R) with R = `numerator` / p_σ: one
+/// minus [`merge_weight`], computed so that it keeps its precision where R is large.
 #[inline]
 fn hit_weight(numerator: f32, pdf: f32) -> f32 {
-    1.0 - merge_weight(numerator, pdf)
+    if pdf.is_nan() {
+        return 1.0;
+    }
+    if pdf <= 0.0 {
+        return 0.0;
+    }
+    let r = numerator / pdf;
+    if r.is_nan() {
+        1.0
+    } else if r.is_infinite() {
+        0.0
+    } else {
+        1.0 / (1.0 + r)
+    }
 }
 
 /// The camera path's bookkeeping for merging.
@@ -298,19 +312,21 @@ impl Caustic {
             }
             Caustic::Suffix { r2, cos_x, pdf: pdf_x, product, last_delta } => {
                 let cosines = ng.dot(wi).abs() / ng.dot(wo).abs();
-                if bsdf.is_delta() {
-                    Caustic::Suffix { r2, cos_x, pdf: pdf_x, product: product * cosines, last_delta: true }
+                // (p_L / p_C at a non-delta vertex: the light path's density of the way back
+                // towards the camera over this sample's.)
+                let next = if bsdf.is_delta() {
+                    Some((product * cosines, true))
                 } else if last_delta && !bsdf.has_delta() {
-                    // p_L / p_C: the light path's density of the way back towards the camera
-                    // over this sample's.
-                    let product = product * cosines * (bsdf.pdf(g, wi, wo) / pdf);
-                    if product.is_finite() && product > 0.0 {
-                        Caustic::Suffix { r2, cos_x, pdf: pdf_x, product, last_delta: false }
-                    } else {
-                        Caustic::Off
-                    }
+                    Some((product * cosines * (bsdf.pdf(g, wi, wo) / pdf), false))
                 } else {
-                    Caustic::Off
+                    None
+                };
+                // (As the light side: a ratio that is not finite and positive leaves the class.)
+                match next {
+                    Some((product, last_delta)) if product.is_finite() && product > 0.0 => {
+                        Caustic::Suffix { r2, cos_x, pdf: pdf_x, product, last_delta }
+                    }
+                    _ => Caustic::Off,
                 }
             }
             _ => Caustic::Off,
@@ -442,12 +458,17 @@ mod tests {
             let r2 = merging.radius2(pixel * (1..=xi).map(|j| (z[j] - z[j - 1]).length()).sum::<f32>());
             // The light path, from the emitter to x.
             let mut chain = Some(LightChain::start(p_a));
+            // (As light tracing calls it: the sample's density is the light's, and the chain
+            // finds the camera's from the BSDF.)
             for j in (xi + 1..k).rev() {
-                let (cos_in, cos_out) = (cos(n[j], z[j], z[j + 1]), cos(n[j], z[j], z[j - 1]));
-                chain = chain.and_then(|ch| match kinds[j] {
-                    Kind::Delta => ch.scatter(&mirror, cos_in, cos_out, 1.0, 1.0),
-                    _ => ch.scatter(&bsdf_of(j), cos_in, cos_out, p_l(j), p_c(j)),
-                });
+                let (w_in, wi) = (dir(j, j + 1), dir(j, j - 1));
+                let (bsdf, delta) = match kinds[j] {
+                    Kind::Delta => (mirror, true),
+                    _ => (bsdf_of(j), false),
+                };
+                let pdf = if delta { 1.0 } else { bsdf.pdf(&g(j), w_in, wi) };
+                let sample = BsdfSample { wi, weight: Vec3::ONE, pdf, delta, eta: 1.0 };
+                chain = chain.and_then(|ch| ch.scatter(&bsdf, &g(j), w_in, &sample));
             }
             let photon = chain.unwrap().photon(x, n_x, dir(xi, xi + 1), Vec3::ONE, (k - xi) as u32).unwrap();
             let w_merge = merge_weight(r2 * paths * photon.density, pdf_x);
@@ -507,6 +528,18 @@ mod tests {
         assert_eq!(walk(&[(&mirror, true), (&diffuse, false), (&mirror, true), (&diffuse, false)]), 1.0);
         assert_eq!(walk(&[(&mirror, true), (&diffuse, false), (&diffuse, false), (&mirror, true)]), 1.0);
         assert_eq!(walk(&[(&mirror, true), (&diffuse, true), (&mirror, true)]), 1.0);
+        // A vertex with a delta lobe among others (plastic) between the chains ends the class,
+        // on either side.
+        let plastic = Bsdf::plastic(Vec3::splat(0.5), None, 1.5, false);
+        assert!(plastic.has_delta() && !plastic.is_delta());
+        assert_eq!(
+            walk(&[(&mirror, true), (&diffuse, false), (&mirror, true), (&plastic, false), (&mirror, true)]),
+            1.0
+        );
+        let sample = |delta| BsdfSample { wi: w, weight: Vec3::ONE, pdf: 0.3, delta, eta: 1.0 };
+        let through = LightChain::start(1.0).scatter(&mirror, &g, w, &sample(true)).unwrap();
+        assert!(through.scatter(&plastic, &g, w, &sample(false)).is_none());
+        assert!(through.scatter(&diffuse, &g, w, &sample(false)).is_some());
         assert!(matches!(Caustic::start(f32::INFINITY), Caustic::Off));
         // A light path's photon needs a delta vertex before it.
         let chain = LightChain::start(1.0);
