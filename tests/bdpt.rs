@@ -322,7 +322,8 @@ fn pilot_job(sampler: SamplerKind) -> Job {
 /// either sampler.
 /// And the pilot's visibility of the emitters from the points they light, which weighs the
 /// connections ([`Counts`](pir::integrator::many_light::subpath::Counts)): all of
-/// them inside the cube, a sliver through the slit.
+/// them inside the cube, a sliver through the slit. Neither makes a caustic; the cube with a
+/// mirror and a glass face does, and takes more paths for them.
 #[test]
 fn light_paths_follow_the_scenes_yield_of_vpls() {
     let auto = BDPT_AUTO_PATHS;
@@ -339,10 +340,11 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
     };
     for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
         let (cube, slit) = (resolve(&cube_scene, sampler, 2), resolve(&slit_scene, sampler, 1));
-        assert_eq!(auto.for_yield(cube.per_path), BDPT_PATHS, "{sampler:?}");
+        assert_eq!((cube.caustic_per_path, slit.caustic_per_path), (0.0, 0.0), "{sampler:?}");
+        assert_eq!(auto.for_yield(cube.per_path, cube.caustic_per_path), BDPT_PATHS, "{sampler:?}");
         // Inside the closed cube every emitter point is in view.
         assert_eq!(cube.visibility, 1.0, "{sampler:?}");
-        let n = auto.for_yield(slit.per_path);
+        let n = auto.for_yield(slit.per_path, slit.caustic_per_path);
         eprintln!("slit room, {sampler:?}: {n} light paths per iteration, {slit:?}");
         assert_eq!(resolve(&slit_scene, sampler, 2), slit, "{sampler:?}");
         assert!((4 * BDPT_VPLS..=16 * BDPT_VPLS).contains(&n), "{sampler:?}: {n} light paths");
@@ -353,6 +355,12 @@ fn light_paths_follow_the_scenes_yield_of_vpls() {
         assert_eq!(light_samples_for(DEFAULT_LIGHT_SAMPLES, cube.visibility), DEFAULT_LIGHT_SAMPLES);
         let more = light_samples_for(DEFAULT_LIGHT_SAMPLES, slit.visibility);
         assert!([4, 8, 16].contains(&more), "{sampler:?}: {more} light samples");
+        // A mirror and a glass face: a caustic from a good share of the paths.
+        let mixed = resolve(&mixed_cube(), sampler, 2);
+        let n = auto.for_yield(mixed.per_path, mixed.caustic_per_path);
+        eprintln!("mirror and glass cube, {sampler:?}: {n} light paths per iteration, {mixed:?}");
+        assert!(mixed.caustic_per_path > 0.1, "{sampler:?}: {mixed:?}");
+        assert!(n > BDPT_PATHS && n <= auto.at_most, "{sampler:?}: {n} light paths");
     }
 }
 

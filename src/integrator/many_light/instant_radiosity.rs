@@ -179,7 +179,7 @@ impl Integrator for InstantRadiosity {
         }
         let pilot = Pilot::run(ctx, counters);
         if let Some(auto) = self.auto.take() {
-            self.paths = auto.for_yield(pilot.per_path);
+            self.paths = auto.for_yield(pilot.per_path, pilot.caustic_per_path);
         }
         if std::mem::take(&mut self.auto_light_samples) {
             self.light_samples = bidirectional::light_samples_for(self.light_samples, pilot.visibility);

@@ -22,7 +22,8 @@ use crate::integrator::{Gather, MAX_LIGHT_SAMPLES, Radius};
 pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
     /// vertex) [default: 32; for pir-bdpt 256, or as many more as leave 64 VPLs where light
-    /// paths seldom reach a surface that reflects them, chosen by a pilot, at most 4096].
+    /// paths seldom reach a surface that reflects them, or 1024 caustic vertices where a
+    /// mirror or glass leads them to surfaces, chosen by a pilot, at most 4096].
     #[arg(long, value_name = "N")]
     pub vpls: Option<usize>,
     /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis, pir-bdpt: b_1 of

@@ -33,7 +33,12 @@ pub const BDPT_MAX_PATHS: usize = 4096;
 /// `pir-bdpt`'s light paths chosen by the scene: at least [`BDPT_PATHS`], as many as leave
 /// [`BDPT_VPLS`] VPLs, at most [`BDPT_MAX_PATHS`].
 pub const BDPT_AUTO_PATHS: AutoPaths =
-    AutoPaths { vpls: BDPT_VPLS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
+    AutoPaths { vpls: BDPT_VPLS, caustics: BDPT_CAUSTICS, at_least: BDPT_PATHS, at_most: BDPT_MAX_PATHS };
+/// The caustic vertices per iteration `pir-bdpt` aims at where its light paths make caustics
+/// (at least one path in 64, [`crate::integrator::many_light::path_count::CAUSTIC_RARE`]): as
+/// many more paths as leave this many, so that light tracing to the camera and vertex
+/// merging, which make the caustics, have as many samples as they pay for.
+pub const BDPT_CAUSTICS: usize = 1024;
 
 pub struct PirBdpt;
 
