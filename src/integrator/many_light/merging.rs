@@ -204,17 +204,18 @@ impl Merging {
     }
 }
 
-/// The merge's weight against the emitter hit, R / (1 + R) with R = `numerator` / p_σ (1 where
-/// the camera's BSDF cannot sample the direction, 0 where R or p_σ is not a number).
+/// R = `numerator` / p_σ: infinite where the camera's BSDF cannot sample the direction (only
+/// the merge makes the path), NaN where p_σ or R is not a number.
+#[inline]
+fn ratio(numerator: f32, pdf: f32) -> f32 {
+    if pdf <= 0.0 { f32::INFINITY } else { numerator / pdf }
+}
+
+/// The merge's weight against the emitter hit, R / (1 + R) (1 where R is infinite, 0 where it
+/// is not a number).
 #[inline]
 fn merge_weight(numerator: f32, pdf: f32) -> f32 {
-    if pdf.is_nan() {
-        return 0.0;
-    }
-    if pdf <= 0.0 {
-        return 1.0;
-    }
-    let r = numerator / pdf;
+    let r = ratio(numerator, pdf);
     if r.is_nan() {
         0.0
     } else if r.is_infinite() {
@@ -224,24 +225,12 @@ fn merge_weight(numerator: f32, pdf: f32) -> f32 {
     }
 }
 
-/// The emitter hit's weight against the merge, 1 / (1 + R) with R = `numerator` / p_σ: one
-/// minus [`merge_weight`], computed so that it keeps its precision where R is large.
+/// The emitter hit's weight against the merge, 1 / (1 + R): one minus [`merge_weight`],
+/// computed so that it keeps its precision where R is large.
 #[inline]
 fn hit_weight(numerator: f32, pdf: f32) -> f32 {
-    if pdf.is_nan() {
-        return 1.0;
-    }
-    if pdf <= 0.0 {
-        return 0.0;
-    }
-    let r = numerator / pdf;
-    if r.is_nan() {
-        1.0
-    } else if r.is_infinite() {
-        0.0
-    } else {
-        1.0 / (1.0 + r)
-    }
+    let r = ratio(numerator, pdf);
+    if r.is_nan() { 1.0 } else { 1.0 / (1.0 + r) }
 }
 
 /// The camera path's bookkeeping for merging.
