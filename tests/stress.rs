@@ -224,8 +224,8 @@ fn slit_lit_room_is_noisy_for_the_path_tracer() {
 /// camera): the caustics seen directly (light → glass or mirror → diffuse → camera) are the
 /// light paths' job, and at equal iterations its relative MSE is below 0.35× the path
 /// tracer's and its HDR-FLIP below 0.65× (measured 0.28× and 0.55×; without light tracing to
-/// the camera 0.45× and 0.73×). What is left are the fireflies of paths only the camera
-/// makes, the caustic seen in the mirror and through the glass.
+/// the camera 0.45× and 0.73×). The caustic seen in the mirror and through the glass is vertex
+/// merging's (the next test).
 #[test]
 fn caustic_light_is_traced_to_the_camera_by_pir_bdpt() {
     let d = stress("caustic");
