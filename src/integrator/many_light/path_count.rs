@@ -25,11 +25,9 @@
 //! vertex merging make ([`super::merging`]), and their noise falls as 1 / N while a light
 //! path costs a few pixels' samples: so where at least one path in 64 makes such a vertex
 //! ([`CAUSTIC_RARE`]), the count is also raised as far as it takes to leave
-//! [`AutoPaths::caustics`] of them. Measured (2026-12-06, equal time against 256 paths): in
-//! the mirror-and-glass caustic 2.3× lower relative MSE (2,369 paths), in the Cornell box with
-//! a mirror and a glass sphere 2.9× (4,096 paths), where 4,096 paths in the diffuse Cornell
-//! box, which makes no caustic, would have cost 21 % (`docs/results.md`, "Light paths for
-//! caustics").
+//! [`AutoPaths::caustics`] of them. Where light paths make no caustic, more of them only cost
+//! time, so the rule asks for none there; where they do, it pays at equal time
+//! (`docs/results.md`, "Light paths for caustics", has the measurements).
 //!
 //! **How.** Before the first iteration, a pilot traces [`PILOT_PATHS`] light paths from a
 //! stream of their own (no iteration draws from it) and counts the VPLs they leave: y per
