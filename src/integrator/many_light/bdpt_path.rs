@@ -187,7 +187,7 @@ impl Estimator for Bidirectional<'_> {
         let cos_in = sp.ng.dot(at.wo).abs();
         let dist2 = (sp.p - path.from).length_squared();
         path.mis.arrive(dist2, cos_in);
-        path.caustic.arrive(dist2.sqrt());
+        path.caustic.arrive(dist2);
         let le = sp.emitted(at.material.emission_at(sp.uv), at.wo);
         if le != Vec3::ZERO {
             let pdf_area = ctx.emitters.pdf_area(sp.prim);

@@ -399,15 +399,13 @@ fn follow(
                 mis,
                 count_out: count,
             });
-        }
-        // A photon at a non-delta vertex that a delta chain of the class reaches.
-        if let Some(c) = chain
-            && !bsdf.is_delta()
-            && depth <= depths.vpl
-            && bsdf.reflects_from(&sp.geometry(), w_in)
-            && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
-        {
-            out.photons.push(photon);
+            // Where a delta chain of the class reached the VPL, a photon too.
+            if let Some(c) = chain
+                && !bsdf.is_delta()
+                && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
+            {
+                out.photons.push(photon);
+            }
         }
         if let Some(to_camera) = depths.to_camera
             && depth <= depths.camera

@@ -115,14 +115,9 @@ impl LightChain {
     #[inline]
     pub fn scatter(self, bsdf: &Bsdf, g: &LocalGeometry, w_in: Vec3, s: &BsdfSample) -> Option<Self> {
         let cosines = g.ng.dot(w_in).abs() / g.ng.dot(s.wi).abs();
-        let (product, last_delta) = if bsdf.is_delta() {
-            (self.product * cosines, true)
-        } else if self.last_delta && !bsdf.has_delta() {
-            (self.product * cosines * (s.pdf / bsdf.pdf(g, s.wi, w_in)), false)
-        } else {
-            return None;
-        };
-        (product.is_finite() && product > 0.0).then_some(LightChain { product, last_delta, ..self })
+        let densities = || s.pdf / bsdf.pdf(g, s.wi, w_in);
+        let (product, last_delta) = extend(self.product, self.last_delta, bsdf, cosines, densities)?;
+        Some(LightChain { product, last_delta, ..self })
     }
 
     /// The photon at the non-delta vertex at `p` (geometric normal `ng`) that the chain
@@ -141,6 +136,30 @@ impl LightChain {
     }
 }
 
+/// One vertex more of a path of the class, from either side: the product of cosine ratios
+/// `cosines` (towards the light over towards the camera) and, at a non-delta vertex,
+/// `densities` (p_L / p_C) times `product`, and whether the vertex was delta; none where the
+/// path leaves the class (a non-delta vertex after another, or one with a delta lobe among
+/// others) or the ratio is not finite and positive. One rule for both subpaths, so that they
+/// classify the same paths and compute the same R.
+#[inline]
+fn extend(
+    product: f32,
+    last_delta: bool,
+    bsdf: &Bsdf,
+    cosines: f32,
+    densities: impl FnOnce() -> f32,
+) -> Option<(f32, bool)> {
+    let next = if bsdf.is_delta() {
+        (product * cosines, true)
+    } else if last_delta && !bsdf.has_delta() {
+        (product * cosines * densities(), false)
+    } else {
+        return None;
+    };
+    (next.0.is_finite() && next.0 > 0.0).then_some(next)
+}
+
 /// An iteration's photons and radius: what the camera merges with.
 pub struct Merging {
     photons: KdTree<Photon>,
@@ -154,13 +173,8 @@ impl Merging {
     /// The photons of iteration `iteration` (from 1) of `paths` light paths, merged within
     /// `pixels` pixels' footprint (r_1) shrunk by the schedule of exponent `alpha`.
     pub fn new(photons: Vec<Photon>, paths: f32, pixels: f32, alpha: f32, iteration: u64) -> Self {
-        let i = iteration.max(1) as f32;
-        let pixels = pixels * i.powf(0.5 * (alpha - 1.0));
+        let pixels = super::schedule::radius(pixels, alpha, iteration);
         Merging { photons: KdTree::from_vec(photons), paths, pixels }
-    }
-
-    pub fn photons(&self) -> usize {
-        self.photons.len()
     }
 
     /// r² at a camera vertex whose footprint (pixel angle × path length) is `footprint`.
@@ -260,11 +274,12 @@ impl Caustic {
         }
     }
 
-    /// The camera path arrives at its next vertex, `distance` further.
+    /// The camera path arrives at its next vertex, at squared distance `dist2` (its root taken
+    /// only while the length counts).
     #[inline]
-    pub fn arrive(&mut self, distance: f32) {
+    pub fn arrive(&mut self, dist2: f32) {
         if let Caustic::Prefix { length, .. } = self {
-            *length += distance;
+            *length += dist2.sqrt();
         }
     }
 
@@ -303,19 +318,12 @@ impl Caustic {
                 let cosines = ng.dot(wi).abs() / ng.dot(wo).abs();
                 // (p_L / p_C at a non-delta vertex: the light path's density of the way back
                 // towards the camera over this sample's.)
-                let next = if bsdf.is_delta() {
-                    Some((product * cosines, true))
-                } else if last_delta && !bsdf.has_delta() {
-                    Some((product * cosines * (bsdf.pdf(g, wi, wo) / pdf), false))
-                } else {
-                    None
-                };
-                // (As the light side: a ratio that is not finite and positive leaves the class.)
-                match next {
-                    Some((product, last_delta)) if product.is_finite() && product > 0.0 => {
+                let densities = || bsdf.pdf(g, wi, wo) / pdf;
+                match extend(product, last_delta, bsdf, cosines, densities) {
+                    Some((product, last_delta)) => {
                         Caustic::Suffix { r2, cos_x, pdf: pdf_x, product, last_delta }
                     }
-                    _ => Caustic::Off,
+                    None => Caustic::Off,
                 }
             }
             _ => Caustic::Off,
@@ -427,7 +435,7 @@ mod tests {
             // The camera path.
             let mut cam = Caustic::start(pixel);
             for j in 1..k {
-                cam.arrive((z[j] - z[j - 1]).length());
+                cam.arrive((z[j] - z[j - 1]).length_squared());
                 let (wo, wi) = (dir(j, j - 1), dir(j, j + 1));
                 match kinds[j] {
                     Kind::Delta => cam.scatter(&mirror, &g(j), wo, wi, 1.0, true),
@@ -442,7 +450,7 @@ mod tests {
                     Kind::End => unreachable!(),
                 }
             }
-            cam.arrive((z[k] - z[k - 1]).length());
+            cam.arrive((z[k] - z[k - 1]).length_squared());
             let share = cam.hit_share(&merging, p_a);
             let r2 = merging.radius2(pixel * (1..=xi).map(|j| (z[j] - z[j - 1]).length()).sum::<f32>());
             // The light path, from the emitter to x.

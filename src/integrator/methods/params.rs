@@ -163,6 +163,7 @@ pub const DEFAULT_GATHER_CANDIDATES: usize = 128;
 pub const DEFAULT_LIGHT_SAMPLES: u32 = 2;
 /// The largest `--merge-radius`, in pixels.
 pub const MAX_MERGE_PIXELS: f32 = 64.0;
+const _: () = assert!(MAX_MERGE_PIXELS == 64.0, "Parameter::range's words for --merge-radius");
 
 /// One parameter of the table: its flag, its check, and its value in the metadata.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -270,6 +271,7 @@ impl Parameter {
     pub fn range(self) -> &'static str {
         match self {
             Parameter::Alpha => "0 < α < 1",
+            // (The words hold MAX_MERGE_PIXELS: checked at compile time below.)
             Parameter::MergeRadius => "0 (none) to 64 pixels",
             _ => "must be positive",
         }
@@ -299,7 +301,7 @@ impl Parameter {
             Parameter::Alpha => Ok(()),
             Parameter::MergeRadius => match p.merge_radius {
                 Some(v) if !self.accepts(v) => {
-                    bail!("--merge-radius {v}: must be 0 (no merging) to 64 pixels")
+                    bail!("--merge-radius {v}: must be 0 (no merging) to {MAX_MERGE_PIXELS} pixels")
                 }
                 _ => Ok(()),
             },
