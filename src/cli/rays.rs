@@ -48,7 +48,8 @@ pub fn run(a: RaysArgs) -> Result<()> {
     }
     a.options.check()?;
     let scene = a.options.load(&a.scene)?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.options.threads.unwrap_or(0)).build()?;
+    // The renders' pool, so that the rates are measured as they trace.
+    let pool = pir::render::worker_pool(a.options.threads)?;
     let accel = pool.install(|| scene.accelerator(a.options.backend())).map_err(anyhow::Error::msg)?;
     let seed = a.options.seed(&scene);
     let (width, height) = a.options.resolution(&scene);

@@ -14,4 +14,4 @@ pub mod state;
 pub use driver::{Budget, Control, RenderSettings, RenderStats, TILE_SIZE, render, render_from};
 pub use film::Film;
 pub use options::{MAX_PIXELS, MAX_SIDE, SceneOptions, check_resolution};
-pub use renderer::Renderer;
+pub use renderer::{Renderer, worker_pool};

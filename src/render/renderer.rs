@@ -65,13 +65,7 @@ impl<'s> Renderer<'s> {
         })?;
         let (width, height) = options.resolution(scene);
         check_resolution(width, height)?;
-        // Embree asks for flush-to-zero on every thread that traces rays.
-        set_flush_denormals();
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(options.threads.unwrap_or(0))
-            .start_handler(|_| set_flush_denormals())
-            .build()
-            .context("cannot start the worker threads")?;
+        let pool = worker_pool(options.threads)?;
         // Built on the worker pool, so that `threads` bounds the BVH's build as it does the
         // render (Embree builds on its own TBB threads, one per core). The pool's threads flush
         // denormals to zero, which the BVH's boxes allow for (padding, `bvh/traverse.rs`).
@@ -273,4 +267,16 @@ fn latin1(text: &str) -> String {
         }
     }
     out
+}
+
+/// The pool of `threads` worker threads (none given: one per core) that renders trace rays on,
+/// each with denormals flushed to zero, as Embree asks of every thread that traces rays (the
+/// calling thread's too).
+pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    set_flush_denormals();
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .start_handler(|_| set_flush_denormals())
+        .build()
+        .context("cannot start the worker threads")
 }

@@ -132,26 +132,12 @@ pub fn load(path: &Path, options: &Options) -> Result<(Scene, Vec<String>), Scen
             analytic.push((SphereShape { material, ..s }, emits, mesh, exact));
             continue;
         }
-        let start = b.geometry.indices.len() as u32;
-        b.add(mesh, material);
-        let end = b.geometry.indices.len() as u32;
-        if let Some((center, radius)) = exact
-            && end > start
-        {
-            spheres.push(SphereLight { center, radius, prims: start..end });
-        }
+        b.add_tessellated(mesh, material, exact, &mut spheres);
     }
     // A scene needs triangles: one of spheres only is tessellated after all.
     if b.geometry.indices.is_empty() {
         for (s, _, mesh, exact) in analytic.drain(..) {
-            let start = b.geometry.indices.len() as u32;
-            b.add(mesh, s.material);
-            let end = b.geometry.indices.len() as u32;
-            if let Some((center, radius)) = exact
-                && end > start
-            {
-                spheres.push(SphereLight { center, radius, prims: start..end });
-            }
+            b.add_tessellated(mesh, s.material, exact, &mut spheres);
         }
     }
     let first = b.geometry.indices.len() as u32;
@@ -672,6 +658,25 @@ impl<'a> Builder<'a> {
                 self.materials.push(m);
                 self.materials.len() as u32 - 1
             }
+        }
+    }
+
+    /// [`Builder::add`], and where the mesh tessellates an exact sphere (`exact`: its centre
+    /// and radius), its triangles as one sphere light for next-event estimation by its cone.
+    fn add_tessellated(
+        &mut self,
+        m: WorldMesh,
+        material: u32,
+        exact: Option<(Vec3, f32)>,
+        spheres: &mut Vec<SphereLight>,
+    ) {
+        let start = self.geometry.indices.len() as u32;
+        self.add(m, material);
+        let end = self.geometry.indices.len() as u32;
+        if let Some((center, radius)) = exact
+            && end > start
+        {
+            spheres.push(SphereLight { center, radius, prims: start..end });
         }
     }
 
