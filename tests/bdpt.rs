@@ -259,7 +259,16 @@ fn light_tracing_alone_gives_the_furnace_its_value() {
                 (1..=iterations)
                     .map(|i| {
                         let counts = Counts::uniform(paths as f32);
-                        let t = trace_light_paths(ctx, i, paths, counts, depth - 2, Some(&to_camera), false);
+                        let t = trace_light_paths(
+                            ctx,
+                            i,
+                            paths,
+                            counts,
+                            depth - 2,
+                            Some(&to_camera),
+                            false,
+                            None,
+                        );
                         let mut image = vec![0.0; w * h];
                         for s in &t.splats {
                             image[s.film.y as usize * w + s.film.x as usize] += s.value.x as f64;
@@ -418,4 +427,68 @@ fn connections_after_glossy_vertices_follow_the_cameras_view_unless_given() {
     assert!(cube == "first" && share.is_some_and(|s| s > 0.5), "emitting cube: {cube} at {share:?}");
     assert_eq!(chosen(&slit_scene, Some(Connect::All)), ("all".to_string(), None));
     assert_eq!(chosen(&cube_scene, Some(Connect::Glossy)), ("glossy".to_string(), None));
+}
+
+/// The near-mirror floor (`scenes/stress/glossy`), where most light paths light the wall
+/// behind the camera and the floor's far side.
+fn near_mirror_floor() -> Scene {
+    pir::scene::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/stress/glossy/scene.toml"
+    )))
+    .unwrap()
+}
+
+/// `pir-bdpt` keeps its VPLs by their share of the image
+/// (`src/integrator/many_light/importance.rs`) where most of them light what the camera does
+/// not see (the near-mirror floor), with more light paths; not where the camera sees all the
+/// light paths reach (inside the emitting cube), nor when `--vpls` gives the light paths.
+#[test]
+fn vpls_are_kept_by_their_share_of_the_image_where_most_miss_the_view() {
+    let chosen = |scene: &Scene, vpls: Option<usize>| {
+        let mut config = MethodConfig::new(Method::new(&PirBdpt));
+        config.params.vpls = vpls;
+        let mut integrator = config.integrator(scene.bounds().diagonal());
+        integrator.set_camera(scene.camera().with_resolution(32, 32).rays());
+        pilot_job(SamplerKind::Sobol)
+            .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
+        let p = config.report(scene.bounds().diagonal(), integrator.measured());
+        let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+        let kept = value("vpl-acceptance").map(|v| v.parse::<f32>().unwrap());
+        (kept, value("vpls").unwrap().parse::<usize>().unwrap())
+    };
+    let floor = near_mirror_floor();
+    let (kept, paths) = chosen(&floor, None);
+    eprintln!("near-mirror floor: {paths} light paths, the pilot's would keep {kept:?} of their VPLs");
+    assert!(kept.is_some_and(|k| k > 0.0 && k < 0.5), "near-mirror floor: {kept:?}");
+    assert!(paths > BDPT_PATHS, "{paths} light paths");
+    assert_eq!(chosen(&floor, None), (kept, paths), "the same seed must choose the same");
+    assert_eq!(chosen(&floor, Some(256)), (None, 256));
+    assert_eq!(chosen(&closed_cube(diffuse(0.5, 1.0)), None), (None, BDPT_PATHS));
+}
+
+/// With VPLs kept by their share of the image, the image's mean is still `pt`'s (each kept
+/// VPL's flux divided by its probability), and it does not depend on the thread count.
+#[test]
+fn kept_vpls_leave_the_image_unbiased_and_independent_of_the_threads() {
+    let scene = near_mirror_floor();
+    let job = Job { iterations: 48, width: 24, height: 24, max_depth: 4, ..Job::default() };
+    let pt = Job { iterations: 192, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
+    let integrator = || {
+        bdpt(Clamping::None, 64)
+            .with_gather(Gather::Resampled { candidates: 32, samples: 4 })
+            .with_auto_paths(BDPT_AUTO_PATHS)
+            .with_auto_acceptance(true)
+    };
+    let r = job.run(&scene, &mut integrator());
+    assert!(
+        r.stats.counters.light_paths > 48 * BDPT_PATHS as u64,
+        "kept VPLs should come with more light paths: {:?}",
+        r.stats.counters
+    );
+    let (m, p, z) = z_between(&r, &pt);
+    eprintln!("near-mirror floor, kept VPLs: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
+    assert!(z.abs() < Z, "z = {z:.2}");
+    let run = |threads| Job { iterations: 3, threads, ..job.clone() }.run(&scene, &mut integrator()).image();
+    assert!(run(1).pixels == run(2).pixels, "differs between 1 and 2 threads");
 }

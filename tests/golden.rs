@@ -41,8 +41,8 @@ const GLOSSY: &str = "scenes/cornell-box/glossy.toml";
 /// Configurations beyond the methods' defaults, each a code path the defaults leave out: the
 /// other gathers of points, spheres, weighed points and `pir-bdpt`, `pir-bdpt`'s connections
 /// and light samples, a pilot that chooses more light paths and samples (the slit room),
-/// vertex merging and none (the mirror-and-glass caustic), explicit counts, independent
-/// numbers and a short path.
+/// vertex merging and none (the mirror-and-glass caustic), VPLs kept by their share of the
+/// image (the near-mirror floor), explicit counts, independent numbers and a short path.
 const EXTRA: &[&str] = &[
     "pt --sampler independent",
     "pt --max-depth 3",
@@ -63,6 +63,7 @@ const EXTRA: &[&str] = &[
     "pir-bdpt --connect glossy --scene scenes/stress/corner/scene.toml",
     "pir-bdpt --scene scenes/stress/caustic/scene.toml",
     "pir-bdpt --merge-radius 0 --scene scenes/stress/caustic/scene.toml",
+    "pir-bdpt --scene scenes/stress/glossy/scene.toml",
 ];
 
 /// What is rendered, as `pir render` flags (and `--scene`): every method at its defaults on

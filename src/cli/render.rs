@@ -336,6 +336,12 @@ fn print_summary(
             "pir: --connect {c}: the emitters light {percent} of the points the camera sees (glossy below 50 %)"
         );
     }
+    if let Some(v) = param("vpl-acceptance") {
+        let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
+        eprintln!(
+            "pir: VPLs kept by their share of the image: the pilot's light paths would keep {percent} of theirs (more light paths below 50 %)"
+        );
+    }
     if stats.dropped > 0 {
         let (x, y, it) = stats.first_dropped.unwrap_or_default();
         eprintln!(

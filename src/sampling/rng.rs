@@ -16,6 +16,9 @@ pub enum Domain {
     LightPath = 2,
     /// Per-iteration choices shared by the whole image.
     Iteration = 3,
+    /// The acceptance of a light path's VPLs by their estimated contribution to the image
+    /// ([`crate::integrator::many_light::importance`]); the index is the path's number.
+    Acceptance = 4,
 }
 
 use super::sobol;

@@ -10,6 +10,7 @@ use super::bdpt_path::Bidirectional;
 use super::bidirectional;
 use super::config::{Clamping, Gather, VirtualLights};
 use super::gathering::{Gathering, WeighedGathering};
+use super::importance::{self, Acceptance};
 use super::light_paths::{Vpl, trace_light_paths};
 use super::light_set::LightSet;
 use super::merging::Merging;
@@ -58,6 +59,14 @@ pub struct InstantRadiosity {
     merge: Option<(f32, f32)>,
     /// The current iteration's photons.
     merging: Option<Merging>,
+    /// Whether [`Integrator::prepare`] may keep the VPLs by their share of the image
+    /// ([`super::importance`]; with light paths chosen by the scene and a camera), and the
+    /// plan it chose.
+    auto_acceptance: bool,
+    acceptance: Option<Acceptance>,
+    /// Whether the plan may also raise the resampled gather's picks
+    /// ([`super::importance::picks_for`]).
+    auto_picks: bool,
 }
 
 /// The current iteration's lights (none before the first iteration).
@@ -90,7 +99,19 @@ impl InstantRadiosity {
             splats: Vec::new(),
             merge: None,
             merging: None,
+            auto_acceptance: false,
+            acceptance: None,
+            auto_picks: false,
         }
+    }
+
+    /// The same method keeping its VPLs by their share of the image where the scene's pilot
+    /// says most of them light what the camera does not see ([`super::importance`]); only
+    /// with light paths chosen by the scene ([`InstantRadiosity::with_auto_paths`]). With
+    /// `picks`, where the plan keeps few of them the resampled gather picks more of its
+    /// candidates too ([`super::importance::picks_for`]).
+    pub fn with_auto_acceptance(self, picks: bool) -> Self {
+        InstantRadiosity { auto_acceptance: true, auto_picks: picks, ..self }
     }
 
     /// The same method merging the caustics seen through delta surfaces (for
@@ -160,6 +181,12 @@ impl Integrator for InstantRadiosity {
             if let Some(pilot) = self.pilot {
                 m.push(("emitter-visibility".into(), format!("{:.3}", pilot.visibility)));
             }
+            if let Some(a) = &self.acceptance {
+                m.push(("vpl-acceptance".into(), format!("{:.3}", a.mean)));
+                if let Gather::Resampled { samples, .. } = self.gather {
+                    m.push(("gather-samples".into(), samples.to_string()));
+                }
+            }
         }
         m
     }
@@ -180,6 +207,23 @@ impl Integrator for InstantRadiosity {
         let pilot = Pilot::run(ctx, counters);
         if let Some(auto) = self.auto.take() {
             self.paths = auto.for_yield(pilot.per_path, pilot.caustic_per_path);
+            if let Some(camera) = self.camera
+                && std::mem::take(&mut self.auto_acceptance)
+            {
+                let view = view_pilot::view(ctx, &camera, counters);
+                let max_vpl_depth = ctx.max_depth.saturating_sub(2);
+                if let Some((acceptance, more)) = Acceptance::plan(ctx, view, max_vpl_depth, counters) {
+                    let at_most = auto.at_most.max(self.paths);
+                    self.paths = ((self.paths as f32 * more).ceil() as usize).min(at_most);
+                    if let Gather::Resampled { candidates, samples } = self.gather
+                        && self.auto_picks
+                    {
+                        let samples = importance::picks_for(samples, acceptance.mean);
+                        self.gather = Gather::Resampled { candidates, samples };
+                    }
+                    self.acceptance = Some(acceptance);
+                }
+            }
         }
         if std::mem::take(&mut self.auto_light_samples) {
             self.light_samples = bidirectional::light_samples_for(self.light_samples, pilot.visibility);
@@ -211,6 +255,7 @@ impl Integrator for InstantRadiosity {
             max_vpl_depth,
             to_camera.as_ref(),
             merge.is_some(),
+            self.acceptance.as_ref(),
         );
         let (vpls, rays) = (traced.vpls, traced.rays);
         self.splats = traced.splats;

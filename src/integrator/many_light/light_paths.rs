@@ -34,12 +34,13 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::config::glossy_vertex;
+use super::importance::Acceptance;
 use super::merging::{LightChain, Photon};
 use super::subpath::{Counts, MisState, Scatter};
 use super::to_camera::{LightVertex, ToCamera};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::integrator::scatter::{scatter, survives_roulette};
-use crate::integrator::{FilmSplat, RenderContext};
+use crate::integrator::{Counters, FilmSplat, RenderContext};
 use crate::light::Choice;
 use crate::material::{Bsdf, LocalGeometry, TransportMode};
 use crate::sampling::{Sampler, Streams, cosine_hemisphere};
@@ -141,7 +142,7 @@ pub fn trace_vpls(
     counts: Counts,
     max_vpl_depth: u32,
 ) -> (Vec<Vpl>, u64) {
-    let traced = trace_light_paths(ctx, iteration, paths, counts, max_vpl_depth, None, false);
+    let traced = trace_light_paths(ctx, iteration, paths, counts, max_vpl_depth, None, false, None);
     (traced.vpls, traced.rays)
 }
 
@@ -162,7 +163,8 @@ pub struct Traced {
 
 /// [`trace_vpls`], and with `to_camera` light tracing to the camera from every non-delta
 /// vertex within `ctx.max_depth` − 1 segments of the emitter; with `photons` the photons of
-/// vertex merging too.
+/// vertex merging too; with `acceptance` only the VPLs it keeps ([`Acceptance::keep`]).
+#[allow(clippy::too_many_arguments)]
 pub fn trace_light_paths(
     ctx: &RenderContext,
     iteration: u64,
@@ -171,6 +173,7 @@ pub fn trace_light_paths(
     max_vpl_depth: u32,
     to_camera: Option<&ToCamera>,
     photons: bool,
+    acceptance: Option<&Acceptance>,
 ) -> Traced {
     const CHUNK: usize = 64;
     let streams = Streams::light_paths(ctx.sampler, ctx.seed, iteration);
@@ -181,7 +184,15 @@ pub fn trace_light_paths(
             let mut out = Traced::default();
             for k in c * CHUNK..((c + 1) * CHUNK).min(paths) {
                 let mut sampler = streams.sampler(k as u64);
+                let first = out.vpls.len();
                 trace_path(ctx, &mut sampler, paths as f32, counts, depths, &mut out);
+                if let Some(acceptance) = acceptance {
+                    let mut path = out.vpls.split_off(first);
+                    let mut queries = Counters::default();
+                    acceptance.keep(ctx, iteration, k, paths, &mut path, &mut queries);
+                    out.shadow_rays += queries.shadow_rays;
+                    out.vpls.append(&mut path);
+                }
             }
             out
         })

@@ -50,6 +50,7 @@ pub mod bidirectional;
 pub mod config;
 pub mod gather;
 pub mod gathering;
+pub mod importance;
 pub mod instant_radiosity;
 pub mod knn;
 pub mod lanes;

@@ -105,7 +105,7 @@ impl AutoPaths {
 #[derive(Debug, Default)]
 pub struct Pilots {
     pub light: std::sync::OnceLock<Pilot>,
-    pub view: std::sync::OnceLock<f32>,
+    pub view: std::sync::OnceLock<std::sync::Arc<super::view_pilot::View>>,
 }
 
 /// What the pilot measures of a scene before the first iteration: the VPLs its light paths

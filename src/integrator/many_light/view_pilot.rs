@@ -21,9 +21,14 @@
 //! make the same), so every iteration estimates the same image with the same unbiased
 //! weights, as with a rule given by `--connect`.
 
+use std::sync::Arc;
+
+use glam::Vec3;
+
 use super::config::Connect;
 use super::path_count::emitter_in_view;
 use crate::integrator::{Counters, RenderContext};
+use crate::material::{PreparedBsdf, TransportMode};
 use crate::sampling::Streams;
 use crate::scene::CameraRays;
 
@@ -44,25 +49,52 @@ pub fn connect_for(lit_share: f32) -> Connect {
     if lit_share < LIT_SHARE_FOR_FIRST { Connect::Glossy } else { Connect::First }
 }
 
-/// Of the light samples from the first non-delta surfaces that [`VIEW_PILOT_RAYS`] rays of
-/// `camera` find, the share that sees the emitters (a sample on an emitter's back or behind
-/// the surface does not); 1 when there were none (nothing in view,
-/// or only emitters and delta surfaces). Once per render where the context keeps it
-/// ([`super::Pilots`]; the render has one camera); its queries are added to
-/// `counters.pilot_rays` when it runs.
+/// What the pilot found of the camera's view.
+#[derive(Debug)]
+pub struct View {
+    /// Of the light samples from the first non-delta surfaces that [`VIEW_PILOT_RAYS`] rays
+    /// of the camera find, the share that sees the emitters (a sample on an emitter's back or
+    /// behind the surface does not); 1 when there were none (nothing in view, or only
+    /// emitters and delta surfaces).
+    pub lit_share: f32,
+    /// Those surfaces' points that can reflect light towards the camera, in ray order: where
+    /// the image's light is received first ([`super::importance`] estimates a VPL's share of
+    /// the image from them).
+    pub points: Vec<CameraPoint>,
+}
+
+/// A point the camera sees, with its BSDF prepared for the direction to the camera.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraPoint {
+    pub p: Vec3,
+    /// The geometric normal on the side the camera sees.
+    pub ng: Vec3,
+    /// The shading normal.
+    pub n: Vec3,
+    pub fx: PreparedBsdf,
+}
+
+/// The share of the pilot's light samples that see the emitters ([`View::lit_share`]).
 pub fn lit_share(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> f32 {
+    view(ctx, camera, counters).lit_share
+}
+
+/// The pilot's findings: once per render where the context keeps them ([`super::Pilots`];
+/// the render has one camera); its queries are added to `counters.pilot_rays` when it runs.
+pub fn view(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> Arc<View> {
     match ctx.pilot {
-        Some(pilots) => *pilots.view.get_or_init(|| trace(ctx, camera, counters)),
-        None => trace(ctx, camera, counters),
+        Some(pilots) => pilots.view.get_or_init(|| Arc::new(trace(ctx, camera, counters))).clone(),
+        None => Arc::new(trace(ctx, camera, counters)),
     }
 }
 
-/// [`lit_share`] without the render's cache.
-fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> f32 {
+/// [`view`] without the render's cache.
+fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> View {
     let streams = Streams::light_paths(ctx.sampler, ctx.seed, VIEW_PILOT_ITERATION);
     let film = camera.film_size();
     let mut queries = Counters::default();
     let (mut tried, mut seen) = (0u32, 0u32);
+    let mut points = Vec::new();
     for j in 0..VIEW_PILOT_RAYS {
         let mut sampler = streams.sampler(j as u64);
         let at = sampler.next_2d() * film;
@@ -77,10 +109,19 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> f
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         // The side the camera sees.
         let ng = if sp.ng.dot(ray.dir) > 0.0 { -sp.ng } else { sp.ng };
+        let fx = PreparedBsdf::new(
+            ctx.scene.bsdf_at(&sp),
+            sp.geometry(),
+            -ray.dir.normalize(),
+            TransportMode::Radiance,
+        );
+        if fx.is_active() {
+            points.push(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx });
+        }
         // (A point drawn behind the emitter's front or the surface does not light it.)
         tried += 1;
         seen += u32::from(emitter_in_view(ctx, sp.p, ng, &mut sampler, &mut queries) == Some(true));
     }
     counters.pilot_rays += queries.rays + queries.shadow_rays;
-    if tried == 0 { 1.0 } else { seen as f32 / tried as f32 }
+    View { lit_share: if tried == 0 { 1.0 } else { seen as f32 / tried as f32 }, points }
 }

@@ -151,6 +151,10 @@ pub struct Settings {
     pub paths: usize,
     pub auto_paths: Option<AutoPaths>,
     pub gather: Gather,
+    /// Whether the gather's picks per receiver were left to the method (no
+    /// `--gather-samples`): `pir-bdpt` may then raise them by the scene
+    /// ([`InstantRadiosity::with_auto_acceptance`]).
+    pub gather_samples_by_scene: bool,
     /// The connecting camera vertices; none: chosen by the scene.
     pub connect: Option<Connect>,
     pub light_samples: LightSamples,
@@ -420,6 +424,7 @@ impl MethodConfig {
             paths: self.paths(),
             auto_paths: self.auto_paths(),
             gather: self.gather(),
+            gather_samples_by_scene: p.gather_samples.is_none(),
             connect: p.connect.or(defaults.connect),
             light_samples: match p.light_samples {
                 Some(n) => LightSamples::Given(n),

@@ -62,6 +62,6 @@ impl MethodSpec for PirBdpt {
         // (A rule chosen by the scene replaces this one before the first iteration.)
         let connect = s.connect.unwrap_or_default();
         let lights = VirtualLights::Bidirectional(s.progressive_clamping(), connect);
-        Box::new(s.many_light(lights).with_merging(s.merge_radius, s.alpha))
+        Box::new(s.many_light(lights).with_merging(s.merge_radius, s.alpha).with_auto_acceptance(s.gather_samples_by_scene))
     }
 }
