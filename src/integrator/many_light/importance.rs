@@ -25,12 +25,16 @@
 //! the mean probability q̄ its VPLs would be kept with. Where q̄ is at least
 //! [`WORTH_IT`], most VPLs light the view already and nothing changes (the same images bit
 //! for bit). Below, the light paths are multiplied by 1 / q̄ (at most [`MAX_MORE_PATHS`]), so
-//! an iteration keeps about as many VPLs as before, and more of them where they count. The
-//! plan is a function of the scene, its camera, the seed, the sampler and the accelerator,
-//! fixed for the whole render, like the other pilots.
+//! an iteration keeps about as many VPLs as before, and more of them where they count.
+//! Where the light paths cannot grow by that factor (the scene's count is near the most an
+//! iteration traces, 4,096), nothing changes either: keeping fewer VPLs without more paths
+//! would only add noise. The plan is a function of the scene, its camera, the path length,
+//! the seed, the sampler and the accelerator, fixed for the whole render, like the other
+//! pilots.
 
 use std::sync::Arc;
 
+use super::config::Clamping;
 use super::light_paths::{Vpl, trace_vpls};
 use super::points::point_contribution;
 use super::subpath::Counts;
@@ -92,8 +96,26 @@ pub struct Acceptance {
 impl Acceptance {
     /// The plan for the scene seen from the points of `view`, from a pilot of its own, and
     /// the factor by which it multiplies the light paths; `None` where it would keep most
-    /// VPLs anyway or the camera sees nothing that reflects.
+    /// VPLs anyway or the camera sees nothing that reflects. Once per render where the
+    /// context keeps it ([`super::Pilots`]); its queries are added to `counters.pilot_rays`
+    /// when it runs.
     pub fn plan(
+        ctx: &RenderContext,
+        view: Arc<View>,
+        max_vpl_depth: u32,
+        counters: &mut Counters,
+    ) -> Option<(Acceptance, f32)> {
+        match ctx.pilot {
+            Some(pilots) => pilots
+                .acceptance
+                .get_or_init(|| Acceptance::trace(ctx, view, max_vpl_depth, counters))
+                .clone(),
+            None => Acceptance::trace(ctx, view, max_vpl_depth, counters),
+        }
+    }
+
+    /// [`Acceptance::plan`] without the render's cache.
+    fn trace(
         ctx: &RenderContext,
         view: Arc<View>,
         max_vpl_depth: u32,
@@ -163,8 +185,10 @@ impl Acceptance {
 
 /// An estimate of the VPL's contribution to the points of `view` (their sum): the
 /// contributions to [`POINTS_PER_VPL`] points drawn uniformly, each with its shadow ray, times
-/// the points over the draws (infinite for a VPL on a point). Draws [`POINTS_PER_VPL`]
-/// numbers from `sampler`.
+/// the points over the draws. G is bounded at the default clamp's b (100 / diagonal², two
+/// facing surfaces a tenth of the scene apart), so that a VPL beside a camera point (or in a
+/// crease) neither decides the pilot's mean alone nor makes it infinite; this only shapes the
+/// probabilities, not what a kept VPL adds. Draws [`POINTS_PER_VPL`] numbers from `sampler`.
 fn estimate(
     ctx: &RenderContext,
     view: &View,
@@ -174,6 +198,7 @@ fn estimate(
 ) -> f64 {
     let fp = PreparedBsdf::new(vpl.bsdf(ctx.scene), vpl.geometry(), vpl.w_in, TransportMode::Importance);
     let n = view.points.len();
+    let bound = Clamping::default_bound(ctx.scene.bounds().diagonal());
     let mut sum = 0.0f64;
     for _ in 0..POINTS_PER_VPL {
         let j = ((sampler.next_f32() * n as f32) as usize).min(n - 1);
@@ -181,7 +206,7 @@ fn estimate(
             continue;
         }
         let x = &view.points[j];
-        let c = point_contribution(x.p, x.n, &x.fx, vpl, &fp, f32::INFINITY);
+        let c = point_contribution(x.p, x.n, &x.fx, vpl, &fp, bound);
         let value = (c.x + c.y + c.z) as f64 / 3.0;
         if value > 0.0 && !occluded(ctx, x.p, x.ng, vpl.p, vpl.ng, counters) {
             sum += value;

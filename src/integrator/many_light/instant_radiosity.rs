@@ -208,13 +208,18 @@ impl Integrator for InstantRadiosity {
         if let Some(auto) = self.auto.take() {
             self.paths = auto.for_yield(pilot.per_path, pilot.caustic_per_path);
             if let Some(camera) = self.camera
+                && bidirectional
                 && std::mem::take(&mut self.auto_acceptance)
             {
                 let view = view_pilot::view(ctx, &camera, counters);
                 let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-                if let Some((acceptance, more)) = Acceptance::plan(ctx, view, max_vpl_depth, counters) {
-                    let at_most = auto.at_most.max(self.paths);
-                    self.paths = ((self.paths as f32 * more).ceil() as usize).min(at_most);
+                let plan = Acceptance::plan(ctx, view, max_vpl_depth, counters);
+                // Only where the light paths can grow by the whole factor.
+                let more_paths = plan.as_ref().map(|(_, more)| (self.paths as f32 * more).ceil() as usize);
+                if let (Some((acceptance, _)), Some(paths)) = (plan, more_paths)
+                    && paths <= auto.at_most
+                {
+                    self.paths = paths;
                     if let Gather::Resampled { candidates, samples } = self.gather
                         && self.auto_picks
                     {

@@ -157,7 +157,7 @@ pub struct Traced {
     pub photons: Vec<Photon>,
     /// Closest-hit queries.
     pub rays: u64,
-    /// Occlusion queries (light tracing to the camera).
+    /// Occlusion queries (light tracing to the camera, the estimates of VPLs' acceptance).
     pub shadow_rays: u64,
 }
 

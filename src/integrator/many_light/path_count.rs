@@ -100,12 +100,14 @@ impl AutoPaths {
 }
 
 /// Where a render keeps what its pilots measured, each run at most once: the light paths'
-/// ([`Pilot`]) and the camera's view ([`super::view_pilot::lit_share`], for the render's
-/// camera and resolution).
+/// ([`Pilot`]), the camera's view ([`super::view_pilot::view`], for the render's camera and
+/// resolution) and the VPLs' acceptance ([`super::importance::Acceptance::plan`]).
 #[derive(Debug, Default)]
 pub struct Pilots {
     pub light: std::sync::OnceLock<Pilot>,
     pub view: std::sync::OnceLock<std::sync::Arc<super::view_pilot::View>>,
+    /// [`super::importance::Acceptance::plan`]'s choice.
+    pub acceptance: std::sync::OnceLock<Option<(super::importance::Acceptance, f32)>>,
 }
 
 /// What the pilot measures of a scene before the first iteration: the VPLs its light paths

@@ -75,6 +75,13 @@ pub trait MethodSpec: Send + Sync + 'static {
 
     /// Its integrator with the parameters resolved for the scene.
     fn integrator(&self, settings: &Settings) -> Box<dyn Integrator>;
+
+    /// Whether its integrator may choose the resampled gather's picks by the scene when
+    /// `--gather-samples` is not given and the light paths are the scene's (`pir-bdpt`,
+    /// [`InstantRadiosity::with_auto_acceptance`]): the identity then leaves them unset.
+    fn picks_by_scene(&self) -> bool {
+        false
+    }
 }
 
 /// Light paths per iteration when `--vpls` is not given.
@@ -441,7 +448,7 @@ impl MethodConfig {
     /// diagonal: the defaults of the parameters the method uses made explicit and the others
     /// set to their defaults. Two configurations whose identities are equal render the same
     /// image (the resume identity of [`crate::render::state`]). The converse holds but for
-    /// what the scene chooses: light paths and light samples chosen by the scene stay unset,
+    /// what the scene chooses: light paths, light samples and `pir-bdpt`'s picks chosen by the scene stay unset,
     /// so a given value that equals the scene's choice still makes another identity.
     pub fn identity(&self, scene_diagonal: f32) -> MethodConfig {
         let m = self.method;
@@ -458,7 +465,14 @@ impl MethodConfig {
                 radius: if uses(Parameter::Radius) { p.radius } else { None },
                 alpha: if uses(Parameter::Alpha) { p.alpha } else { MethodParams::default().alpha },
                 gather: uses(Parameter::Gather).then_some(kind),
-                gather_samples: (uses(Parameter::GatherSamples) && kind != GatherKind::All).then_some(k),
+                // Chosen by the scene when not given, where the method does ([`MethodSpec::picks_by_scene`]).
+                gather_samples: (uses(Parameter::GatherSamples)
+                    && kind != GatherKind::All
+                    && !(m.spec().picks_by_scene()
+                        && kind == GatherKind::Resample
+                        && s.auto_paths.is_some()
+                        && p.gather_samples.is_none()))
+                .then_some(k),
                 gather_candidates: (uses(Parameter::GatherCandidates) && kind == GatherKind::Resample)
                     .then_some(cands),
                 // Chosen by the scene when not given, like the light samples.

@@ -51,7 +51,8 @@ pub struct MethodParams {
     #[serde(default)]
     pub gather: Option<GatherKind>,
     /// --gather tree or resample: VPLs drawn per camera vertex (k), 1 to 64 [default: 4 for
-    /// pir-mis and pir-bdpt, 8 otherwise].
+    /// pir-mis and pir-bdpt (pir-bdpt: 16 where it keeps fewer than one VPL in eight by its
+    /// share of the image), 8 otherwise].
     #[arg(long, value_name = "K")]
     #[serde(default)]
     pub gather_samples: Option<usize>,

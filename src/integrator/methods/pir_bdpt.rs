@@ -58,10 +58,13 @@ impl MethodSpec for PirBdpt {
     fn defaults(&self) -> Defaults {
         Defaults { paths: Paths::ByScene(BDPT_AUTO_PATHS), gather: BDPT_GATHER, ..Defaults::COMMON }
     }
+    fn picks_by_scene(&self) -> bool {
+        true
+    }
     fn integrator(&self, s: &Settings) -> Box<dyn Integrator> {
         // (A rule chosen by the scene replaces this one before the first iteration.)
         let connect = s.connect.unwrap_or_default();
         let lights = VirtualLights::Bidirectional(s.progressive_clamping(), connect);
-        Box::new(s.many_light(lights).with_merging(s.merge_radius, s.alpha).with_auto_acceptance(s.gather_samples_by_scene))
+        Box::new(s.many_light(lights).with_merging(s.merge_radius, s.alpha).with_auto_acceptance(self.picks_by_scene() && s.gather_samples_by_scene))
     }
 }

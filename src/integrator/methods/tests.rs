@@ -118,7 +118,7 @@ fn identities_are_the_stored_ones() {
         ),
         (
             "pir-bdpt",
-            r#"{"method":"pir-bdpt","vpls":null,"clamp":25.0,"radius":null,"alpha":0.6,"gather":"resample","gather_samples":4,"gather_candidates":128,"connect":null,"light_samples":null,"merge_radius":2.0}"#,
+            r#"{"method":"pir-bdpt","vpls":null,"clamp":25.0,"radius":null,"alpha":0.6,"gather":"resample","gather_samples":null,"gather_candidates":128,"connect":null,"light_samples":null,"merge_radius":2.0}"#,
             r#"{"method":"pir-bdpt","vpls":7,"clamp":3.5,"radius":null,"alpha":0.3,"gather":"tree","gather_samples":5,"gather_candidates":null,"connect":"all","light_samples":3,"merge_radius":1.5}"#,
         ),
     ];
