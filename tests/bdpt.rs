@@ -12,6 +12,7 @@ use pir::integrator::many_light::Connect;
 use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::light_samples_for;
 use pir::integrator::many_light::path_count::PILOT_PATHS;
+use pir::integrator::many_light::view_pilot::{self, VIEW_PILOT_RAYS};
 use pir::integrator::methods::{PirBdpt, Pt};
 use pir::integrator::{
     BDPT_AUTO_PATHS, BDPT_PATHS, BDPT_VPLS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather,
@@ -491,4 +492,29 @@ fn kept_vpls_leave_the_image_unbiased_and_independent_of_the_threads() {
     assert!(z.abs() < Z, "z = {z:.2}");
     let run = |threads| Job { iterations: 3, threads, ..job.clone() }.run(&scene, &mut integrator()).image();
     assert!(run(1).pixels == run(2).pixels, "differs between 1 and 2 threads");
+}
+
+/// The points the view pilot gives the VPLs' acceptance include what mirrors show: in a cube
+/// whose face in view is a mirror, the camera's first surfaces are all delta, yet most rays
+/// give a point (the walls the mirror shows), and the emitting face none.
+#[test]
+fn the_view_pilot_finds_points_through_mirrors() {
+    let [mirror, _] = mirror_and_glass();
+    // Face 4 is the one in view (z = −1), face 5 behind the camera.
+    let scene = closed_cube_of(vec![diffuse(0.6, 0.0), mirror, diffuse(0.5, 1.0)], |face| match face {
+        4 => 1,
+        2 => 2,
+        _ => 0,
+    });
+    let camera = scene.camera().with_resolution(32, 32).rays();
+    let view = pilot_job(SamplerKind::Sobol)
+        .with_context(&scene, |ctx| view_pilot::view(ctx, &camera, &mut Counters::default()));
+    eprintln!(
+        "mirror in view: {} points of {VIEW_PILOT_RAYS} rays, lit share {}",
+        view.points.len(),
+        view.lit_share
+    );
+    assert_eq!(view.lit_share, 1.0, "no first surface is non-delta: the share is 1 by definition");
+    assert!(view.points.len() > VIEW_PILOT_RAYS / 2, "{} points", view.points.len());
+    assert!(view.points.iter().all(|p| p.ng.y < 0.99), "a point on the emitting face (y = −1)");
 }

@@ -27,8 +27,12 @@ use glam::Vec3;
 
 use super::config::Connect;
 use super::path_count::emitter_in_view;
+use crate::accel::Hit;
+use crate::geometry::{Ray, offset_origin};
+use crate::integrator::scatter::scatter;
 use crate::integrator::{Counters, RenderContext};
 use crate::material::{PreparedBsdf, TransportMode};
+use crate::sampling::Sampler;
 use crate::sampling::Streams;
 use crate::scene::CameraRays;
 
@@ -57,7 +61,8 @@ pub struct View {
     /// behind the surface does not); 1 when there were none (nothing in view, or only
     /// emitters and delta surfaces).
     pub lit_share: f32,
-    /// Those surfaces' points that can reflect light towards the camera, in ray order: where
+    /// Those surfaces' points that can reflect light towards the camera, and the first
+    /// non-delta points behind the mirrors and glass the rays meet first, in ray order: where
     /// the image's light is received first ([`super::importance`] estimates a VPL's share of
     /// the image from them).
     pub points: Vec<CameraPoint>,
@@ -103,7 +108,13 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> V
         queries.rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray) else { continue };
         let material = ctx.scene.material_of(hit.prim);
-        if material.bsdf.is_delta() || material.is_emitter() {
+        if material.is_emitter() {
+            continue;
+        }
+        if material.bsdf.is_delta() {
+            // The lit share counts the first surfaces only; the points also take what a
+            // mirror or glass shows.
+            points.extend(behind_delta(ctx, ray, hit, &mut sampler, &mut queries));
             continue;
         }
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
@@ -124,4 +135,39 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> V
     }
     counters.pilot_rays += queries.rays + queries.shadow_rays;
     View { lit_share: if tried == 0 { 1.0 } else { seen as f32 / tried as f32 }, points }
+}
+
+/// Delta bounces the view pilot follows from a camera ray to the surface it shows.
+const MAX_DELTA_BOUNCES: u32 = 8;
+
+/// The first non-delta point that the camera ray `ray`, whose first hit `hit` is a mirror or
+/// glass, sees through at most [`MAX_DELTA_BOUNCES`] of them (each direction drawn as the
+/// camera path draws it), with its BSDF prepared for the direction back along the chain;
+/// none where the chain leaves the scene, ends on an emitter or is longer.
+fn behind_delta(
+    ctx: &RenderContext,
+    mut ray: Ray,
+    mut hit: Hit,
+    sampler: &mut Sampler,
+    queries: &mut Counters,
+) -> Option<CameraPoint> {
+    let mut beta = Vec3::ONE;
+    for _ in 0..MAX_DELTA_BOUNCES {
+        let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
+        let wo = -ray.dir.normalize();
+        let bsdf = ctx.scene.bsdf_at(&sp);
+        if !bsdf.is_delta() {
+            if ctx.scene.material_of(hit.prim).is_emitter() {
+                return None;
+            }
+            let ng = if sp.ng.dot(ray.dir) > 0.0 { -sp.ng } else { sp.ng };
+            let fx = PreparedBsdf::new(bsdf, sp.geometry(), wo, TransportMode::Radiance);
+            return fx.is_active().then_some(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx });
+        }
+        let s = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta)?;
+        ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+        queries.rays += 1;
+        hit = ctx.accel.intersect(&ray)?;
+    }
+    None
 }
