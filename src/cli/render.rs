@@ -339,7 +339,7 @@ fn print_summary(
     if let Some(v) = param("vpl-acceptance") {
         let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
         eprintln!(
-            "pir: VPLs kept by their share of the image: the pilot's light paths would keep {percent} of theirs (more light paths below 50 %)"
+            "pir: VPLs kept by their share of the image: the pilot's light paths would keep {percent} of theirs (more light paths below 45 %)"
         );
     }
     if stats.dropped > 0 {
