@@ -17,7 +17,7 @@ use pir::integrator::many_light::view_pilot::{self, VIEW_PILOT_RAYS};
 use pir::integrator::methods::{PirBdpt, Pt};
 use pir::integrator::{
     BDPT_AUTO_PATHS, BDPT_PATHS, BDPT_VPLS, Clamping, Counters, DEFAULT_LIGHT_SAMPLES, Gather,
-    InstantRadiosity, Method, MethodConfig, PathTracer, VirtualLights,
+    InstantRadiosity, Method, MethodConfig, MethodParams, PathTracer, VirtualLights,
 };
 use pir::material::{Bsdf, Material};
 use pir::sampling::SamplerKind;
@@ -403,6 +403,19 @@ fn light_samples_follow_the_emitters_visibility_unless_given() {
     assert_eq!(chosen(&cube_scene, None).0, DEFAULT_LIGHT_SAMPLES);
 }
 
+/// `pir-bdpt` with the parameters `set` makes, prepared for `scene` (its pilots run) at
+/// 32 × 32 pixels: its report's value of a key, as the EXR metadata records it.
+fn prepared(scene: &Scene, set: impl FnOnce(&mut MethodParams)) -> impl Fn(&str) -> Option<String> {
+    let mut config = MethodConfig::new(Method::new(&PirBdpt));
+    set(&mut config.params);
+    let mut integrator = config.integrator(scene.bounds().diagonal());
+    integrator.set_camera(scene.camera().with_resolution(32, 32).rays());
+    pilot_job(SamplerKind::Sobol)
+        .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
+    let report = config.report(scene.bounds().diagonal(), integrator.measured());
+    move |key: &str| report.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone())
+}
+
 /// `--connect` not given: the scene's view chooses (`view_pilot`): connections after glossy
 /// vertices too where the camera sees mostly points the emitters do not light (the slit room,
 /// lit through an opening), the first vertex only where it sees them lit (the emitting cube);
@@ -411,14 +424,7 @@ fn light_samples_follow_the_emitters_visibility_unless_given() {
 fn connections_after_glossy_vertices_follow_the_cameras_view_unless_given() {
     let (slit_scene, cube_scene) = (slit_room(), closed_cube(diffuse(0.5, 1.0)));
     let chosen = |scene: &Scene, given: Option<Connect>| {
-        let mut config = MethodConfig::new(Method::new(&PirBdpt));
-        config.params.connect = given;
-        let mut integrator = config.integrator(scene.bounds().diagonal());
-        integrator.set_camera(scene.camera().with_resolution(32, 32).rays());
-        pilot_job(SamplerKind::Sobol)
-            .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
-        let p = config.report(scene.bounds().diagonal(), integrator.measured());
-        let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+        let value = prepared(scene, |p| p.connect = given);
         let share = value("lit-share").map(|v| v.parse::<f32>().unwrap());
         (value("connect").unwrap(), share)
     };
@@ -448,14 +454,7 @@ fn near_mirror_floor() -> Scene {
 #[test]
 fn vpls_are_kept_by_their_share_of_the_image_where_most_miss_the_view() {
     let chosen = |scene: &Scene, vpls: Option<usize>| {
-        let mut config = MethodConfig::new(Method::new(&PirBdpt));
-        config.params.vpls = vpls;
-        let mut integrator = config.integrator(scene.bounds().diagonal());
-        integrator.set_camera(scene.camera().with_resolution(32, 32).rays());
-        pilot_job(SamplerKind::Sobol)
-            .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
-        let p = config.report(scene.bounds().diagonal(), integrator.measured());
-        let value = |key: &str| p.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+        let value = prepared(scene, |p| p.vpls = vpls);
         let kept = value("vpl-acceptance").map(|v| v.parse::<f32>().unwrap());
         (kept, value("vpls").unwrap().parse::<usize>().unwrap())
     };
