@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::config::Connect;
+use super::config::{Connect, glossy_vertex};
 use super::path_count::emitter_in_view;
 use crate::accel::Hit;
 use crate::geometry::{Ray, offset_origin};
@@ -61,8 +61,9 @@ pub struct View {
     /// behind the surface does not); 1 when there were none (nothing in view, or only
     /// emitters and delta surfaces).
     pub lit_share: f32,
-    /// Those surfaces' points that can reflect light towards the camera, and the first
-    /// non-delta points behind the mirrors and glass the rays meet first, in ray order: where
+    /// Those surfaces' points that can reflect light towards the camera, and what the mirrors,
+    /// glass and glossy surfaces among them show (the first point beyond that is neither), in
+    /// ray order: where
     /// the image's light is received first ([`super::importance`] estimates a VPL's share of
     /// the image from them).
     pub points: Vec<CameraPoint>,
@@ -114,7 +115,7 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> V
         if material.bsdf.is_delta() {
             // The lit share counts the first surfaces only; the points also take what a
             // mirror or glass shows.
-            points.extend(behind_delta(ctx, ray, hit, &mut sampler, &mut queries));
+            points.extend(shown_by(ctx, ray, hit, &mut sampler, &mut queries));
             continue;
         }
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
@@ -132,19 +133,35 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> V
         // (A point drawn behind the emitter's front or the surface does not light it.)
         tried += 1;
         seen += u32::from(emitter_in_view(ctx, sp.p, ng, &mut sampler, &mut queries) == Some(true));
+        // A glossy surface's own point sees little of a VPL's light, the surface it reflects
+        // more: that one too (after the lit share's numbers, which stay the same).
+        let bsdf = ctx.scene.bsdf_at(&sp);
+        if glossy_vertex(&bsdf) {
+            let mut beta = Vec3::ONE;
+            if let Some(s) =
+                scatter(&bsdf, &sp, -ray.dir.normalize(), TransportMode::Radiance, &mut sampler, &mut beta)
+            {
+                let next = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+                queries.rays += 1;
+                if let Some(hit) = ctx.accel.intersect(&next) {
+                    points.extend(shown_by(ctx, next, hit, &mut sampler, &mut queries));
+                }
+            }
+        }
     }
     counters.pilot_rays += queries.rays + queries.shadow_rays;
     View { lit_share: if tried == 0 { 1.0 } else { seen as f32 / tried as f32 }, points }
 }
 
-/// Delta bounces the view pilot follows from a camera ray to the surface it shows.
+/// Delta and glossy bounces the view pilot follows from a camera ray to the surface it shows.
 const MAX_DELTA_BOUNCES: u32 = 8;
 
-/// The first non-delta point that the camera ray `ray`, whose first hit `hit` is a mirror or
-/// glass, sees through at most [`MAX_DELTA_BOUNCES`] of them (each direction drawn as the
-/// camera path draws it), with its BSDF prepared for the direction back along the chain;
-/// none where the chain leaves the scene, ends on an emitter or is longer.
-fn behind_delta(
+/// The first point that is neither delta nor glossy ([`glossy_vertex`]: a near-mirror) which
+/// the ray `ray`, hitting `hit`, shows through at most [`MAX_DELTA_BOUNCES`] such surfaces
+/// (each direction drawn as the camera path draws it), with its BSDF prepared for the
+/// direction back along the chain; none where the chain leaves the scene, ends on an emitter
+/// or is longer.
+fn shown_by(
     ctx: &RenderContext,
     mut ray: Ray,
     mut hit: Hit,
@@ -156,7 +173,7 @@ fn behind_delta(
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         let wo = -ray.dir.normalize();
         let bsdf = ctx.scene.bsdf_at(&sp);
-        if !bsdf.is_delta() {
+        if !bsdf.is_delta() && !glossy_vertex(&bsdf) {
             if ctx.scene.material_of(hit.prim).is_emitter() {
                 return None;
             }
