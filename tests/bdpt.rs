@@ -494,9 +494,10 @@ fn kept_vpls_leave_the_image_unbiased_and_independent_of_the_threads() {
     assert!(run(1).pixels == run(2).pixels, "differs between 1 and 2 threads");
 }
 
-/// The points the view pilot gives the VPLs' acceptance include what mirrors show: in a cube
-/// whose face in view is a mirror, the camera's first surfaces are all delta, yet most rays
-/// give a point (the walls the mirror shows), and the emitting face none.
+/// The points the view pilot gives the VPLs' acceptance include what mirrors and near-mirrors
+/// show: in a cube whose face in view is a mirror, the camera's first surfaces are all delta,
+/// yet most rays give a point (the walls the mirror shows), and the emitting face none; a
+/// near-mirror floor gives its own points and those of the wall it shows.
 #[test]
 fn the_view_pilot_finds_points_through_mirrors() {
     let [mirror, _] = mirror_and_glass();
@@ -517,4 +518,18 @@ fn the_view_pilot_finds_points_through_mirrors() {
     assert_eq!(view.lit_share, 1.0, "no first surface is non-delta: the share is 1 by definition");
     assert!(view.points.len() > VIEW_PILOT_RAYS / 2, "{} points", view.points.len());
     assert!(view.points.iter().all(|p| p.ng.y < 0.99), "a point on the emitting face (y = −1)");
+    // A near-mirror floor (α 0.05) gives its own points and those of the wall it shows, while
+    // the lit share counts its own only.
+    let floor = near_mirror_floor();
+    let camera = floor.camera().with_resolution(32, 32).rays();
+    let view = pilot_job(SamplerKind::Sobol)
+        .with_context(&floor, |ctx| view_pilot::view(ctx, &camera, &mut Counters::default()));
+    let on_floor = view.points.iter().filter(|p| p.ng.y > 0.99).count();
+    eprintln!(
+        "near-mirror floor: {} points of {VIEW_PILOT_RAYS} rays, {on_floor} on the floor",
+        view.points.len()
+    );
+    assert!(on_floor > VIEW_PILOT_RAYS / 8, "{on_floor} points on the floor");
+    // One point per ray at most without what the floor shows (some rays find the open sky).
+    assert!(view.points.len() > VIEW_PILOT_RAYS, "{} points", view.points.len());
 }

@@ -338,8 +338,9 @@ fn print_summary(
     }
     if let Some(v) = param("vpl-acceptance") {
         let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
+        let below = 100.0 * pir::integrator::many_light::importance::WORTH_IT;
         eprintln!(
-            "pir: VPLs kept by their share of the image: the pilot's light paths would keep {percent} of theirs (more light paths below 45 %)"
+            "pir: VPLs kept by their share of the image: the pilot's light paths would keep {percent} of theirs (more light paths below {below:.0} %)"
         );
     }
     if stats.dropped > 0 {

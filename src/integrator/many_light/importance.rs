@@ -13,8 +13,8 @@
 //! of vertex merging use every path traced.
 //!
 //! **The estimate.** A VPL's contribution to the image is estimated from the points the view
-//! pilot found ([`super::view_pilot::View::points`], the camera's first non-delta surfaces and
-//! what the mirrors, glass and near-mirrors among them show):
+//! pilot found ([`super::view_pilot::View::points`]: the first surfaces the camera sees, and
+//! what the mirrors, glass and near-mirrors among those show):
 //! [`POINTS_PER_VPL`] of them drawn uniformly, each the unoccluded connection's value times a
 //! shadow ray's answer, scaled to all the points. The probability is that estimate relative
 //! to the mean over a pilot's VPLs, clamped to [[`MIN_ACCEPTANCE`], 1]: a VPL at least as

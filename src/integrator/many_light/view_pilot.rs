@@ -31,10 +31,10 @@ use crate::accel::Hit;
 use crate::geometry::{Ray, offset_origin};
 use crate::integrator::scatter::scatter;
 use crate::integrator::{Counters, RenderContext};
-use crate::material::{PreparedBsdf, TransportMode};
+use crate::material::{Bsdf, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::sampling::Streams;
-use crate::scene::CameraRays;
+use crate::scene::{CameraRays, SurfacePoint};
 
 /// Camera rays of the pilot.
 pub const VIEW_PILOT_RAYS: usize = 4096;
@@ -61,11 +61,10 @@ pub struct View {
     /// behind the surface does not); 1 when there were none (nothing in view, or only
     /// emitters and delta surfaces).
     pub lit_share: f32,
-    /// Those surfaces' points that can reflect light towards the camera, and what the mirrors,
-    /// glass and glossy surfaces among them show (the first point beyond that is neither), in
-    /// ray order: where
-    /// the image's light is received first ([`super::importance`] estimates a VPL's share of
-    /// the image from them).
+    /// Points the camera sees that can reflect light towards it, in ray order: those first
+    /// surfaces, and where a ray's first surface is a mirror, glass or a near-mirror, what it
+    /// shows ([`follow_chain`]): where the image's light is received first
+    /// ([`super::importance`] estimates a VPL's share of the image from them).
     pub points: Vec<CameraPoint>,
 }
 
@@ -115,76 +114,93 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> V
         if material.bsdf.is_delta() {
             // The lit share counts the first surfaces only; the points also take what a
             // mirror or glass shows.
-            points.extend(shown_by(ctx, ray, hit, &mut sampler, &mut queries));
+            follow_chain(ctx, ray, hit, &mut sampler, &mut queries, &mut points);
             continue;
         }
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
         // The side the camera sees.
         let ng = if sp.ng.dot(ray.dir) > 0.0 { -sp.ng } else { sp.ng };
-        let fx = PreparedBsdf::new(
-            ctx.scene.bsdf_at(&sp),
-            sp.geometry(),
-            -ray.dir.normalize(),
-            TransportMode::Radiance,
-        );
-        if fx.is_active() {
-            points.push(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx });
+        let bsdf = ctx.scene.bsdf_at(&sp);
+        if let Some(point) = camera_point(&sp, bsdf, ray.dir) {
+            points.push(point);
         }
         // (A point drawn behind the emitter's front or the surface does not light it.)
         tried += 1;
         seen += u32::from(emitter_in_view(ctx, sp.p, ng, &mut sampler, &mut queries) == Some(true));
-        // A glossy surface's own point sees little of a VPL's light, the surface it reflects
-        // more: that one too (after the lit share's numbers, which stay the same).
-        let bsdf = ctx.scene.bsdf_at(&sp);
-        if glossy_vertex(&bsdf) {
-            let mut beta = Vec3::ONE;
-            if let Some(s) =
-                scatter(&bsdf, &sp, -ray.dir.normalize(), TransportMode::Radiance, &mut sampler, &mut beta)
-            {
-                let next = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
-                queries.rays += 1;
-                if let Some(hit) = ctx.accel.intersect(&next) {
-                    points.extend(shown_by(ctx, next, hit, &mut sampler, &mut queries));
-                }
-            }
+        // What a near-mirror shows, after the lit share's numbers (which stay the same).
+        if glossy_vertex(&bsdf)
+            && let Some((next, hit)) = bounce(ctx, &sp, &bsdf, ray, &mut sampler, &mut queries)
+        {
+            follow_chain(ctx, next, hit, &mut sampler, &mut queries, &mut points);
         }
     }
     counters.pilot_rays += queries.rays + queries.shadow_rays;
     View { lit_share: if tried == 0 { 1.0 } else { seen as f32 / tried as f32 }, points }
 }
 
-/// Delta and glossy bounces the view pilot follows from a camera ray to the surface it shows.
-const MAX_DELTA_BOUNCES: u32 = 8;
+/// Mirrors, glass and near-mirrors the view pilot follows from a camera ray.
+const MAX_CHAIN: u32 = 8;
 
-/// The first point that is neither delta nor glossy ([`glossy_vertex`]: a near-mirror) which
-/// the ray `ray`, hitting `hit`, shows through at most [`MAX_DELTA_BOUNCES`] such surfaces
-/// (each direction drawn as the camera path draws it), with its BSDF prepared for the
-/// direction back along the chain; none where the chain leaves the scene, ends on an emitter
-/// or is longer.
-fn shown_by(
+/// The points that the ray `ray`, hitting `hit`, shows through mirrors, glass and
+/// near-mirrors ([`glossy_vertex`]), at most [`MAX_CHAIN`] surfaces (each direction drawn as the
+/// camera path draws it): every non-delta one (a near-mirror's own, and the first rough
+/// surface, where the chain ends), each with its BSDF prepared for the direction back along
+/// the chain; none on an emitter, where the chain ends too.
+///
+/// Why a near-mirror's chain is followed: its own point sees few VPLs (a GGX lobe of α 0.001
+/// sees almost none), so a view made mostly of near-mirrors would look as if the VPLs lit
+/// nothing in it and start the acceptance where it does not pay (Bitterli's
+/// `cornell-box-dielectric`, `docs/results.md`). What the near-mirror shows is where its
+/// light comes from, and where `--connect glossy` connects next.
+fn follow_chain(
     ctx: &RenderContext,
     mut ray: Ray,
     mut hit: Hit,
     sampler: &mut Sampler,
     queries: &mut Counters,
-) -> Option<CameraPoint> {
-    let mut beta = Vec3::ONE;
-    for _ in 0..MAX_DELTA_BOUNCES {
-        let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
-        let wo = -ray.dir.normalize();
-        let bsdf = ctx.scene.bsdf_at(&sp);
-        if !bsdf.is_delta() && !glossy_vertex(&bsdf) {
-            if ctx.scene.material_of(hit.prim).is_emitter() {
-                return None;
-            }
-            let ng = if sp.ng.dot(ray.dir) > 0.0 { -sp.ng } else { sp.ng };
-            let fx = PreparedBsdf::new(bsdf, sp.geometry(), wo, TransportMode::Radiance);
-            return fx.is_active().then_some(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx });
+    points: &mut Vec<CameraPoint>,
+) {
+    for surfaces in 1..=MAX_CHAIN {
+        if ctx.scene.material_of(hit.prim).is_emitter() {
+            return;
         }
-        let s = scatter(&bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut beta)?;
-        ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
-        queries.rays += 1;
-        hit = ctx.accel.intersect(&ray)?;
+        let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
+        let bsdf = ctx.scene.bsdf_at(&sp);
+        if !bsdf.is_delta() {
+            points.extend(camera_point(&sp, bsdf, ray.dir));
+            if !glossy_vertex(&bsdf) {
+                return;
+            }
+        }
+        if surfaces == MAX_CHAIN {
+            return;
+        }
+        let Some(next) = bounce(ctx, &sp, &bsdf, ray, sampler, queries) else { return };
+        (ray, hit) = next;
     }
-    None
+}
+
+/// The point `sp`, seen along `dir`, with its BSDF prepared for the direction back; none
+/// where it reflects nothing that way.
+fn camera_point(sp: &SurfacePoint, bsdf: Bsdf, dir: Vec3) -> Option<CameraPoint> {
+    let ng = if sp.ng.dot(dir) > 0.0 { -sp.ng } else { sp.ng };
+    let fx = PreparedBsdf::new(bsdf, sp.geometry(), -dir.normalize(), TransportMode::Radiance);
+    fx.is_active().then_some(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx })
+}
+
+/// The ray a BSDF sample at `sp` continues `ray` with, as the camera path draws it, and what
+/// it hits.
+fn bounce(
+    ctx: &RenderContext,
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    ray: Ray,
+    sampler: &mut Sampler,
+    queries: &mut Counters,
+) -> Option<(Ray, Hit)> {
+    let mut beta = Vec3::ONE;
+    let s = scatter(bsdf, sp, -ray.dir.normalize(), TransportMode::Radiance, sampler, &mut beta)?;
+    let next = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    queries.rays += 1;
+    Some((next, ctx.accel.intersect(&next)?))
 }
