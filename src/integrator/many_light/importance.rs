@@ -144,26 +144,20 @@ impl Acceptance {
         if !(target > 0.0 && target.is_finite()) {
             return None;
         }
-        let plan = Acceptance { view, target, mean: 1.0 };
         let mean =
-            estimates.iter().map(|&e| plan.probability(e) as f64).sum::<f64>() / estimates.len() as f64;
+            estimates.iter().map(|&e| probability(e, target) as f64).sum::<f64>() / estimates.len() as f64;
         let mean = mean as f32;
         if mean >= WORTH_IT {
             return None;
         }
-        Some((Acceptance { mean, ..plan }, (1.0 / mean).min(MAX_MORE_PATHS)))
+        Some((Acceptance { view, target, mean }, (1.0 / mean).min(MAX_MORE_PATHS)))
     }
 
-    /// The probability of keeping a VPL whose estimated contribution per light path is
-    /// `per_path`.
-    fn probability(&self, per_path: f64) -> f32 {
-        let q = (per_path / self.target) as f32;
-        if q.is_nan() { 1.0 } else { q.clamp(MIN_ACCEPTANCE, 1.0) }
-    }
-
-    /// Keeps each of `vpls` (the VPLs of path `path` of `iteration`, one of `paths`) with its
-    /// probability, its flux divided by it; the numbers are the path's own
-    /// ([`Domain::Acceptance`]), whatever the thread. Counts its shadow rays in `counters`.
+    /// Keeps each of `vpls[from..]` (the VPLs of path `path` of `iteration`, one of `paths`)
+    /// with its probability, its flux divided by it, in order and in place; the numbers are
+    /// the path's own ([`Domain::Acceptance`]), whatever the thread. Counts its shadow rays in
+    /// `counters`.
+    #[allow(clippy::too_many_arguments)]
     pub fn keep(
         &self,
         ctx: &RenderContext,
@@ -171,19 +165,35 @@ impl Acceptance {
         path: usize,
         paths: usize,
         vpls: &mut Vec<Vpl>,
+        from: usize,
         counters: &mut Counters,
     ) {
-        if vpls.is_empty() {
+        if vpls.len() <= from {
             return;
         }
         let mut sampler = Sampler::new(ctx.seed, iteration, Domain::Acceptance, path as u64);
-        vpls.retain_mut(|v| {
-            let q = self.probability(estimate(ctx, &self.view, v, &mut sampler, counters) * paths as f64);
-            let kept = sampler.next_f32() < q;
-            v.flux /= q;
-            kept
-        });
+        let mut kept = from;
+        for i in from..vpls.len() {
+            let mut v = vpls[i];
+            let q = probability(
+                estimate(ctx, &self.view, &v, &mut sampler, counters) * paths as f64,
+                self.target,
+            );
+            if sampler.next_f32() < q {
+                v.flux /= q;
+                vpls[kept] = v;
+                kept += 1;
+            }
+        }
+        vpls.truncate(kept);
     }
+}
+
+/// The probability of keeping a VPL whose estimated contribution per light path is
+/// `per_path`, where the pilot's mean is `target`.
+fn probability(per_path: f64, target: f64) -> f32 {
+    let q = (per_path / target) as f32;
+    if q.is_nan() { 1.0 } else { q.clamp(MIN_ACCEPTANCE, 1.0) }
 }
 
 /// An estimate of the VPL's contribution to the points of `view` (their sum): the
@@ -226,14 +236,12 @@ mod tests {
     /// 16, and a probability that is not a number keeps the VPL as it is.
     #[test]
     fn the_probability_follows_the_estimate_within_its_bounds() {
-        let view = Arc::new(View { lit_share: 1.0, points: Vec::new() });
-        let a = Acceptance { view, target: 2.0, mean: 0.3 };
-        assert_eq!(a.probability(4.0), 1.0);
-        assert_eq!(a.probability(2.0), 1.0);
-        assert_eq!(a.probability(0.5), 0.25);
-        assert_eq!(a.probability(0.0), MIN_ACCEPTANCE);
-        assert_eq!(a.probability(f64::INFINITY), 1.0);
-        assert_eq!(a.probability(f64::NAN), 1.0);
+        assert_eq!(probability(4.0, 2.0), 1.0);
+        assert_eq!(probability(2.0, 2.0), 1.0);
+        assert_eq!(probability(0.5, 2.0), 0.25);
+        assert_eq!(probability(0.0, 2.0), MIN_ACCEPTANCE);
+        assert_eq!(probability(f64::INFINITY, 2.0), 1.0);
+        assert_eq!(probability(f64::NAN, 2.0), 1.0);
     }
 
     #[test]

@@ -207,27 +207,8 @@ impl Integrator for InstantRadiosity {
         let pilot = Pilot::run(ctx, counters);
         if let Some(auto) = self.auto.take() {
             self.paths = auto.for_yield(pilot.per_path, pilot.caustic_per_path);
-            if let Some(camera) = self.camera
-                && bidirectional
-                && std::mem::take(&mut self.auto_acceptance)
-            {
-                let view = view_pilot::view(ctx, &camera, counters);
-                let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-                let plan = Acceptance::plan(ctx, view, max_vpl_depth, counters);
-                // Only where the light paths can grow by the whole factor.
-                let more_paths = plan.as_ref().map(|(_, more)| (self.paths as f32 * more).ceil() as usize);
-                if let (Some((acceptance, _)), Some(paths)) = (plan, more_paths)
-                    && paths <= auto.at_most
-                {
-                    self.paths = paths;
-                    if let Gather::Resampled { candidates, samples } = self.gather
-                        && self.auto_picks
-                    {
-                        let samples = importance::picks_for(samples, acceptance.mean);
-                        self.gather = Gather::Resampled { candidates, samples };
-                    }
-                    self.acceptance = Some(acceptance);
-                }
+            if bidirectional && std::mem::take(&mut self.auto_acceptance) {
+                self.plan_acceptance(ctx, auto.at_most, counters);
             }
         }
         if std::mem::take(&mut self.auto_light_samples) {
@@ -364,6 +345,28 @@ impl Walk for BatchWalk<'_, '_> {
 }
 
 impl InstantRadiosity {
+    /// Keeps the VPLs by their share of the image where [`Acceptance::plan`] says so and the
+    /// light paths can grow by its whole factor within `at_most`; raises the resampled
+    /// gather's picks with it where `auto_picks` allows ([`importance::picks_for`]).
+    fn plan_acceptance(&mut self, ctx: &RenderContext, at_most: usize, counters: &mut Counters) {
+        let Some(camera) = self.camera else { return };
+        let view = view_pilot::view(ctx, &camera, counters);
+        let max_vpl_depth = ctx.max_depth.saturating_sub(2);
+        let Some((acceptance, more)) = Acceptance::plan(ctx, view, max_vpl_depth, counters) else { return };
+        let paths = (self.paths as f32 * more).ceil() as usize;
+        if paths > at_most {
+            return;
+        }
+        self.paths = paths;
+        if let Gather::Resampled { candidates, samples } = self.gather
+            && self.auto_picks
+        {
+            let samples = importance::picks_for(samples, acceptance.mean);
+            self.gather = Gather::Resampled { candidates, samples };
+        }
+        self.acceptance = Some(acceptance);
+    }
+
     /// Walks the camera paths of `w` with the estimator of the method on the iteration's
     /// lights (none before the first iteration: nothing, zero).
     fn walk_with(&self, w: &mut impl Walk, ctx: &RenderContext) {

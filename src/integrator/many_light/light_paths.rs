@@ -187,11 +187,9 @@ pub fn trace_light_paths(
                 let first = out.vpls.len();
                 trace_path(ctx, &mut sampler, paths as f32, counts, depths, &mut out);
                 if let Some(acceptance) = acceptance {
-                    let mut path = out.vpls.split_off(first);
                     let mut queries = Counters::default();
-                    acceptance.keep(ctx, iteration, k, paths, &mut path, &mut queries);
+                    acceptance.keep(ctx, iteration, k, paths, &mut out.vpls, first, &mut queries);
                     out.shadow_rays += queries.shadow_rays;
-                    out.vpls.append(&mut path);
                 }
             }
             out
