@@ -23,7 +23,9 @@ pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
     /// vertex) [default: 32; for pir-bdpt 256, or as many more as leave 64 VPLs where light
     /// paths seldom reach a surface that reflects them, or 1024 caustic vertices where a
-    /// mirror or glass leads them to surfaces, chosen by a pilot, at most 4096].
+    /// mirror or glass leads them to surfaces, or up to 8 times as many where most VPLs light
+    /// what the camera does not see (then kept by their share of the image), chosen by a
+    /// pilot, at most 4096].
     #[arg(long, value_name = "N")]
     pub vpls: Option<usize>,
     /// ir-clamp, pir-clamp: the geometry-term bound b (or b_1), in 1/length²; pir-mis, pir-bdpt: b_1 of
