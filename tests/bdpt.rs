@@ -156,6 +156,72 @@ fn bidirectional_weights_match_the_path_tracer_with_mirror_and_glass() {
     }
 }
 
+/// A near-specular metal (a glossy lobe without albedo, α 0.01) and a pane of near-specular
+/// rough glass (α 0.01): `pir-bdpt` neither connects there nor leaves a VPL there.
+fn near_specular() -> [Material; 2] {
+    use pir::material::microfacet::{Distribution, Microfacet};
+    let material = |name: &str, bsdf| Material {
+        name: name.into(),
+        bsdf,
+        emission: Vec3::ZERO,
+        two_sided: false,
+        textures: None,
+    };
+    [
+        material("metal", Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.9), roughness: 0.01 }),
+        material(
+            "pane",
+            Bsdf::RoughDielectric {
+                eta: 1.5,
+                reflectance: Vec3::ONE,
+                transmittance: Vec3::ONE,
+                microfacet: Microfacet::new(Distribution::Ggx, 0.01),
+            },
+        ),
+    ]
+}
+
+/// The connections that touch a near-specular vertex count zero (no gather at the camera
+/// vertex, no VPL at the light vertex), and the weights leave them out: in a cube whose face
+/// in view is a near-specular metal, with a near-specular glass pane (light leaves through
+/// it) and glossy and diffuse emitting faces, `ir-bdpt` agrees with the path tracer for
+/// every rule of which vertices connect; its light paths leave no VPL on the near-specular
+/// faces, where they would leave many without the rule.
+#[test]
+fn near_specular_vertices_connect_nothing_and_the_image_is_the_path_tracers() {
+    use pir::integrator::many_light::config::near_specular as is_near_specular;
+    use pir::integrator::many_light::light_paths::trace_light_paths;
+    use pir::integrator::many_light::subpath::Counts;
+    let [metal, pane] = near_specular();
+    // Face 4 is the one in view (z = −1), face 3 the ceiling (+y).
+    let scene = closed_cube_of(vec![diffuse(0.6, 1.0), glossy(0.5), metal, pane], |face| match face {
+        4 => 2,
+        3 => 3,
+        1 => 1,
+        _ => 0,
+    });
+    let job = Job { iterations: 64, max_depth: 5, ..Job::default() };
+    let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
+    for connect in CONNECT {
+        let gather = Gather::Resampled { candidates: 32, samples: 4 };
+        let r = job.run(&scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather));
+        let (m, p, z) = z_between(&r, &pt);
+        eprintln!("near-specular cube, {connect:?}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
+        assert!(z.abs() < Z, "{connect:?}: z = {z:.2}");
+    }
+    let on_near_specular = |counts: Counts| {
+        job.with_context(&scene, |ctx| {
+            let traced = trace_light_paths(ctx, 1, 256, counts, 3, None, false, None);
+            let near = traced.vpls.iter().filter(|v| is_near_specular(&v.bsdf(&scene))).count();
+            (near, traced.vpls.len())
+        })
+    };
+    let (skipped, kept) = on_near_specular(Counts::uniform(256.0).skipping_near_specular());
+    let (near, all) = on_near_specular(Counts::uniform(256.0));
+    assert!(skipped == 0 && kept > 100, "{skipped} of {kept} VPLs on near-specular faces");
+    assert!(near > all / 10, "without the rule only {near} of {all} VPLs on near-specular faces");
+}
+
 /// With vertex merging in a cube whose face in view is a mirror (and two more faces a mirror
 /// and glass): the paths camera → mirror → wall → mirror or glass → emitting wall are shared
 /// between the merge and the emitter hit, and the image's mean is still `pt`'s (every wall

@@ -42,7 +42,8 @@ const GLOSSY: &str = "scenes/cornell-box/glossy.toml";
 /// other gathers of points, spheres, weighed points and `pir-bdpt`, `pir-bdpt`'s connections
 /// and light samples, a pilot that chooses more light paths and samples (the slit room),
 /// vertex merging and none (the mirror-and-glass caustic), VPLs kept by their share of the
-/// image (the near-mirror floor), explicit counts, independent numbers and a short path.
+/// image (the near-mirror floor), no connections at near-specular vertices, explicit counts,
+/// independent numbers and a short path.
 const EXTRA: &[&str] = &[
     "pt --sampler independent",
     "pt --max-depth 3",
@@ -64,6 +65,7 @@ const EXTRA: &[&str] = &[
     "pir-bdpt --scene scenes/stress/caustic/scene.toml",
     "pir-bdpt --merge-radius 0 --scene scenes/stress/caustic/scene.toml",
     "pir-bdpt --scene scenes/stress/glossy/scene.toml",
+    "pir-bdpt --scene tests/data/near-specular.toml",
 ];
 
 /// What is rendered, as `pir render` flags (and `--scene`): every method at its defaults on

@@ -200,6 +200,23 @@ pub(super) fn glossy_alpha(c: &Composite, w: f32, uv: Option<Vec2>) -> Option<f3
     c.parts(w, uv).iter().filter_map(|(_, b)| b.and_then(|b| b.glossy_alpha())).reduce(f32::min)
 }
 
+/// The widest α of the parts' non-delta lobes where each is a microfacet lobe
+/// ([`Bsdf::widest_alpha`]): the mask's null part and delta parts have none, a part with a
+/// lobe of another kind makes it `None`, and so does a composite of delta parts alone.
+pub(super) fn widest_alpha(c: &Composite, w: f32, uv: Option<Vec2>) -> Option<f32> {
+    let mut widest: Option<f32> = None;
+    for (share, b) in c.parts(w, uv) {
+        match b {
+            Some(b) if share > 0.0 && !b.is_delta() => {
+                let a = b.widest_alpha()?;
+                widest = Some(widest.map_or(a, |w| w.max(a)));
+            }
+            _ => {}
+        }
+    }
+    widest
+}
+
 /// Whether light from `w` can leave by a non-delta lobe of some part ([`Bsdf::reflects_from`]).
 pub(super) fn reflects_from(
     c: &Composite,

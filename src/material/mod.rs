@@ -323,6 +323,22 @@ impl Bsdf {
         }
     }
 
+    /// The widest microfacet roughness (α) of its non-delta lobes where every one of them is
+    /// a microfacet lobe (a rough conductor or dielectric, a glossy lobe without a diffuse
+    /// part, a blend of those with delta parts); `None` where one of them is not (a diffuse
+    /// base: a rough plastic, a glossy lobe over an albedo) or where there is none. Where
+    /// it is small, every direction the BSDF scatters into lies near a delta lobe's.
+    pub fn widest_alpha(&self) -> Option<f32> {
+        match *self {
+            Bsdf::Glossy { albedo, roughness, .. } if albedo == Vec3::ZERO => Some(roughness),
+            Bsdf::RoughConductor { microfacet, .. } | Bsdf::RoughDielectric { microfacet, .. } => {
+                Some(microfacet.alpha)
+            }
+            Bsdf::Composite { weight, parts, uv } => composite::widest_alpha(parts, weight, uv),
+            _ => None,
+        }
+    }
+
     /// Whether a non-delta lobe transmits: the rough dielectric (or a composite with one),
     /// whose [`Bsdf::eval`] and [`Bsdf::pdf`] are non-zero for directions on both sides of
     /// the surface, from either side. Every other non-delta BSDF reflects only into the
@@ -690,6 +706,45 @@ mod tests {
     fn mask(w: f32, inner: Bsdf) -> Bsdf {
         let parts = Composite::Mask(composite::Part { bsdf: inner, textures: None }).intern();
         Bsdf::Composite { weight: w, parts, uv: None }
+    }
+
+    /// `widest_alpha`: the widest microfacet lobe where every non-delta lobe is one; none
+    /// where a diffuse lobe is among them, or no non-delta lobe at all.
+    #[test]
+    fn widest_alpha_is_the_widest_lobe_where_every_lobe_is_a_microfacet() {
+        use microfacet::Distribution::{Beckmann, Ggx};
+        let lambert = Bsdf::Diffuse { albedo: Vec3::splat(0.5) };
+        let metal = |alpha| Bsdf::RoughConductor {
+            specular: Vec3::ONE,
+            ior: conductor::ComplexIor::NONE,
+            microfacet: Microfacet::new(Ggx, alpha),
+        };
+        let glass = |alpha| Bsdf::RoughDielectric {
+            eta: 1.5,
+            reflectance: Vec3::ONE,
+            transmittance: Vec3::ONE,
+            microfacet: Microfacet::new(Beckmann, alpha),
+        };
+        let coat = |albedo| Bsdf::Glossy { albedo, specular: Vec3::splat(0.5), roughness: 0.02 };
+        let mirror = Bsdf::Mirror { specular: Vec3::ONE };
+        for (bsdf, expected) in [
+            (metal(0.01), Some(0.01)),
+            (glass(0.001), Some(0.001)),
+            (coat(Vec3::ZERO), Some(0.02)),
+            (coat(Vec3::splat(0.3)), None),
+            (lambert, None),
+            (mirror, None),
+            (Bsdf::rough_plastic(Vec3::splat(0.5), None, 1.5, Microfacet::new(Ggx, 0.01), false), None),
+            (blend(0.3, metal(0.01), glass(0.05)), Some(0.05)),
+            (blend(0.3, metal(0.01), mirror), Some(0.01)),
+            (blend(0.3, metal(0.01), lambert), None),
+            (blend(0.0, metal(0.01), lambert), Some(0.01)),
+            (blend(0.5, mirror, Bsdf::Glass { ior: 1.5 }), None),
+            (mask(0.6, metal(0.02)), Some(0.02)),
+            (mask(0.6, lambert), None),
+        ] {
+            assert_eq!(bsdf.widest_alpha(), expected, "{bsdf:?}");
+        }
     }
 
     /// `reflects_from` is false exactly where every evaluation with that direction is zero:

@@ -99,8 +99,8 @@ impl Bidirectional<'_> {
                 light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
             });
         }
-        // ---- The connections to the VPLs.
-        if !connects {
+        // ---- The connections to the VPLs (none at a near-specular vertex, whose count is zero).
+        if !connects || !counts.connects_at(bsdf) {
             return None;
         }
         let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);

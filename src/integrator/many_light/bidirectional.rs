@@ -559,7 +559,9 @@ mod tests {
                 continue;
             }
             let cam = camera_state(z, t, connect, counts);
-            let possible = t + 1 == k || (z[t + 1].bsdf.is_some() && walk(z, t, connect).connects());
+            // A connection needs both ends non-delta and connecting ([`Counts::connects_at`]).
+            let ends = |y: &Node| y.bsdf.is_some_and(|b| counts.connects_at(&b));
+            let possible = t + 1 == k || (ends(x) && ends(&z[t + 1]) && walk(z, t, connect).connects());
             let Some(bx) = x.bsdf.filter(|_| possible) else {
                 w.push(None);
                 continue;
@@ -682,7 +684,7 @@ mod tests {
     #[test]
     fn the_connection_weighs_its_count_against_the_emitter_techniques() {
         let mut s = Sampler::new(11, 0, Domain::LightPath, 0);
-        let counts = Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 };
+        let counts = Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false };
         let pdf_area = 0.6;
         let mut checked = [0; 2];
         for _ in 0..400 {
@@ -809,7 +811,7 @@ mod tests {
                 let w = weights(
                     &z,
                     pdf_area,
-                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25 },
+                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25, skip_near_specular: false },
                     Connect::First,
                     n,
                 );
@@ -862,8 +864,8 @@ mod tests {
                 // Every connection counted alike, and a glossy end counted a quarter.
                 for counts in [
                     Counts::uniform(32.0),
-                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25 },
-                    Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 },
+                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25, skip_near_specular: false },
+                    Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false },
                 ] {
                     // Next-event estimation by area, and by a cone denser or sparser there.
                     for pdf_nee in [0.37, 0.05, 4.0] {
@@ -889,6 +891,88 @@ mod tests {
         );
     }
 
+    /// Makes z[j] a near-specular vertex ([`super::super::config::near_specular`]) that
+    /// reflects the path exactly: its normal halfway between its neighbours, a rough metal or
+    /// a glossy lobe without albedo of α below the threshold.
+    fn make_near_specular(z: &mut [Node], j: usize, glossy: bool) {
+        let n = (z[j].dir(&z[j - 1]) + z[j].dir(&z[j + 1])).normalize();
+        z[j].g = LocalGeometry { ng: n, frame: Frame::from_normal(n) };
+        z[j].bsdf = Some(if glossy {
+            Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.8), roughness: 0.008 }
+        } else {
+            Bsdf::RoughConductor {
+                specular: Vec3::ONE,
+                ior: crate::material::conductor::ComplexIor::NONE,
+                microfacet: crate::material::microfacet::Microfacet::new(
+                    crate::material::microfacet::Distribution::Ggx,
+                    0.005,
+                ),
+            }
+        });
+    }
+
+    /// With near-specular vertices, whose connections count zero where the counts skip them
+    /// (`pir-bdpt`: no gather there, no VPL there), the weights of every path still sum to
+    /// one, whichever camera vertices connect; and the connections that touch them are
+    /// left out, while the path tracer's techniques and light tracing take the path.
+    #[test]
+    fn weights_sum_to_one_where_near_specular_vertices_connect_nothing() {
+        let mut s = Sampler::new(13, 0, Domain::LightPath, 0);
+        let (mut checked, mut without) = (0, 0);
+        for trial in 0..600 {
+            let k = 3 + trial % 5;
+            let mut z = random_path(&mut s, k, None);
+            // One or two near-specular vertices among z[1..k].
+            let first = 1 + trial / 5 % (k - 1);
+            make_near_specular(&mut z, first, trial % 2 == 0);
+            if trial % 3 == 0 && k > 3 {
+                let second = 1 + (first + 1 + trial / 7 % (k - 2)) % (k - 1);
+                make_near_specular(&mut z, second, trial % 4 == 1);
+            }
+            let front = |j: usize, i: usize| z[j].g.ng.dot(z[j].dir(&z[i])) > 0.05;
+            if !(1..=k).all(|j| front(j, j - 1) && (j == k || front(j, j + 1))) {
+                continue;
+            }
+            for (connect, light_samples) in
+                [(Connect::First, 1), (Connect::FirstTwo, 2), (Connect::All, 1), (Connect::Glossy, 1)]
+            {
+                for counts in [
+                    Counts::uniform(32.0).skipping_near_specular(),
+                    Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: true },
+                ] {
+                    for pdf_nee in [0.37, 4.0] {
+                        let source = Source::Area { pdf_area: 0.37, pdf_nee };
+                        let w = weights_from(&z, source, counts, connect, light_samples);
+                        if !w.iter().flatten().all(|w| w.is_finite()) {
+                            continue;
+                        }
+                        let sum: f32 = w.iter().flatten().sum();
+                        assert!(
+                            (sum - 1.0).abs() < 2e-3,
+                            "k {k}, near-specular at {first}, {connect:?}, {counts:?}: weights {w:?} sum to {sum}"
+                        );
+                        // The connection at the near-specular vertex (unless it is next-event
+                        // estimation's) and the one to it (unless it is light tracing's): no
+                        // technique.
+                        assert!(first + 1 == k || w[first].is_none(), "{w:?}");
+                        assert!(first == 1 || w[first - 1].is_none(), "{w:?}");
+                        checked += 1;
+                    }
+                    // Without the skip, the same path's weights sum to one with those
+                    // connections among them.
+                    let all = Counts { skip_near_specular: false, ..counts };
+                    let w = weights_from(&z, Source::Area { pdf_area: 0.37, pdf_nee: 0.37 }, all, connect, 1);
+                    if w.iter().flatten().all(|w| w.is_finite()) {
+                        let sum: f32 = w.iter().flatten().sum();
+                        assert!((sum - 1.0).abs() < 2e-3, "without the skip: {w:?} sum to {sum}");
+                        without += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 1500 && without > 500, "only {checked} and {without} paths checked");
+    }
+
     /// The same with light from a point light (which no BSDF sample hits) and from an
     /// environment (whose light paths start on a disk, and which the camera subpath finds by
     /// leaving the scene): the weights of every path still sum to one.
@@ -912,9 +996,10 @@ mod tests {
                 for (connect, light_samples) in
                     [(Connect::First, 1), (Connect::All, 1), (Connect::FirstTwo, 4), (Connect::Glossy, 1)]
                 {
-                    for counts in
-                        [Counts::uniform(32.0), Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125 }]
-                    {
+                    for counts in [
+                        Counts::uniform(32.0),
+                        Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false },
+                    ] {
                         let w = weights_from(&z, source, counts, connect, light_samples);
                         if !w.iter().flatten().all(|w| w.is_finite()) {
                             continue;

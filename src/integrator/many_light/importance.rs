@@ -127,8 +127,13 @@ impl Acceptance {
         if view.points.is_empty() {
             return None;
         }
-        let (vpls, rays) =
-            trace_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, Counts::uniform(PILOT_PATHS as f32), max_vpl_depth);
+        let (vpls, rays) = trace_vpls(
+            ctx,
+            PILOT_ITERATION,
+            PILOT_PATHS,
+            Counts::uniform(PILOT_PATHS as f32).skipping_near_specular(),
+            max_vpl_depth,
+        );
         counters.pilot_rays += rays;
         let mut queries = Counters::default();
         let estimates: Vec<f64> = vpls

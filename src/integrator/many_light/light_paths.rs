@@ -373,7 +373,9 @@ fn follow(
         // that miss an opening and strike the wall around it from outside) or on a black
         // material would add nothing to any receiver, yet take a place in every gather's
         // window. The path ends there all the same ([`scatter`] finds no direction).
-        if depth <= depths.vpl && bsdf.reflects_from(&sp.geometry(), w_in) {
+        // Nor where no connection reaches it (a near-specular vertex, [`Counts::connects_at`]).
+        let reflects = depth <= depths.vpl && bsdf.reflects_from(&sp.geometry(), w_in);
+        if reflects && counts.connects_at(bsdf) {
             out.vpls.push(Vpl {
                 p: sp.p,
                 ng: sp.ng,
@@ -408,13 +410,14 @@ fn follow(
                 mis,
                 count_out: count,
             });
-            // Where a delta chain of the class reached the VPL, a photon too.
-            if let Some(c) = chain
-                && !bsdf.is_delta()
-                && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
-            {
-                out.photons.push(photon);
-            }
+        }
+        // Where a delta chain of the class reached the vertex, a photon.
+        if reflects
+            && let Some(c) = chain
+            && !bsdf.is_delta()
+            && let Some(photon) = c.photon(sp.p, sp.ng, w_in, beta, depth)
+        {
+            out.photons.push(photon);
         }
         if let Some(to_camera) = depths.to_camera
             && depth <= depths.camera

@@ -6,7 +6,7 @@
 
 use std::f32::consts::PI;
 
-use super::config::{Connect, Gather};
+use super::config::{Connect, Gather, near_specular};
 use crate::material::Bsdf;
 
 /// What a pick of the resampled gather counts, where the emitters are in view, in a
@@ -54,6 +54,10 @@ pub struct Counts {
     pub lambertian: f32,
     /// The count of a connection with a glossy end, relative to `paths` (in (0, 1]).
     pub glossy: f32,
+    /// Whether a connection with a near-specular end ([`near_specular`]) counts zero: the
+    /// technique is not used (no gather at such a camera vertex, no VPL at such a light
+    /// vertex), and the weights leave it out (`pir-bdpt`).
+    pub skip_near_specular: bool,
 }
 
 impl Counts {
@@ -82,12 +86,26 @@ impl Counts {
             paths: n,
             lambertian: (lambertian / n).clamp(f32::MIN_POSITIVE, 1.0),
             glossy: (glossy / n).clamp(f32::MIN_POSITIVE, 1.0),
+            skip_near_specular: false,
         }
     }
 
     /// Every connection counted as `paths` (the tests' weights, and [`Gather::All`]).
     pub fn uniform(paths: f32) -> Counts {
-        Counts { paths, lambertian: 1.0, glossy: 1.0 }
+        Counts { paths, lambertian: 1.0, glossy: 1.0, skip_near_specular: false }
+    }
+
+    /// The same counts, with the connections that have a near-specular end counted zero
+    /// ([`Counts::skip_near_specular`]).
+    pub fn skipping_near_specular(self) -> Counts {
+        Counts { skip_near_specular: true, ..self }
+    }
+
+    /// Whether a vertex of BSDF `b` connects at all (as a camera vertex or as a VPL): not
+    /// where it is near-specular and the counts skip those.
+    #[inline]
+    pub fn connects_at(&self, b: &Bsdf) -> bool {
+        !(self.skip_near_specular && near_specular(b))
     }
 
     /// The count of the connection between a vertex of BSDF `b` and the vertex before it
@@ -100,10 +118,17 @@ impl Counts {
     }
 
     /// The count of the connection between a vertex of BSDF `a` and one of BSDF `b`,
-    /// relative to [`Counts::paths`].
+    /// relative to [`Counts::paths`]; zero where either end is near-specular and the counts
+    /// skip those ([`Counts::skip_near_specular`]).
     #[inline]
     pub fn factor(&self, a: &Bsdf, b: &Bsdf) -> f32 {
-        if lambertian(a) && lambertian(b) { self.lambertian } else { self.glossy }
+        if lambertian(a) && lambertian(b) {
+            self.lambertian
+        } else if self.connects_at(a) && self.connects_at(b) {
+            self.glossy
+        } else {
+            0.0
+        }
     }
 }
 
