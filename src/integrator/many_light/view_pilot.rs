@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::config::{Connect, glossy_vertex};
+use super::config::{Connect, glossy_vertex, near_specular};
 use super::path_count::emitter_in_view;
 use crate::accel::Hit;
 use crate::geometry::{Ray, offset_origin};
@@ -147,10 +147,10 @@ const MAX_CHAIN: u32 = 8;
 /// surface, where the chain ends), each with its BSDF prepared for the direction back along
 /// the chain; none on an emitter, where the chain ends too.
 ///
-/// Why a near-mirror's chain is followed: its own point sees few VPLs (a GGX lobe of α 0.001
-/// sees almost none), so a view made mostly of near-mirrors would look as if the VPLs lit
-/// nothing in it and start the acceptance where it does not pay (Bitterli's
-/// `cornell-box-dielectric`, `docs/results.md`). What the near-mirror shows is where its
+/// Why a near-mirror's chain is followed: its own point sees few VPLs (a near-specular one,
+/// a GGX lobe of α 0.001, is no camera point at all), so a view made mostly of near-mirrors
+/// would look as if the VPLs lit nothing in it and start the acceptance where it does not
+/// pay (Bitterli's `cornell-box-dielectric`, `docs/results.md`). What the near-mirror shows is where its
 /// light comes from, and where `--connect glossy` connects next.
 fn follow_chain(
     ctx: &RenderContext,
@@ -181,8 +181,12 @@ fn follow_chain(
 }
 
 /// The point `sp`, seen along `dir`, with its BSDF prepared for the direction back; none
-/// where it reflects nothing that way.
+/// where it reflects nothing that way, or where it is near-specular ([`near_specular`]):
+/// `pir-bdpt` connects nothing there.
 fn camera_point(sp: &SurfacePoint, bsdf: Bsdf, dir: Vec3) -> Option<CameraPoint> {
+    if near_specular(&bsdf) {
+        return None;
+    }
     let ng = if sp.ng.dot(dir) > 0.0 { -sp.ng } else { sp.ng };
     let fx = PreparedBsdf::new(bsdf, sp.geometry(), -dir.normalize(), TransportMode::Radiance);
     fx.is_active().then_some(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx })
