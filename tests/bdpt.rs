@@ -114,18 +114,16 @@ fn bidirectional_weights_match_the_path_tracer_on_glossy_walls() {
     }
 }
 
+/// A material that does not emit, named `name`.
+fn material(name: &str, bsdf: Bsdf) -> Material {
+    Material { name: name.into(), bsdf, emission: Vec3::ZERO, two_sided: false, textures: None }
+}
+
 /// Delta vertices rule out the connections that touch them, on either subpath: a cube with a
 /// mirror wall and a glass wall (light leaves through it) among glossy and diffuse emitting
 /// walls agrees with the path tracer.
 /// A mirror of reflectance 0.9 and glass of index 1.5.
 fn mirror_and_glass() -> [Material; 2] {
-    let material = |name: &str, bsdf| Material {
-        name: name.into(),
-        bsdf,
-        emission: Vec3::ZERO,
-        two_sided: false,
-        textures: None,
-    };
     [
         material("mirror", Bsdf::Mirror { specular: Vec3::splat(0.9) }),
         material("glass", Bsdf::Glass { ior: 1.5 }),
@@ -160,13 +158,6 @@ fn bidirectional_weights_match_the_path_tracer_with_mirror_and_glass() {
 /// rough glass (α 0.01): `pir-bdpt` neither connects there nor leaves a VPL there.
 fn near_specular() -> [Material; 2] {
     use pir::material::microfacet::{Distribution, Microfacet};
-    let material = |name: &str, bsdf| Material {
-        name: name.into(),
-        bsdf,
-        emission: Vec3::ZERO,
-        two_sided: false,
-        textures: None,
-    };
     [
         material("metal", Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.9), roughness: 0.01 }),
         material(

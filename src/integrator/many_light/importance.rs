@@ -36,9 +36,8 @@
 use std::sync::Arc;
 
 use super::config::Clamping;
-use super::light_paths::{Vpl, trace_vpls};
+use super::light_paths::{Vpl, trace_pilot_vpls};
 use super::points::point_contribution;
-use super::subpath::Counts;
 use super::view_pilot::View;
 use crate::integrator::direct::occluded;
 use crate::integrator::{Counters, RenderContext};
@@ -127,13 +126,7 @@ impl Acceptance {
         if view.points.is_empty() {
             return None;
         }
-        let (vpls, rays) = trace_vpls(
-            ctx,
-            PILOT_ITERATION,
-            PILOT_PATHS,
-            Counts::uniform(PILOT_PATHS as f32).skipping_near_specular(),
-            max_vpl_depth,
-        );
+        let (vpls, rays) = trace_pilot_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, max_vpl_depth);
         counters.pilot_rays += rays;
         let mut queries = Counters::default();
         let estimates: Vec<f64> = vpls

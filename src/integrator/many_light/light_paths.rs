@@ -146,6 +146,19 @@ pub fn trace_vpls(
     (traced.vpls, traced.rays)
 }
 
+/// The VPLs of a pilot's `paths` light paths (from the stream of `iteration`, a number no
+/// render reaches), left as `pir-bdpt`'s iterations leave them (none at a near-specular
+/// vertex, [`Counts::skipping_near_specular`]), and their closest-hit queries.
+pub fn trace_pilot_vpls(
+    ctx: &RenderContext,
+    iteration: u64,
+    paths: usize,
+    max_vpl_depth: u32,
+) -> (Vec<Vpl>, u64) {
+    let counts = Counts::uniform(paths as f32).skipping_near_specular();
+    trace_vpls(ctx, iteration, paths, counts, max_vpl_depth)
+}
+
 /// What an iteration's light paths leave: VPLs and splats on the film, in path order, and
 /// the queries they made.
 #[derive(Default)]

@@ -40,8 +40,7 @@
 //! fixed for the whole render: every iteration is an unbiased estimate of the same image,
 //! as with a count given by `--vpls`.
 
-use super::light_paths::trace_vpls;
-use super::subpath::Counts;
+use super::light_paths::trace_pilot_vpls;
 use crate::integrator::direct::{light_occluded, occluded};
 use crate::integrator::{Counters, RenderContext};
 use crate::light::Choice;
@@ -144,13 +143,7 @@ impl Pilot {
     /// [`Pilot::run`] without the render's cache.
     fn trace(ctx: &RenderContext, counters: &mut Counters) -> Pilot {
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
-        let (vpls, rays) = trace_vpls(
-            ctx,
-            PILOT_ITERATION,
-            PILOT_PATHS,
-            Counts::uniform(PILOT_PATHS as f32).skipping_near_specular(),
-            max_vpl_depth,
-        );
+        let (vpls, rays) = trace_pilot_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, max_vpl_depth);
         let streams = Streams::light_paths(ctx.sampler, ctx.seed, PILOT_SAMPLES_ITERATION);
         let mut samples = Counters::default();
         let (mut tried, mut visible) = (0u32, 0u32);
