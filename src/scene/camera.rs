@@ -1,5 +1,6 @@
 //! The scene's camera: a pinhole, or Mitsuba 3's thin lens (depth of field), looking along
-//! `target − eye` with a vertical field of view; image y downwards, pixel (0, 0) top-left,
+//! `target − eye` with a vertical field of view (kept along another axis when the resolution
+//! changes, [`FovAxis`]); image y downwards, pixel (0, 0) top-left,
 //! right = normalize(forward × up). Mitsuba's near and far clip planes bound what a camera ray
 //! sees (the TOML format's camera has none: `[0, ∞)`).
 
@@ -17,6 +18,10 @@ pub struct Camera {
     pub fov_deg: f32,
     pub width: u32,
     pub height: u32,
+    /// The axis along which the field of view stays when the resolution changes
+    /// ([`Camera::with_resolution`]): the vertical one for the TOML format's camera, Mitsuba's
+    /// `fov_axis` for a Mitsuba sensor.
+    pub fov_axis: FovAxis,
     /// Distance along the view axis (`target − eye`) from the eye to the near clip plane: a
     /// camera ray sees no surface in front of it (Mitsuba's `near_clip`; 0 for none).
     pub near_clip: f32,
@@ -30,6 +35,67 @@ pub struct Camera {
     /// width and height (x to the right, y down), which moves the optical axis off the
     /// image's centre. Zero for none.
     pub principal_point_offset: Vec2,
+}
+
+/// The axis along which a camera's field of view is given, and kept when the resolution
+/// changes: Mitsuba 3's `fov_axis` (a `focal_length` is a diagonal field of view).
+/// `Smaller` and `Larger` are resolved against the film's aspect, as Mitsuba resolves them
+/// against its film: a film of another aspect can hold the field of view along the other
+/// axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FovAxis {
+    X,
+    /// The vertical axis (the TOML format's).
+    #[default]
+    Y,
+    Diagonal,
+    Smaller,
+    Larger,
+}
+
+impl FovAxis {
+    /// The tangent of half the field of view along this axis, of a film of aspect `aspect`
+    /// (width / height) whose vertical one has half-angle tangent `tan_v`.
+    fn tan_half(self, tan_v: f64, aspect: f64) -> f64 {
+        match self.resolved(aspect) {
+            FovAxis::X => tan_v * aspect,
+            FovAxis::Diagonal => tan_v * (1.0 + aspect * aspect).sqrt(),
+            _ => tan_v,
+        }
+    }
+
+    /// The inverse of [`FovAxis::tan_half`]: the vertical half-angle tangent of a film of
+    /// aspect `aspect` whose field of view along this axis has half-angle tangent `t`.
+    fn tan_half_vertical(self, t: f64, aspect: f64) -> f64 {
+        match self.resolved(aspect) {
+            FovAxis::X => t / aspect,
+            FovAxis::Diagonal => t / (1.0 + aspect * aspect).sqrt(),
+            _ => t,
+        }
+    }
+
+    /// `Smaller` and `Larger` as the axis they name on a film of aspect `aspect` (Mitsuba's
+    /// `parse_fov`: the vertical one is smaller where the film is wider than tall).
+    fn resolved(self, aspect: f64) -> FovAxis {
+        match self {
+            FovAxis::Smaller if aspect > 1.0 => FovAxis::Y,
+            FovAxis::Smaller => FovAxis::X,
+            FovAxis::Larger if aspect > 1.0 => FovAxis::X,
+            FovAxis::Larger => FovAxis::Y,
+            axis => axis,
+        }
+    }
+
+    /// Mitsuba's name of the axis (`fov_axis`).
+    pub fn name(self) -> &'static str {
+        match self {
+            FovAxis::X => "x",
+            FovAxis::Y => "y",
+            FovAxis::Diagonal => "diagonal",
+            FovAxis::Smaller => "smaller",
+            FovAxis::Larger => "larger",
+        }
+    }
 }
 
 /// Mitsuba 3's thin lens (`thinlens`): rays leave a uniformly sampled point of a disk of
@@ -65,14 +131,36 @@ impl Camera {
             far_clip: f32::INFINITY,
             lens: None,
             principal_point_offset: Vec2::ZERO,
+            fov_axis: FovAxis::Y,
         }
     }
 
-    /// The same camera at another resolution (the field of view stays vertical).
+    /// The same camera at another resolution, its field of view kept along its
+    /// [`Camera::fov_axis`] (as Mitsuba renders a scene whose film is given another size):
+    /// where the aspect changes, the vertical field of view follows an axis other than the
+    /// vertical one. (An unchanged aspect, or the vertical axis, keeps it bit for bit.)
     pub fn with_resolution(mut self, width: u32, height: u32) -> Self {
+        let aspect = |w: u32, h: u32| w as f64 / h as f64;
+        let same_aspect = width as u64 * self.height as u64 == self.width as u64 * height as u64;
+        if !same_aspect && self.fov_axis != FovAxis::Y && width > 0 && height > 0 && self.height > 0 {
+            let tan_v = (self.fov_deg as f64 / 2.0).to_radians().tan();
+            let t = self.fov_axis.tan_half(tan_v, aspect(self.width, self.height));
+            let tan_v = self.fov_axis.tan_half_vertical(t, aspect(width, height));
+            self.fov_deg = (2.0 * tan_v.atan().to_degrees()) as f32;
+        }
         self.width = width;
         self.height = height;
         self
+    }
+
+    /// The field of view in degrees along [`Camera::fov_axis`] at the camera's resolution.
+    pub fn fov_along_axis(&self) -> f32 {
+        if self.fov_axis == FovAxis::Y {
+            return self.fov_deg;
+        }
+        let tan_v = (self.fov_deg as f64 / 2.0).to_radians().tan();
+        let t = self.fov_axis.tan_half(tan_v, self.width as f64 / self.height.max(1) as f64);
+        (2.0 * t.atan().to_degrees()) as f32
     }
 
     /// The ray through the image-plane position `film` (in pixels: x to the right, y down,

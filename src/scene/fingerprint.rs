@@ -72,6 +72,11 @@ impl Scene {
         h.f32s(&[
             c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_deg,
         ]);
+        // The axis the field of view is kept along at another resolution, only where it is
+        // not the vertical one (the TOML format's camera's), as the clip planes and the lens.
+        if c.fov_axis != super::FovAxis::Y {
+            h.bytes(format!("fov_axis {}", c.fov_axis.name()).as_bytes());
+        }
         // The clip planes and the lens only where there are some (the TOML format's camera
         // has neither), so that the other scenes keep their fingerprints.
         if (c.near_clip, c.far_clip) != (0.0, f32::INFINITY) {

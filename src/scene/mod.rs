@@ -17,7 +17,7 @@ pub mod serialized;
 mod spheres;
 mod transform;
 
-pub use camera::{Camera, CameraRays, LensConnection, ThinLens};
+pub use camera::{Camera, CameraRays, FovAxis, LensConnection, ThinLens};
 pub use filter::Filter;
 pub use load::{SceneError, load, load_with};
 pub use spheres::SphereShape;

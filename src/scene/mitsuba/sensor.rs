@@ -20,7 +20,7 @@
 use glam::{Mat4, Vec2, Vec3};
 
 use super::{Builder, Params};
-use crate::scene::{Camera, SceneError, ThinLens};
+use crate::scene::{Camera, FovAxis, SceneError, ThinLens};
 
 /// Mitsuba's default field of view: a 50 mm lens on 35 mm film.
 const DEFAULT_FOCAL_LENGTH: &str = "50mm";
@@ -44,7 +44,7 @@ impl<'a> Builder<'a> {
             [film] => self.film(film)?,
             _ => return Err(e.error("more than one film")),
         };
-        let x_fov = horizontal_fov(e, &p, width as f64 / height as f64)?;
+        let (x_fov, fov_axis) = horizontal_fov(e, &p, width as f64 / height as f64)?;
         let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let near_clip = p.float("near_clip")?.unwrap_or(1e-2);
         let far_clip = p.float("far_clip")?.unwrap_or(1e4);
@@ -116,20 +116,34 @@ impl<'a> Builder<'a> {
             far_clip,
             lens,
             principal_point_offset,
+            fov_axis,
         })
     }
 }
 
 /// The horizontal field of view in degrees of a film of aspect `aspect` (width / height), as
 /// Mitsuba's `parse_fov` computes it (in double precision) from `fov` and `fov_axis` or from
-/// `focal_length`.
-fn horizontal_fov(e: &super::Element, p: &Params, aspect: f64) -> Result<f64, SceneError> {
-    let (fov, axis) = match p.float("fov")? {
+/// `focal_length`, and the axis that the field of view is given along (to be kept there at
+/// another resolution).
+fn horizontal_fov(e: &super::Element, p: &Params, aspect: f64) -> Result<(f64, FovAxis), SceneError> {
+    let (fov, axis, kept) = match p.float("fov")? {
         Some(fov) => {
             if p.get("focal_length").is_some() {
                 return Err(e.error("give either a fov or a focal_length, not both"));
             }
             let axis = p.string("fov_axis")?.unwrap_or("x").trim().to_lowercase();
+            let kept = match axis.as_str() {
+                "x" => FovAxis::X,
+                "y" => FovAxis::Y,
+                "diagonal" => FovAxis::Diagonal,
+                "smaller" => FovAxis::Smaller,
+                "larger" => FovAxis::Larger,
+                other => {
+                    return Err(
+                        e.error(format!("fov_axis \"{other}\": expected x, y, diagonal, smaller or larger"))
+                    );
+                }
+            };
             let axis = match axis.as_str() {
                 "smaller" if aspect > 1.0 => "y".to_string(),
                 "smaller" => "x".to_string(),
@@ -137,7 +151,7 @@ fn horizontal_fov(e: &super::Element, p: &Params, aspect: f64) -> Result<f64, Sc
                 "larger" => "y".to_string(),
                 _ => axis,
             };
-            (fov as f64, axis)
+            (fov as f64, axis, kept)
         }
         None => {
             if p.get("fov_axis").is_some() {
@@ -165,7 +179,7 @@ fn horizontal_fov(e: &super::Element, p: &Params, aspect: f64) -> Result<f64, Sc
             };
             // The diagonal of 35 mm film, 36 × 24 mm.
             let fov = 2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * f)).atan().to_degrees();
-            (fov, "diagonal".to_string())
+            (fov, "diagonal".to_string(), FovAxis::Diagonal)
         }
     };
     let half_tan = (0.5 * fov.to_radians()).tan();
@@ -186,7 +200,7 @@ fn horizontal_fov(e: &super::Element, p: &Params, aspect: f64) -> Result<f64, Sc
              and 180"
         )));
     }
-    Ok(x_fov)
+    Ok((x_fov, kept))
 }
 
 #[cfg(test)]
@@ -344,6 +358,43 @@ mod tests {
         );
         let bare = camera("perspective", r#"<string name="focal_length" value="35"/>"#, 64, 48);
         assert_eq!(bare, camera("perspective", r#"<string name="focal_length" value="35mm"/>"#, 64, 48));
+    }
+
+    /// A film given another size (`--resolution`, Mitsuba's `resx` and `resy`) keeps the field
+    /// of view along the sensor's axis, as Mitsuba does: the camera read at one size and
+    /// resized is the camera read at the other, for every axis, a focal length, and square,
+    /// landscape and portrait films both ways; the horizontal field of view of the default
+    /// axis stays Mitsuba's.
+    #[test]
+    fn another_film_size_keeps_the_field_of_view_along_its_axis() {
+        let sizes = [(1024, 1024), (320, 180), (48, 64), (64, 48)];
+        for params in [
+            r#"<float name="fov" value="35"/>"#,
+            r#"<float name="fov" value="35"/><string name="fov_axis" value="y"/>"#,
+            r#"<float name="fov" value="35"/><string name="fov_axis" value="diagonal"/>"#,
+            r#"<float name="fov" value="35"/><string name="fov_axis" value="smaller"/>"#,
+            r#"<float name="fov" value="35"/><string name="fov_axis" value="larger"/>"#,
+            r#"<string name="focal_length" value="28mm"/>"#,
+        ] {
+            for (w0, h0) in sizes {
+                for (w, h) in sizes {
+                    let resized = camera("perspective", params, w0, h0).unwrap().with_resolution(w, h);
+                    let direct = camera("perspective", params, w, h).unwrap();
+                    assert!(
+                        (resized.fov_deg - direct.fov_deg).abs() < 1e-4,
+                        "{params} {w0}×{h0} → {w}×{h}: {} against {}",
+                        resized.fov_deg,
+                        direct.fov_deg
+                    );
+                    assert_eq!((resized.width, resized.height, resized.fov_axis), (w, h, direct.fov_axis));
+                }
+            }
+        }
+        // Bitterli's veach-bidir: a square film of fov 35 along x, rendered at 320×180.
+        let c = camera("perspective", r#"<float name="fov" value="35"/>"#, 1024, 1024).unwrap();
+        let c = c.with_resolution(320, 180);
+        let x_fov = 2.0 * ((c.fov_deg as f64 / 2.0).to_radians().tan() * 320.0 / 180.0).atan().to_degrees();
+        assert!((x_fov - 35.0).abs() < 1e-4, "{x_fov}");
     }
 
     /// What Mitsuba refuses, pir refuses, and what pir cannot render: each names the problem.

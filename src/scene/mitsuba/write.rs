@@ -69,8 +69,9 @@ pub fn write(scene: &Scene, out: &Path) -> Result<Vec<PathBuf>> {
     );
     let _ =
         writeln!(xml, "    <sensor type=\"{}\">", if c.lens.is_some() { "thinlens" } else { "perspective" });
-    let _ = writeln!(xml, "        <string name=\"fov_axis\" value=\"y\"/>");
-    let _ = writeln!(xml, "        <float name=\"fov\" value=\"{}\"/>", c.fov_deg);
+    // Along the camera's own axis, so that Mitsuba keeps it there at another film size too.
+    let _ = writeln!(xml, "        <string name=\"fov_axis\" value=\"{}\"/>", c.fov_axis.name());
+    let _ = writeln!(xml, "        <float name=\"fov\" value=\"{}\"/>", c.fov_along_axis());
     // A camera without clip planes gets Mitsuba's defaults (0.01 and 10⁴: Mitsuba needs some).
     if c.near_clip > 0.0 {
         let _ = writeln!(xml, "        <float name=\"near_clip\" value=\"{}\"/>", c.near_clip);
