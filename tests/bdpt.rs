@@ -211,6 +211,35 @@ fn near_specular_vertices_connect_nothing_and_the_image_is_the_path_tracers() {
     let (near, all) = on_near_specular(Counts::uniform(256.0));
     assert!(skipped == 0 && kept > 100, "{skipped} of {kept} VPLs on near-specular faces");
     assert!(near > all / 10, "without the rule only {near} of {all} VPLs on near-specular faces");
+    // The light paths' own counts (what they fold into their sums and give their VPLs): a
+    // VPL whose previous vertex was near-specular (the depth before it has no VPL; the cube
+    // has no delta face) counts its connection to it zero, one after a VPL does not. One
+    // light path per trace, so that the VPLs of a path are known.
+    let (mut after_near, mut after_vpl) = (0, 0);
+    job.with_context(&scene, |ctx| {
+        for iteration in 1..=400 {
+            let counts = Counts::uniform(1.0).skipping_near_specular();
+            let vpls = trace_light_paths(ctx, iteration, 1, counts, 4, None, false, None).vpls;
+            for (j, v) in vpls.iter().enumerate() {
+                let previous = j.checked_sub(1).map(|i| vpls[i].depth);
+                match v.depth {
+                    1 => assert_eq!(v.count_out, 1.0, "lit directly"),
+                    d if previous == Some(d - 1) => {
+                        assert!(v.count_out > 0.0, "after a VPL: {}", v.count_out);
+                        after_vpl += 1;
+                    }
+                    _ => {
+                        assert_eq!(v.count_out, 0.0, "after a near-specular vertex, depth {}", v.depth);
+                        after_near += 1;
+                    }
+                }
+            }
+        }
+    });
+    assert!(
+        after_near > 20 && after_vpl > 20,
+        "{after_near} VPLs after near-specular vertices, {after_vpl} after VPLs"
+    );
 }
 
 /// With vertex merging in a cube whose face in view is a mirror (and two more faces a mirror

@@ -74,8 +74,9 @@ impl Scene {
         ]);
         // The axis the field of view is kept along at another resolution, only where it is
         // not the vertical one (the TOML format's camera's), as the clip planes and the lens.
+        // (With it, the film's own size decides the field of view at another resolution.)
         if c.fov_axis != super::FovAxis::Y {
-            h.bytes(format!("fov_axis {}", c.fov_axis.name()).as_bytes());
+            h.bytes(format!("fov_axis {} {}x{}", c.fov_axis.name(), c.width, c.height).as_bytes());
         }
         // The clip planes and the lens only where there are some (the TOML format's camera
         // has neither), so that the other scenes keep their fingerprints.

@@ -21,7 +21,8 @@
 //!   emitter seen directly (k = 1) is the camera's alone: light tracing does not connect the
 //!   emitter's own point to the lens.
 //!
-//! A connection needs z_t and z_{t+1} non-delta, next-event estimation z_{k−1}, light tracing
+//! A connection needs z_t and z_{t+1} non-delta (and, in `pir-bdpt`, neither near-specular: its
+//! count is zero there, [`Counts::factor`]), next-event estimation z_{k−1}, light tracing
 //! z_1; the hit is always possible. Every technique reaches every path length up to `max_depth`, so the set
 //! of techniques is the same for every path of a given shape and the balance heuristic's
 //! weights p_t n_t / Σ_u p_u n_u (n_u for a connection as [`Counts`] says from its two

@@ -130,7 +130,7 @@ pub fn glossy_vertex(b: &Bsdf) -> bool {
 /// Measured (`docs/results.md`, "No connections at near-specular vertices"): with the
 /// threshold at 0.01 or 0.03, Bitterli's Cornell box behind a rough glass wall (α 0.001)
 /// gains 2.0–2.2× in efficiency and Veach's MIS scene (plates of α 0.01 to 0.25) 1.08–1.18×;
-/// at 0.06 the plate of α 0.05 is left to BSDF sampling too and veach-mis loses 1.3–1.4×,
+/// at 0.06 the plate of α 0.05 is left to BSDF sampling too and veach-mis loses 1.3–1.5× against 0.01–0.03,
 /// its connections there being worth their cost. 0.02 lies between.
 pub const NEAR_SPECULAR_ALPHA: f32 = 0.02;
 

@@ -24,7 +24,8 @@ pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 /// iteration's light paths, the gather, the connection's two ends and how often next-event
 /// estimation finds the emitters unoccluded.
 ///
-/// Any positive counts keep the weights of every path summing to one, as long as both
+/// Any non-negative counts keep the weights of every path summing to one (a zero count: a
+/// technique not used, whose connections are not made), as long as both
 /// subpaths use the same count for the same connection (the running sums carry each
 /// connection's factor from where it is folded in). The counts only balance the techniques:
 /// - **The exhaustive gather** makes N connections per vertex, N samples of the technique:

@@ -2,8 +2,8 @@
 //! (`pir convert`): the triangles of each material as a binary PLY beside the XML (world
 //! space, with their shading normals where every vertex has one, else `face_normals`), the
 //! analytic spheres as `sphere` shapes placed by a `to_world` matrix, the
-//! camera as a `perspective` sensor (a `thinlens` one where it has a lens) with a `lookat`, a
-//! vertical field of view and its clip planes (Mitsuba's defaults where it has none), a
+//! camera as a `perspective` sensor (a `thinlens` one where it has a lens) with a `lookat`, the
+//! field of view along its axis (vertical for the TOML format's camera) and its clip planes (Mitsuba's defaults where it has none), a
 //! box-filtered `hdrfilm`, the `path` integrator with the scene's `max_depth`, and each
 //! material as Mitsuba's equivalent:
 //!
