@@ -140,18 +140,24 @@ fn mixed_cube() -> Scene {
     })
 }
 
-#[test]
-fn bidirectional_weights_match_the_path_tracer_with_mirror_and_glass() {
-    let scene = mixed_cube();
-    let job = Job { iterations: 64, max_depth: 6, ..Job::default() };
-    let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
+/// `ir-bdpt` with the resampled gather and every rule of which vertices connect, `job`'s
+/// iterations each, agrees with the path tracer (256 iterations at another seed) on
+/// `scene`, named `name` in the messages.
+fn agrees_with_the_path_tracer_for_every_connect(scene: &Scene, job: &Job, name: &str) {
+    let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(scene, &mut PathTracer);
     for connect in CONNECT {
         let gather = Gather::Resampled { candidates: 32, samples: 4 };
-        let r = job.run(&scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather));
+        let r = job.run(scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather));
         let (m, p, z) = z_between(&r, &pt);
-        eprintln!("mirror and glass cube, {connect:?}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
-        assert!(z.abs() < Z, "{connect:?}: z = {z:.2}");
+        eprintln!("{name}, {connect:?}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
+        assert!(z.abs() < Z, "{name}, {connect:?}: z = {z:.2}");
     }
+}
+
+#[test]
+fn bidirectional_weights_match_the_path_tracer_with_mirror_and_glass() {
+    let job = Job { iterations: 64, max_depth: 6, ..Job::default() };
+    agrees_with_the_path_tracer_for_every_connect(&mixed_cube(), &job, "mirror and glass cube");
 }
 
 /// A near-specular metal (a glossy lobe without albedo, α 0.01) and a pane of near-specular
@@ -192,14 +198,7 @@ fn near_specular_vertices_connect_nothing_and_the_image_is_the_path_tracers() {
         _ => 0,
     });
     let job = Job { iterations: 64, max_depth: 5, ..Job::default() };
-    let pt = Job { iterations: 256, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
-    for connect in CONNECT {
-        let gather = Gather::Resampled { candidates: 32, samples: 4 };
-        let r = job.run(&scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather));
-        let (m, p, z) = z_between(&r, &pt);
-        eprintln!("near-specular cube, {connect:?}: ir-bdpt {m:.5}, pt {p:.5} (z {z:+.2})");
-        assert!(z.abs() < Z, "{connect:?}: z = {z:.2}");
-    }
+    agrees_with_the_path_tracer_for_every_connect(&scene, &job, "near-specular cube");
     let on_near_specular = |counts: Counts| {
         job.with_context(&scene, |ctx| {
             let traced = trace_light_paths(ctx, 1, 256, counts, 3, None, false, None);
