@@ -380,3 +380,24 @@ fn interrupt_writes_the_image_and_exits_zero() {
         assert_eq!(files_in(dir.path()), vec!["i.exr", "i.png"]);
     }
 }
+
+/// `pir-bdpt`'s summary names the materials where it connects nothing (near-specular), and
+/// only where there are some; other methods print no such line.
+#[test]
+fn the_summary_names_the_near_specular_materials() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let near = root.join("tests/data/near-specular.toml");
+    let run = |scene: &Path, method: &str| {
+        let s = scene.to_string_lossy();
+        let args =
+            ["render", &s, "--method", method, "--spp", "1", "--resolution", "16", "16", "--no-preview"];
+        let o = pir(&args, dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o).lines().find(|l| l.contains("near-specular materials")).map(str::to_string)
+    };
+    let line = run(&near, "pir-bdpt").expect("pir-bdpt names the near-specular materials");
+    assert!(line.contains("sphere") && line.contains("shortBox") && !line.contains("floor"), "{line}");
+    assert_eq!(run(&near, "pt"), None);
+    assert_eq!(run(&scene(), "pir-bdpt"), None);
+}

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use pir::accel::{Backend, embree_status};
 use pir::image::RgbImage;
 use pir::integrator::MethodConfig;
+use pir::integrator::many_light::config::{NEAR_SPECULAR_ALPHA, near_specular};
 use pir::render::memory;
 use pir::render::state::{Job, Shard, read_state};
 use pir::render::{Budget, Control, Film, RenderStats, Renderer, SceneOptions, check_resolution};
@@ -335,6 +336,22 @@ fn print_summary(
         eprintln!(
             "pir: --connect {c}: the emitters light {percent} of the points the camera sees (glossy below 50 %)"
         );
+    }
+    // (`pir-bdpt` reports its rule of connections; the materials it connects nowhere.)
+    if param("connect").is_some() {
+        let near: Vec<&str> = renderer
+            .scene()
+            .materials()
+            .iter()
+            .filter(|m| near_specular(&m.mean_bsdf()))
+            .map(|m| m.name.as_str())
+            .collect();
+        if !near.is_empty() {
+            eprintln!(
+                "pir: near-specular materials (every lobe a microfacet of α ≤ {NEAR_SPECULAR_ALPHA}), where no connection is made and no VPL left: {}",
+                near.join(", ")
+            );
+        }
     }
     if let Some(v) = param("vpl-acceptance") {
         let percent = v.parse::<f64>().map_or(v.clone(), |v| format!("{:.0} %", 100.0 * v));
