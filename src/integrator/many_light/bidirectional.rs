@@ -646,6 +646,12 @@ mod tests {
         w
     }
 
+    /// The sum of a path's weights where every one is finite (`None` where a density
+    /// overflowed, which the weights' callers never see: such paths are not checked).
+    fn finite_sum(w: &[Option<f32>]) -> Option<f32> {
+        w.iter().flatten().all(|w| w.is_finite()).then(|| w.iter().flatten().sum())
+    }
+
     fn random_path(s: &mut Sampler, k: usize, delta_at: Option<usize>) -> Vec<Node> {
         let mut pts: Vec<Vec3> =
             (0..=k).map(|_| Vec3::new(s.next_f32(), s.next_f32(), s.next_f32()) * 4.0).collect();
@@ -872,8 +878,7 @@ mod tests {
                     for pdf_nee in [0.37, 0.05, 4.0] {
                         let source = Source::Area { pdf_area: 0.37, pdf_nee };
                         let w = weights_from(&z, source, counts, connect, light_samples);
-                        let sum: f32 = w.iter().flatten().sum();
-                        if w.iter().flatten().all(|w| w.is_finite()) {
+                        if let Some(sum) = finite_sum(&w) {
                             assert!(
                                 (sum - 1.0).abs() < 2e-3,
                                 "k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}, next-event density {pdf_nee}: weights {w:?} sum to {sum}"
@@ -944,10 +949,7 @@ mod tests {
                     for pdf_nee in [0.37, 4.0] {
                         let source = Source::Area { pdf_area: 0.37, pdf_nee };
                         let w = weights_from(&z, source, counts, connect, light_samples);
-                        if !w.iter().flatten().all(|w| w.is_finite()) {
-                            continue;
-                        }
-                        let sum: f32 = w.iter().flatten().sum();
+                        let Some(sum) = finite_sum(&w) else { continue };
                         assert!(
                             (sum - 1.0).abs() < 2e-3,
                             "k {k}, near-specular at {first}, {connect:?}, {counts:?}: weights {w:?} sum to {sum}"
@@ -963,8 +965,7 @@ mod tests {
                     // connections among them.
                     let all = Counts { skip_near_specular: false, ..counts };
                     let w = weights_from(&z, Source::Area { pdf_area: 0.37, pdf_nee: 0.37 }, all, connect, 1);
-                    if w.iter().flatten().all(|w| w.is_finite()) {
-                        let sum: f32 = w.iter().flatten().sum();
+                    if let Some(sum) = finite_sum(&w) {
                         assert!((sum - 1.0).abs() < 2e-3, "without the skip: {w:?} sum to {sum}");
                         without += 1;
                     }
@@ -1002,10 +1003,7 @@ mod tests {
                         Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false },
                     ] {
                         let w = weights_from(&z, source, counts, connect, light_samples);
-                        if !w.iter().flatten().all(|w| w.is_finite()) {
-                            continue;
-                        }
-                        let sum: f32 = w.iter().flatten().sum();
+                        let Some(sum) = finite_sum(&w) else { continue };
                         assert!(
                             (sum - 1.0).abs() < 2e-3,
                             "{source:?}, k {k}, delta at {delta_at:?}, {connect:?}, {light_samples} light samples, {counts:?}: weights {w:?} sum to {sum}"

@@ -93,6 +93,8 @@ pub struct Acceptance {
     target: f64,
     /// The pilot's mean probability of keeping a VPL.
     pub mean: f32,
+    /// The bound on G of the estimates ([`estimate`]), the scene's default clamp.
+    bound: f32,
 }
 
 impl Acceptance {
@@ -127,6 +129,7 @@ impl Acceptance {
             return None;
         }
         let (vpls, rays) = trace_pilot_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, max_vpl_depth);
+        let bound = Clamping::default_bound(ctx.scene.bounds().diagonal());
         counters.pilot_rays += rays;
         let mut queries = Counters::default();
         let estimates: Vec<f64> = vpls
@@ -134,7 +137,7 @@ impl Acceptance {
             .enumerate()
             .map(|(j, v)| {
                 let mut sampler = Sampler::new(ctx.seed, PILOT_ITERATION, Domain::Acceptance, j as u64);
-                estimate(ctx, &view, v, &mut sampler, &mut queries) * PILOT_PATHS as f64
+                estimate(ctx, &view, v, bound, &mut sampler, &mut queries) * PILOT_PATHS as f64
             })
             .collect();
         counters.pilot_rays += queries.shadow_rays;
@@ -148,7 +151,7 @@ impl Acceptance {
         if mean >= WORTH_IT {
             return None;
         }
-        Some((Acceptance { view, target, mean }, (1.0 / mean).min(MAX_MORE_PATHS)))
+        Some((Acceptance { view, target, mean, bound }, (1.0 / mean).min(MAX_MORE_PATHS)))
     }
 
     /// Keeps each of `vpls[from..]` (the VPLs of path `path` of `iteration`, one of `paths`)
@@ -174,7 +177,7 @@ impl Acceptance {
         for i in from..vpls.len() {
             let mut v = vpls[i];
             let q = probability(
-                estimate(ctx, &self.view, &v, &mut sampler, counters) * paths as f64,
+                estimate(ctx, &self.view, &v, self.bound, &mut sampler, counters) * paths as f64,
                 self.target,
             );
             if sampler.next_f32() < q {
@@ -196,7 +199,7 @@ fn probability(per_path: f64, target: f64) -> f32 {
 
 /// An estimate of the VPL's contribution to the points of `view` (their sum): the
 /// contributions to [`POINTS_PER_VPL`] points drawn uniformly, each with its shadow ray, times
-/// the points over the draws. G is bounded at the default clamp's b (100 / diagonal², two
+/// the points over the draws. G is bounded at `bound`, the default clamp's b (100 / diagonal², two
 /// facing surfaces a tenth of the scene apart), so that a VPL beside a camera point (or in a
 /// crease) neither decides the pilot's mean alone nor makes it infinite; this only shapes the
 /// probabilities, not what a kept VPL adds. Draws [`POINTS_PER_VPL`] numbers from `sampler`.
@@ -204,12 +207,12 @@ fn estimate(
     ctx: &RenderContext,
     view: &View,
     vpl: &Vpl,
+    bound: f32,
     sampler: &mut Sampler,
     counters: &mut Counters,
 ) -> f64 {
     let fp = PreparedBsdf::new(vpl.bsdf(ctx.scene), vpl.geometry(), vpl.w_in, TransportMode::Importance);
     let n = view.points.len();
-    let bound = Clamping::default_bound(ctx.scene.bounds().diagonal());
     let mut sum = 0.0f64;
     for _ in 0..POINTS_PER_VPL {
         let j = ((sampler.next_f32() * n as f32) as usize).min(n - 1);

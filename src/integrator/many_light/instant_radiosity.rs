@@ -225,12 +225,10 @@ impl Integrator for InstantRadiosity {
         // A VPL of s segments serves a camera vertex of d ≥ 1 segments when d + 1 + s ≤ max_depth.
         let max_vpl_depth = ctx.max_depth.saturating_sub(2);
         let visibility = self.pilot.map_or(1.0, |p| p.visibility);
-        let counts = match self.lights {
-            VirtualLights::Bidirectional(..) => {
-                Counts::new(self.paths, self.gather, visibility).skipping_near_specular()
-            }
-            _ => Counts::new(self.paths, self.gather, visibility),
-        };
+        let counts = Counts::new(self.paths, self.gather, visibility);
+        // (`pir-bdpt` makes no connection at a near-specular vertex; the thesis' methods do.)
+        let bidirectional = matches!(self.lights, VirtualLights::Bidirectional(..));
+        let counts = if bidirectional { counts.skipping_near_specular() } else { counts };
         let to_camera = match (self.lights, self.camera) {
             (VirtualLights::Bidirectional(_, connect), Some(camera)) => {
                 Some(ToCamera { camera, connect, light_samples: self.light_samples, weighed: true })
