@@ -20,3 +20,4 @@ pub mod sampling;
 pub mod scene;
 pub mod study;
 pub mod texture;
+pub mod wide;

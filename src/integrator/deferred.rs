@@ -143,11 +143,7 @@ impl Terms for Deferred {
         radiance: &mut Vec3,
     ) {
         let (shadow, value) = self.connect(c, weight);
-        if shadow == NO_SHADOW && !self.waiting {
-            *radiance += beta * value;
-        } else {
-            self.keep(Term { path: self.path, shadow, op: Op::Add, beta, value });
-        }
+        self.place(beta, shadow, value, radiance);
     }
 
     #[inline(always)]
@@ -178,6 +174,38 @@ impl Deferred {
     pub(crate) fn at(&mut self, path: u32) {
         self.path = path;
         self.waiting = false;
+    }
+
+    /// A light sample computed elsewhere (`pt`'s Lambertian lanes,
+    /// [`super::diffuse_lanes`]): what [`Terms::sample`] does with a connection whose
+    /// segment is `shadow` (`None`: it connects to nothing) and whose value is `value`.
+    #[inline(always)]
+    pub(crate) fn sample_connected(
+        &mut self,
+        beta: Vec3,
+        shadow: Option<Ray>,
+        value: Vec3,
+        radiance: &mut Vec3,
+    ) {
+        let shadow = match shadow {
+            None => NO_SHADOW,
+            Some(ray) => {
+                self.shadows.push(ray);
+                (self.shadows.len() - 1) as u32
+            }
+        };
+        self.place(beta, shadow, value, radiance);
+    }
+
+    /// A light sample's term, added at once where it needs no shadow ray and no term of the
+    /// path waits; else kept.
+    #[inline(always)]
+    fn place(&mut self, beta: Vec3, shadow: u32, value: Vec3, radiance: &mut Vec3) {
+        if shadow == NO_SHADOW && !self.waiting {
+            *radiance += beta * value;
+        } else {
+            self.keep(Term { path: self.path, shadow, op: Op::Add, beta, value });
+        }
     }
 
     #[inline(always)]

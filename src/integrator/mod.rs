@@ -25,6 +25,7 @@
 //!   public builders of the modules above; none of them imports it.
 
 pub mod deferred;
+pub mod diffuse_lanes;
 pub mod direct;
 pub mod many_light;
 pub mod methods;

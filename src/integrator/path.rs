@@ -22,6 +22,7 @@ pub struct PathTracer;
 /// method adds to them is its own.
 impl Estimator for PathTracer {
     const COVERS_SURFACES: bool = false;
+    const PT_VERTICES: bool = true;
     type State = ();
 
     #[inline(always)]

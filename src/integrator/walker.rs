@@ -84,6 +84,14 @@ pub trait Estimator {
     /// vertices (and to pick up emission).
     const COVERS_SURFACES: bool;
 
+    /// Whether the method's terms at a vertex are exactly `pt`'s (one light sample by
+    /// [`connect_emitters_at`](super::direct::connect_emitters_at), weighed against BSDF
+    /// sampling by the power heuristic, given to [`Terms::sample`]), its
+    /// [`Estimator::on_scatter`] does nothing and it does not cover surfaces: then the
+    /// batched walker shades its Lambertian vertices sixteen at a time
+    /// ([`super::diffuse_lanes`]) where the emitters are triangles only.
+    const PT_VERTICES: bool = false;
+
     /// What the method keeps along one camera path.
     type State: Default;
 
@@ -179,14 +187,14 @@ pub(super) struct Path<S> {
     /// The ray to trace next.
     pub ray: Ray,
     pub radiance: Vec3,
-    beta: Vec3,
-    eta_scale: f32,
+    pub beta: Vec3,
+    pub eta_scale: f32,
     /// How `ray` was sampled: delta lobes (and the camera) get full emission.
-    how: Sampled,
+    pub how: Sampled,
     /// `ray` left a non-delta vertex whose estimate covers the surfaces beyond it.
-    covered: bool,
+    pub covered: bool,
     /// Segments from the camera to the vertex `ray` left.
-    depth: u32,
+    pub depth: u32,
     /// The estimator's bookkeeping.
     state: S,
 }
@@ -231,7 +239,7 @@ pub fn walk<E: Estimator>(
 /// One step of the walk, the loop body of both walkers ([`walk`] and
 /// [`super::wavefront::walk_batch`]): the path's ray found `hit` (`None`: it left the scene);
 /// the estimator's terms at the vertex go to `terms`. Whether the path goes on (its next ray
-/// in `path.ray`).
+/// in `path.ray`). [`arrive`], then [`leave`].
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn step<E: Estimator>(
@@ -243,14 +251,43 @@ pub(super) fn step<E: Estimator>(
     counters: &mut Counters,
     terms: &mut impl Terms,
 ) -> bool {
+    match arrive(ctx, estimator, path, hit, sampler, counters) {
+        Arrived::Done(goes_on) => goes_on,
+        Arrived::At(sp, wo, material) => {
+            let bsdf = &material.bsdf_at(sp.uv);
+            leave(ctx, estimator, path, &sp, wo, bsdf, sampler, counters, terms)
+        }
+    }
+}
+
+/// What [`arrive`] leaves to the rest of the step.
+pub(super) enum Arrived<'a> {
+    /// The step is over: whether the path goes on.
+    Done(bool),
+    /// A vertex below `max_depth` (`path.depth` counts it), its emission added: the surface
+    /// point, the unit direction back along the path and the material.
+    At(SurfacePoint, Vec3, &'a Material),
+}
+
+/// The first part of [`step`]: where the path's ray arrives, its emission (or the
+/// environment's), the end of a covered walk, the depth count.
+#[inline(always)]
+pub(super) fn arrive<'a, E: Estimator>(
+    ctx: &RenderContext<'a>,
+    estimator: &E,
+    path: &mut Path<E::State>,
+    hit: Option<Hit>,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+) -> Arrived<'a> {
     let Some(hit) = hit else {
         if !ctx.emitters.environments().is_empty() {
             estimator.on_escape(&mut path.state, ctx, &path.ray, &path.how, path.beta, &mut path.radiance);
         }
-        return false;
+        return Arrived::Done(false);
     };
     if E::COVERS_SURFACES && path.covered && !ctx.scene.material_of(hit.prim).bsdf.is_delta() {
-        return covered_end(ctx, estimator, path, &hit, sampler, counters);
+        return Arrived::Done(covered_end(ctx, estimator, path, &hit, sampler, counters));
     }
     path.depth += 1;
     let depth = path.depth;
@@ -262,33 +299,64 @@ pub(super) fn step<E: Estimator>(
     let at = Arrival { sp: &sp, wo, material, depth, how: &path.how };
     estimator.on_hit(&mut path.state, ctx, &at, path.beta, &mut path.radiance);
     if depth >= ctx.max_depth {
-        return false;
+        return Arrived::Done(false);
     }
+    Arrived::At(sp, wo, material)
+}
 
+/// The rest of [`step`] at the vertex `sp` of BSDF `bsdf` that [`arrive`] found: the
+/// estimator's terms, BSDF sampling, Russian roulette. Whether the path goes on.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn leave<E: Estimator>(
+    ctx: &RenderContext,
+    estimator: &E,
+    path: &mut Path<E::State>,
+    sp: &SurfacePoint,
+    wo: Vec3,
+    bsdf: &Bsdf,
+    sampler: &mut Sampler,
+    counters: &mut Counters,
+    terms: &mut impl Terms,
+) -> bool {
     // ---- Light sampling and the method's techniques (one more segment at least, so
     // depth + 1 ≤ max_depth).
-    let bsdf = &material.bsdf_at(sp.uv);
-    let v = Vertex { sp: &sp, wo, bsdf, depth };
+    let depth = path.depth;
+    let v = Vertex { sp, wo, bsdf, depth };
     if !bsdf.is_delta() {
         let (state, radiance) = (&mut path.state, &mut path.radiance);
         estimator.at_vertex(state, ctx, &v, path.beta, radiance, sampler, counters, terms);
     }
 
     // ---- BSDF sampling: the MIS half of direct light, a delta bounce, or a full bounce.
-    let Some(s) = scatter(bsdf, &sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
+    let Some(s) = scatter(bsdf, sp, wo, TransportMode::Radiance, sampler, &mut path.beta) else {
         return false;
     };
     path.eta_scale *= s.eta * s.eta;
     estimator.on_scatter(&mut path.state, &v, &s);
     path.how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
     path.covered = !s.delta;
+    roulette_and_go_on::<E>(ctx, path, offset_origin(sp.p, sp.ng, s.wi), s.wi, sampler)
+}
+
+/// The end of [`leave`] once the BSDF sample `wi` was taken and the throughput updated:
+/// Russian roulette (not on covered walks), then the next ray, from `origin` (the vertex
+/// moved off its surface on `wi`'s side). Whether the path goes on.
+#[inline(always)]
+pub(super) fn roulette_and_go_on<E: Estimator>(
+    ctx: &RenderContext,
+    path: &mut Path<E::State>,
+    origin: Vec3,
+    wi: Vec3,
+    sampler: &mut Sampler,
+) -> bool {
     if !E::COVERS_SURFACES
-        && depth >= ctx.scene.defaults().rr_depth
+        && path.depth >= ctx.scene.defaults().rr_depth
         && !survives_roulette(path.beta.max_element() * path.eta_scale, &mut path.beta, sampler)
     {
         return false;
     }
-    path.ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
+    path.ray = Ray::new(origin, wi);
     true
 }
 

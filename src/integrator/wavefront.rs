@@ -48,10 +48,13 @@ use glam::Vec3;
 use multiversion::multiversion;
 
 use super::deferred::Deferred;
-use super::walker::{Estimator, Path, step};
+use super::diffuse_lanes::Lanes;
+use super::direct::Sampled;
+use super::walker::{Arrived, Estimator, Path, arrive, leave, roulette_and_go_on};
 use super::{Counters, FilmSplat, Integrator, RenderContext};
 use crate::accel::Hit;
 use crate::geometry::Ray;
+use crate::material::Bsdf;
 use crate::sampling::Sampler;
 use crate::scene::CameraRays;
 
@@ -60,9 +63,13 @@ use crate::scene::CameraRays;
 struct Buffers {
     /// Indices of the live paths, in the batch's order.
     live: Vec<u32>,
+    /// Whether each live path goes on after this bounce.
+    goes_on: Vec<bool>,
     rays: Vec<Ray>,
     hits: Vec<Option<Hit>>,
     deferred: Deferred,
+    /// The bounce's Lambertian vertices, where they are shaded in lanes.
+    lanes: Lanes,
 }
 
 /// The radiance that `estimator` estimates along each camera ray of `rays` (unit directions)
@@ -83,6 +90,8 @@ pub fn walk_batch<E: Estimator>(
     assert!(rays.len() == samplers.len() && rays.len() == out.len());
     let mut paths: Vec<Path<E::State>> = rays.iter().map(|&ray| Path::start(estimator, ray)).collect();
     let mut b = Buffers { live: (0..rays.len() as u32).collect(), ..Buffers::default() };
+    // `pt`'s Lambertian vertices in lanes ([`Lanes`]).
+    let in_lanes = E::PT_VERTICES && ctx.emitters.is_plain();
     while !b.live.is_empty() {
         b.rays.clear();
         b.rays.extend(b.live.iter().map(|&i| paths[i as usize].ray));
@@ -91,14 +100,56 @@ pub fn walk_batch<E: Estimator>(
         counters.rays += b.rays.len() as u64;
         ctx.accel.intersect_batch(&b.rays, &mut b.hits);
 
+        b.goes_on.clear();
+        b.goes_on.resize(b.live.len(), false);
+        b.lanes.clear();
+        for k in 0..b.live.len() {
+            let i = b.live[k] as usize;
+            let (path, sampler) = (&mut paths[i], &mut samplers[i]);
+            // (The light samples of the vertex's terms are kept in `deferred`, not tested.)
+            b.deferred.at(i as u32);
+            b.goes_on[k] = match arrive(ctx, estimator, path, b.hits[k], sampler, counters) {
+                Arrived::Done(goes_on) => goes_on,
+                Arrived::At(sp, wo, material) => match material.bsdf_at(sp.uv) {
+                    Bsdf::Diffuse { albedo } if in_lanes => {
+                        // `pt`'s draws at the vertex, in its order: the light sample's three
+                        // numbers (and its emitter point), then the BSDF sample's three.
+                        let u_select = sampler.next_f32();
+                        let u = sampler.next_2d();
+                        let es = ctx.emitters.sample(ctx.scene, u_select, u);
+                        let _u_lobe = sampler.next_f32();
+                        let u = sampler.next_2d();
+                        b.lanes.push(k as u32, &sp, wo, albedo, path.beta, &es, u);
+                        false // (decided below)
+                    }
+                    bsdf => leave(ctx, estimator, path, &sp, wo, &bsdf, sampler, counters, &mut b.deferred),
+                },
+            };
+        }
+        if !b.lanes.is_empty() {
+            b.lanes.shade();
+            for j in 0..b.lanes.len() {
+                let k = b.lanes.path(j) as usize;
+                let i = b.live[k] as usize;
+                let (path, sampler) = (&mut paths[i], &mut samplers[i]);
+                // What `leave` does after `pt`'s terms at the vertex: its light sample, then
+                // the BSDF sample (η = 1: `eta_scale` stays), roulette, the next ray.
+                b.deferred.at(i as u32);
+                let light = b.lanes.light_sample(j);
+                counters.shadow_rays += u64::from(light.shadow.is_some());
+                b.deferred.sample_connected(b.lanes.beta(j), light.shadow, light.value, &mut path.radiance);
+                b.goes_on[k] = b.lanes.scattered(j).is_some_and(|s| {
+                    path.beta = s.beta;
+                    path.how = Sampled { from: b.lanes.point(j), pdf: s.pdf, delta: false };
+                    path.covered = true;
+                    roulette_and_go_on::<E>(ctx, path, s.origin, s.wi, sampler)
+                });
+            }
+        }
         let mut kept = 0;
         for k in 0..b.live.len() {
-            let i = b.live[k];
-            let (path, sampler) = (&mut paths[i as usize], &mut samplers[i as usize]);
-            // (The light samples of the vertex's terms are kept in `deferred`, not tested.)
-            b.deferred.at(i);
-            if step(ctx, estimator, path, b.hits[k], sampler, counters, &mut b.deferred) {
-                b.live[kept] = i;
+            if b.goes_on[k] {
+                b.live[kept] = b.live[k];
                 kept += 1;
             }
         }
