@@ -101,11 +101,13 @@ impl Shaded {
 }
 
 /// The Lambertian vertices of one bounce of a batch, in the order the walker gave them;
-/// buffers kept across bounces.
+/// buffers kept across bounces and batches.
 #[derive(Default)]
 pub struct Lanes {
     /// The walker's index of each vertex's path.
     paths: Vec<u32>,
+    /// The chunks of vertices; those past the current bounce's are left from earlier ones
+    /// (so that a chunk is initialised once, when the buffer grows).
     vertices: Vec<Vertices>,
     shaded: Vec<Shaded>,
 }
@@ -133,8 +135,12 @@ impl Lanes {
     /// No vertices.
     pub fn clear(&mut self) {
         self.paths.clear();
-        self.vertices.clear();
-        self.shaded.clear();
+    }
+
+    /// The chunks holding the vertices pushed.
+    #[inline(always)]
+    fn chunks(&self) -> usize {
+        self.paths.len().div_ceil(W)
     }
 
     pub fn len(&self) -> usize {
@@ -167,11 +173,11 @@ impl Lanes {
         u: Vec2,
     ) {
         let k = self.paths.len();
-        if k.is_multiple_of(W) {
+        if k == self.vertices.len() * W {
             self.vertices.push(Vertices::ZERO);
         }
         self.paths.push(path);
-        let (v, i) = (self.vertices.last_mut().expect("a chunk was pushed"), k % W);
+        let (v, i) = (&mut self.vertices[k / W], k % W);
         v.p.set(i, sp.p);
         v.ng.set(i, sp.ng);
         v.s.set(i, sp.frame.s);
@@ -188,12 +194,15 @@ impl Lanes {
         v.uy.0[i] = u.y;
     }
 
-    /// Shades every vertex pushed (the lanes past the last vertex compute on zeros, unused).
+    /// Shades every vertex pushed (the lanes past the last vertex compute on what an earlier
+    /// bounce left there, unused).
     #[inline(always)]
     pub fn shade(&mut self) {
-        self.shaded.clear();
-        self.shaded.resize(self.vertices.len(), Shaded::ZERO);
-        for (v, out) in self.vertices.iter().zip(&mut self.shaded) {
+        let n = self.chunks();
+        if self.shaded.len() < n {
+            self.shaded.resize(n, Shaded::ZERO);
+        }
+        for (v, out) in self.vertices[..n].iter().zip(&mut self.shaded[..n]) {
             *out = shade(v);
         }
     }

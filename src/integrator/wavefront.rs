@@ -89,7 +89,30 @@ pub fn walk_batch<E: Estimator>(
 ) {
     assert!(rays.len() == samplers.len() && rays.len() == out.len());
     let mut paths: Vec<Path<E::State>> = rays.iter().map(|&ray| Path::start(estimator, ray)).collect();
-    let mut b = Buffers { live: (0..rays.len() as u32).collect(), ..Buffers::default() };
+    // The thread's buffers, kept from batch to batch: allocated, and their lanes
+    // initialised, once per thread.
+    BUFFERS.with_borrow_mut(|b| walk_paths(ctx, estimator, &mut paths, samplers, counters, b));
+    for (o, p) in out.iter_mut().zip(&paths) {
+        *o = p.radiance;
+    }
+}
+
+thread_local! {
+    static BUFFERS: std::cell::RefCell<Buffers> = std::cell::RefCell::default();
+}
+
+/// [`walk_batch`]'s paths, bounce by bounce, until all have ended.
+#[inline(always)]
+fn walk_paths<E: Estimator>(
+    ctx: &RenderContext,
+    estimator: &E,
+    paths: &mut [Path<E::State>],
+    samplers: &mut [Sampler],
+    counters: &mut Counters,
+    b: &mut Buffers,
+) {
+    b.live.clear();
+    b.live.extend(0..paths.len() as u32);
     // `pt`'s Lambertian vertices in lanes ([`Lanes`]).
     let in_lanes = E::PT_VERTICES && ctx.emitters.is_plain();
     while !b.live.is_empty() {
@@ -156,9 +179,6 @@ pub fn walk_batch<E: Estimator>(
         b.live.truncate(kept);
 
         b.deferred.finish(ctx, |i, term| paths[i as usize].radiance += term);
-    }
-    for (o, p) in out.iter_mut().zip(&paths) {
-        *o = p.radiance;
     }
 }
 
