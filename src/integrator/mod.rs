@@ -16,6 +16,8 @@
 //! - `path.rs`: `pt`, whose estimator is next-event estimation and BSDF sampling under MIS;
 //! - [`wavefront`]: the batched walker, many camera paths bounce by bounce with batched
 //!   queries, for every method's estimator, the same estimates as the scalar walker's;
+//! - [`diffuse_lanes`]: `pt`'s Lambertian vertices in the batched walker, sixteen at a time
+//!   in structure-of-arrays lanes ([`crate::wide`]), the scalar code's numbers bit for bit;
 //! - [`deferred`]: where an estimator puts its light samples, tested at once (the scalar
 //!   walker) or parked until the batched walker traces their shadow rays together;
 //! - [`many_light`]: the VPL methods, whose estimators add the gather from the virtual lights;

@@ -24,6 +24,15 @@
 //! samples of the Cornell and mirror-and-glass boxes). The scalar walker stays the reference
 //! (`--walker scalar`).
 //!
+//! **`pt`'s Lambertian vertices in lanes.** Where the estimator's vertex terms are `pt`'s
+//! ([`Estimator::PT_VERTICES`]) and the emitters are triangles, a bounce's Lambertian
+//! vertices are not shaded one by one: each draws its numbers and picks its emitter point
+//! in the loop, in the scalar order, and [`Lanes`](super::diffuse_lanes::Lanes) computes
+//! their light samples and BSDF samples sixteen at a time, structure of arrays, the same
+//! numbers bit for bit; then each path takes its results in the loop's order (its light
+//! sample's term, the throughput, roulette, the next ray). Between the two halves of the
+//! scalar step ([`super::walker::arrive`], [`super::walker::leave`]).
+//!
 //! What an estimator traces inside its own terms (`pir-bdpt`'s gather from the virtual
 //! lights, with its shadow rays batched per vertex; a sphere light's cone sample) is traced
 //! where the scalar walker traces it.
