@@ -174,7 +174,7 @@ impl Estimator for Bidirectional<'_> {
     /// estimation at the vertex the ray left and every connection that makes the path; found
     /// by the camera ray, the camera's alone (light tracing does not connect an emitter's own
     /// point to the lens).
-    #[inline]
+    #[inline(always)]
     fn on_hit(
         &self,
         path: &mut CameraPath,
@@ -209,7 +209,7 @@ impl Estimator for Bidirectional<'_> {
 
     /// Next-event estimation (`light_samples` samples at the first vertex, their mean) and
     /// the connections to the VPLs.
-    #[inline]
+    #[inline(always)]
     fn at_vertex(
         &self,
         path: &mut CameraPath,
@@ -234,7 +234,7 @@ impl Estimator for Bidirectional<'_> {
     }
 
     /// The camera subpath's sums extended by the sampled direction.
-    #[inline]
+    #[inline(always)]
     fn on_scatter(&self, path: &mut CameraPath, v: &Vertex, s: &BsdfSample) {
         let (sp, wo, bsdf) = (&v.sp, v.wo, v.bsdf);
         let count_in = self.counts.between(path.previous.as_ref(), bsdf);
