@@ -10,7 +10,7 @@ mod vertex_buffer;
 
 pub use aabb::Aabb;
 pub use frame::Frame;
-pub use ray::{OffsetPoint, Ray, offset_epsilon, offset_origin};
+pub use ray::{OFFSET_SCALE, OffsetPoint, Ray, offset_epsilon, offset_origin};
 pub use sphere::{Sphere, octahedral_decode, octahedral_encode};
 pub use triangle::{TriangleHit, intersect_triangle};
 pub use vertex_buffer::VertexBuffer;

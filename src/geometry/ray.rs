@@ -40,6 +40,9 @@ impl Ray {
     }
 }
 
+/// [`offset_epsilon`]'s factor of `1 + max |p_i|`.
+pub const OFFSET_SCALE: f32 = 1500.0 * f32::EPSILON / 2.0;
+
 /// How far a surface point is moved off its surface: (1 + max |p|) · 1500 ε_f32, growing with
 /// the magnitude of the coordinates as float spacing does. It is Mitsuba 3's
 /// (`Interaction::offset_p`, `math::RayEpsilon`): on thin geometry the offset decides which
@@ -48,7 +51,7 @@ impl Ray {
 /// 0.01 % with this.
 #[inline]
 pub fn offset_epsilon(p: Vec3) -> f32 {
-    (1.0 + p.abs().max_element()) * (1500.0 * f32::EPSILON / 2.0)
+    (1.0 + p.abs().max_element()) * OFFSET_SCALE
 }
 
 /// Moves a surface point off its surface by [`offset_epsilon`], along the geometric normal

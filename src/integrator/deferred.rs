@@ -187,14 +187,27 @@ impl Deferred {
         value: Vec3,
         radiance: &mut Vec3,
     ) {
-        let shadow = match shadow {
+        let shadow = self.push_shadow(shadow);
+        self.place(beta, shadow, value, radiance);
+    }
+
+    /// Nothing kept (what a batch leaves behind is gone).
+    pub(crate) fn clear(&mut self) {
+        self.waiting = false;
+        self.terms.clear();
+        self.shadows.clear();
+    }
+
+    /// Keeps `shadow` for the batch's occlusion queries: its index, or [`NO_SHADOW`].
+    #[inline(always)]
+    fn push_shadow(&mut self, shadow: Option<Ray>) -> u32 {
+        match shadow {
             None => NO_SHADOW,
             Some(ray) => {
                 self.shadows.push(ray);
                 (self.shadows.len() - 1) as u32
             }
-        };
-        self.place(beta, shadow, value, radiance);
+        }
     }
 
     /// A light sample's term, added at once where it needs no shadow ray and no term of the
@@ -219,16 +232,7 @@ impl Deferred {
     fn connect(&mut self, c: Option<Connection>, weight: impl FnOnce(LightSample) -> f32) -> (u32, Vec3) {
         match c {
             None => (NO_SHADOW, Vec3::ZERO),
-            Some(c) => {
-                let shadow = match c.shadow {
-                    None => NO_SHADOW,
-                    Some(ray) => {
-                        self.shadows.push(ray);
-                        (self.shadows.len() - 1) as u32
-                    }
-                };
-                (shadow, c.value(weight))
-            }
+            Some(c) => (self.push_shadow(c.shadow), c.value(weight)),
         }
     }
 

@@ -20,7 +20,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use crate::geometry::Ray;
+use crate::geometry::{OFFSET_SCALE, Ray};
 use crate::light::EmitterSample;
 use crate::scene::SurfacePoint;
 use crate::wide::{F16, M16, V16, W};
@@ -246,11 +246,12 @@ impl Lanes {
 /// `offset_origin(p, ng, w)` of sixteen points.
 #[inline(always)]
 fn offset_origin(p: V16, ng: V16, w: V16) -> V16 {
-    let eps = (1.0 + p.abs().max_element()) * (1500.0 * f32::EPSILON / 2.0);
+    let eps = (1.0 + p.abs().max_element()) * OFFSET_SCALE;
     ng.dot(w).ge(F16::ZERO).select3(p + ng * eps, p - ng * eps)
 }
 
-/// `diffuse::eval_pdf_cos(albedo, cos_i).1`, the density, given `albedo.max_element()`.
+/// `diffuse::eval_pdf_cos(albedo, cos_i)` given `albedo.max_element()`: the factor cos θi / π
+/// of the value (`albedo` times it) and the density.
 #[inline(always)]
 fn diffuse_pdf(albedo_max: F16, cos_i: F16) -> (F16, F16) {
     let c = FRAC_1_PI * cos_i.max(F16::ZERO);
@@ -300,7 +301,8 @@ fn shade(v: &Vertices) -> Shaded {
     let mut connects = dist2.gt(F16::ZERO) & dist2.is_finite();
     let wi = d / dist2.sqrt();
     let cos_light = v.nq.dot(-wi);
-    connects = connects & cos_light.gt(F16::ZERO);
+    // (Not `cos_light > 0`: the scalar code returns where `cos_light <= 0`, so a NaN goes on.)
+    connects = connects & !F16::ZERO.ge(cos_light);
     // `PreparedBsdf::new` (active: both cosines of `wo` positive) and `eval_pdf`'s
     // `incident_cosines`.
     let wi_ng = wi.dot(v.ng);
@@ -356,14 +358,13 @@ fn shade(v: &Vertices) -> Shaded {
 mod tests {
     use super::*;
     use crate::geometry::{Frame, offset_origin as offset_origin_scalar};
-    use crate::integrator::direct::{power_heuristic, shadow_ray};
+    use crate::integrator::direct::{connect_point, power_heuristic};
     use crate::light::EmitterPoint;
-    use crate::material::{Bsdf, LocalGeometry, PreparedBsdf, TransportMode};
+    use crate::material::{Bsdf, TransportMode};
     use crate::sampling::{Domain, Sampler, cosine_hemisphere as cosine_scalar};
 
-    /// The scalar code's light sample and BSDF sample at a Lambertian vertex: the body of
-    /// `connect_emitters_at` after its emitter point, with the power heuristic, and the
-    /// walker's `scatter`.
+    /// The scalar code's light sample and BSDF sample at a Lambertian vertex: the walker's
+    /// `connect_point` with `pt`'s power heuristic, and its `scatter`.
     fn scalar(
         sp: &SurfacePoint,
         wo: Vec3,
@@ -373,28 +374,14 @@ mod tests {
         u: Vec2,
     ) -> (LightSample, Option<Scattered>) {
         let bsdf = Bsdf::Diffuse { albedo };
-        let g = LocalGeometry { ng: sp.ng, frame: sp.frame };
-        let light = (|| {
-            let d = es.point.p - sp.p;
-            let dist2 = d.length_squared();
-            if dist2 <= 0.0 || !dist2.is_finite() {
-                return None;
+        let light = match connect_point(sp, &bsdf, wo, es) {
+            Some(c) => {
+                LightSample { shadow: c.shadow, value: c.value(|s| power_heuristic(s.pdf_light, s.pdf_bsdf)) }
             }
-            let wi = d / dist2.sqrt();
-            let cos_light = es.point.ng.dot(-wi);
-            if cos_light <= 0.0 {
-                return None;
-            }
-            let (f, pdf_bsdf) = PreparedBsdf::new(bsdf, g, wo, TransportMode::Radiance).eval_pdf(wi);
-            if f == Vec3::ZERO {
-                return None;
-            }
-            let pdf_light = es.pdf_area * dist2 / cos_light;
-            let value = (f * es.radiance) * (power_heuristic(pdf_light, pdf_bsdf) / pdf_light);
-            Some(LightSample { shadow: Some(shadow_ray(sp.p, sp.ng, es.point.p, es.point.ng)), value })
-        })()
-        .unwrap_or(LightSample { shadow: None, value: Vec3::ZERO });
-        let scattered = bsdf.sample(&g, wo, 0.5, u, TransportMode::Radiance).and_then(|s| {
+            None => LightSample { shadow: None, value: Vec3::ZERO },
+        };
+        // (`scatter` with the numbers given: the sample, then the throughput's checks.)
+        let scattered = bsdf.sample(&sp.geometry(), wo, 0.5, u, TransportMode::Radiance).and_then(|s| {
             let beta = beta * s.weight;
             (beta.max_element() > 0.0 && beta.is_finite()).then(|| Scattered {
                 beta,
@@ -415,8 +402,13 @@ mod tests {
         }
     }
 
+    /// The same bits, or both NaN (whose payload depends on the order of an instruction's
+    /// operands, which the compiler may swap; a NaN is dropped from the image either way).
     fn same_bits(a: Vec3, b: Vec3) -> bool {
-        a.to_array().iter().zip(b.to_array()).all(|(x, y)| x.to_bits() == y.to_bits())
+        a.to_array()
+            .iter()
+            .zip(b.to_array())
+            .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
     }
 
     /// Random vertices, emitter points and numbers, with the awkward cases mixed in (`wo`
@@ -454,10 +446,22 @@ mod tests {
                 } else {
                     10.0 * (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5)
                 };
+                let nq = match k % 19 {
+                    0 => Vec3::new(f32::NAN, 0.0, 1.0),
+                    1 => Vec3::new(-0.0, -0.0, -1.0),
+                    _ => unit(&mut rng),
+                };
                 let es = EmitterSample {
-                    point: EmitterPoint { p: q, ng: unit(&mut rng), prim: 0 },
-                    radiance: Vec3::new(1.0 + rng.next_f32(), 2.0, 3.0 * rng.next_f32()),
-                    pdf_area: 0.1 + rng.next_f32(),
+                    point: EmitterPoint { p: q, ng: nq, prim: 0 },
+                    radiance: match k % 23 {
+                        0 => Vec3::new(f32::INFINITY, 1.0, 1.0),
+                        _ => Vec3::new(1.0 + rng.next_f32(), 2.0, 3.0 * rng.next_f32()),
+                    },
+                    pdf_area: match k % 29 {
+                        0 => 0.0,
+                        1 => f32::INFINITY,
+                        _ => 0.1 + rng.next_f32(),
+                    },
                 };
                 let u =
                     if k % 17 == 0 { Vec2::splat(0.5) } else { Vec2::new(rng.next_f32(), rng.next_f32()) };
@@ -475,7 +479,7 @@ mod tests {
                         same_bits(a.origin, b.origin) && same_bits(a.dir, b.dir),
                         "round {round}, vertex {k}"
                     );
-                    assert_eq!((a.tmin, a.tmax), (b.tmin, b.tmax));
+                    assert!(same_bits(Vec3::new(a.tmin, a.tmax, 0.0), Vec3::new(b.tmin, b.tmax, 0.0)));
                     connecting += 1;
                 }
                 assert!(same_bits(lane.value, light.value), "round {round}, vertex {k}: {lane:?} {light:?}");
@@ -485,7 +489,7 @@ mod tests {
                     assert!(
                         same_bits(a.beta, b.beta)
                             && same_bits(a.wi, b.wi)
-                            && a.pdf.to_bits() == b.pdf.to_bits()
+                            && same_bits(Vec3::splat(a.pdf), Vec3::splat(b.pdf))
                             && same_bits(a.origin, b.origin),
                         "round {round}, vertex {k}: {a:?} {b:?}"
                     );
@@ -497,7 +501,29 @@ mod tests {
         // Both outcomes of both samples were taken many times.
         assert!(connecting > 2000 && connecting < 12000, "{connecting}");
         assert!(alive > 2000 && alive < 12000, "{alive}");
-        // ... and the scalar sampler agrees with itself (the lanes' warp is its copy).
-        assert_eq!(cosine_scalar(Vec2::splat(0.5)), Vec3::Z);
+    }
+
+    /// The lanes' cosine-weighted directions are the scalar warp's, bit for bit, over a grid
+    /// of the unit square with its edges and centre.
+    #[test]
+    fn cosine_directions_are_the_scalar_ones() {
+        let n = 65;
+        let grid: Vec<Vec2> =
+            (0..n * n).map(|k| Vec2::new((k % n) as f32, (k / n) as f32) / (n - 1) as f32).collect();
+        for chunk in grid.chunks(W) {
+            let (mut ux, mut uy) = (F16::ZERO, F16::ZERO);
+            for (i, u) in chunk.iter().enumerate() {
+                (ux.0[i], uy.0[i]) = (u.x, u.y);
+            }
+            let d = cosine_hemisphere(ux, uy);
+            for (i, &u) in chunk.iter().enumerate() {
+                assert!(
+                    same_bits(d.get(i), cosine_scalar(u)),
+                    "{u}: {} against {}",
+                    d.get(i),
+                    cosine_scalar(u)
+                );
+            }
+        }
     }
 }

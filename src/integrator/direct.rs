@@ -8,7 +8,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use super::{Counters, RenderContext};
 use crate::geometry::{OffsetPoint, Ray, offset_origin};
-use crate::light::{Choice, ConeSample, Light, NeeChoice};
+use crate::light::{Choice, ConeSample, EmitterSample, Light, NeeChoice};
 use crate::material::{Bsdf, LocalGeometry, Material, PreparedBsdf, TransportMode};
 use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
@@ -174,6 +174,18 @@ pub fn connect_emitters_at(
             NeeChoice::Cone(cone) => return connect_cone(ctx, sp, bsdf, wo, cone, counters),
         }
     };
+    let c = connect_point(sp, bsdf, wo, &es);
+    counters.shadow_rays += u64::from(c.is_some());
+    c
+}
+
+/// [`connect_emitters_at`]'s connection of `sp` to the point `es` picked on a triangle by
+/// area (its shadow ray not counted): `None` where it contributes nothing whether or not it
+/// is occluded (a point on the receiver, the emitter's back face, a BSDF that is zero
+/// towards it). `pt`'s Lambertian lanes ([`super::diffuse_lanes`]) compute it sixteen at a
+/// time and are tested against it.
+#[inline(always)]
+pub fn connect_point(sp: &SurfacePoint, bsdf: &Bsdf, wo: Vec3, es: &EmitterSample) -> Option<Connection> {
     let d = es.point.p - sp.p;
     let dist2 = d.length_squared();
     if dist2 <= 0.0 || !dist2.is_finite() {
@@ -189,7 +201,6 @@ pub fn connect_emitters_at(
     if f == Vec3::ZERO {
         return None;
     }
-    counters.shadow_rays += 1;
     let pdf_light = es.pdf_area * dist2 / cos_light;
     Some(Connection {
         shadow: Some(shadow_ray(sp.p, sp.ng, es.point.p, es.point.ng)),

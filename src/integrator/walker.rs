@@ -84,12 +84,16 @@ pub trait Estimator {
     /// vertices (and to pick up emission).
     const COVERS_SURFACES: bool;
 
-    /// Whether the method's terms at a vertex are exactly `pt`'s (one light sample by
-    /// [`connect_emitters_at`](super::direct::connect_emitters_at), weighed against BSDF
-    /// sampling by the power heuristic, given to [`Terms::sample`]), its
-    /// [`Estimator::on_scatter`] does nothing and it does not cover surfaces: then the
-    /// batched walker shades its Lambertian vertices sixteen at a time
-    /// ([`super::diffuse_lanes`]) where the emitters are triangles only.
+    /// Whether the method's terms at a vertex are exactly `pt`'s: [`Estimator::at_vertex`]
+    /// draws `u_select` (`next_f32`) and `u` (`next_2d`), gives [`Terms::sample`] the light
+    /// sample of [`connect_emitters_at`](super::direct::connect_emitters_at) weighed against
+    /// BSDF sampling by the power heuristic, and changes neither the state nor anything
+    /// else; [`Estimator::on_scatter`] does nothing, and the method does not cover surfaces.
+    /// Then the batched walker shades its Lambertian vertices sixteen at a time
+    /// ([`super::diffuse_lanes`]) where the emitters are plain ([`Emitters::is_plain`]:
+    /// triangles, no other lights, no emitting spheres sampled by their cones).
+    ///
+    /// [`Emitters::is_plain`]: crate::light::Emitters::is_plain
     const PT_VERTICES: bool = false;
 
     /// What the method keeps along one camera path.
@@ -214,6 +218,14 @@ impl<S> Path<S> {
             state: estimator.start(&ray),
         }
     }
+
+    /// The BSDF at the vertex `from` sampled the next ray's direction with density `pdf`
+    /// (per unit solid angle), from a delta lobe or not.
+    #[inline(always)]
+    pub(super) fn sampled(&mut self, from: Vec3, pdf: f32, delta: bool) {
+        self.how = Sampled { from, pdf, delta };
+        self.covered = !delta;
+    }
 }
 
 /// Radiance arriving along the camera ray `ray` (unit direction), estimated by `estimator`.
@@ -236,10 +248,10 @@ pub fn walk<E: Estimator>(
     path.radiance
 }
 
-/// One step of the walk, the loop body of both walkers ([`walk`] and
-/// [`super::wavefront::walk_batch`]): the path's ray found `hit` (`None`: it left the scene);
-/// the estimator's terms at the vertex go to `terms`. Whether the path goes on (its next ray
-/// in `path.ray`). [`arrive`], then [`leave`].
+/// One step of the walk, the scalar walker's loop body ([`walk`]; the batched walker,
+/// [`super::wavefront::walk_batch`], calls its two halves, [`arrive`] and [`leave`], itself):
+/// the path's ray found `hit` (`None`: it left the scene); the estimator's terms at the vertex
+/// go to `terms`. Whether the path goes on (its next ray in `path.ray`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(super) fn step<E: Estimator>(
@@ -334,8 +346,7 @@ pub(super) fn leave<E: Estimator>(
     };
     path.eta_scale *= s.eta * s.eta;
     estimator.on_scatter(&mut path.state, &v, &s);
-    path.how = Sampled { from: sp.p, pdf: s.pdf, delta: s.delta };
-    path.covered = !s.delta;
+    path.sampled(sp.p, s.pdf, s.delta);
     roulette_and_go_on::<E>(ctx, path, offset_origin(sp.p, sp.ng, s.wi), s.wi, sampler)
 }
 

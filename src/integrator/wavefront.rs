@@ -8,7 +8,7 @@
 //!
 //! One bounce: trace the rays of the live paths (finished paths are compacted away); shade
 //! each hit in the batch's order with the loop body of the scalar walker
-//! [`super::walker::walk`], which both share (`walker::step`: the emission found there, the
+//! [`super::walker::walk`], which both share (`walker::arrive` and `walker::leave`: the emission found there, the
 //! estimator's terms at the vertex, the BSDF sample, Russian roulette), except that the light
 //! samples of the estimator's terms stop at their shadow rays, which are collected with the
 //! terms that wait for them ([`Deferred`], the [`Terms`](super::deferred::Terms) that
@@ -25,7 +25,7 @@
 //! (`--walker scalar`).
 //!
 //! **`pt`'s Lambertian vertices in lanes.** Where the estimator's vertex terms are `pt`'s
-//! ([`Estimator::PT_VERTICES`]) and the emitters are triangles, a bounce's Lambertian
+//! ([`Estimator::PT_VERTICES`]) and the emitters are plain (triangles), a bounce's Lambertian
 //! vertices are not shaded one by one: each draws its numbers and picks its emitter point
 //! in the loop, in the scalar order, and [`Lanes`](super::diffuse_lanes::Lanes) computes
 //! their light samples and BSDF samples sixteen at a time, structure of arrays, the same
@@ -44,7 +44,7 @@
 //! deferring the shadow rays of next-event estimation into the bounce's batch the rest.
 //!
 //! **Versions picked at run time.** The default build targets plain x86-64 (SSE2), so
-//! [`walk_batch`], with the shading it inlines (`walker::step`, BSDF sampling, the light sample of
+//! [`walk_batch`], with the shading it inlines (`walker::arrive` and `leave`, BSDF sampling, the light sample of
 //! [`connect_emitters_at`](super::direct::connect_emitters_at), the BSDFs' common cases), is
 //! compiled three times with the `multiversion` crate, as the BVH's traversal is: for AVX2 +
 //! FMA, for AVX-512 (CPUs with Ice Lake's set) and the baseline, the CPU's version picked at
@@ -58,7 +58,6 @@ use multiversion::multiversion;
 
 use super::deferred::Deferred;
 use super::diffuse_lanes::Lanes;
-use super::direct::Sampled;
 use super::walker::{Arrived, Estimator, Path, arrive, leave, roulette_and_go_on};
 use super::{Counters, FilmSplat, Integrator, RenderContext};
 use crate::accel::Hit;
@@ -67,7 +66,7 @@ use crate::material::Bsdf;
 use crate::sampling::Sampler;
 use crate::scene::CameraRays;
 
-/// Buffers of one batch, kept across bounces.
+/// Buffers of a batch: kept across bounces, and in a thread-local from batch to batch.
 #[derive(Default)]
 struct Buffers {
     /// Indices of the live paths, in the batch's order.
@@ -120,6 +119,9 @@ fn walk_paths<E: Estimator>(
     counters: &mut Counters,
     b: &mut Buffers,
 ) {
+    const { assert!(!E::PT_VERTICES || !E::COVERS_SURFACES) };
+    // (Nothing of an earlier batch is left, even where it ended in a panic.)
+    b.deferred.clear();
     b.live.clear();
     b.live.extend(0..paths.len() as u32);
     // `pt`'s Lambertian vertices in lanes ([`Lanes`]).
@@ -172,8 +174,7 @@ fn walk_paths<E: Estimator>(
                 b.deferred.sample_connected(b.lanes.beta(j), light.shadow, light.value, &mut path.radiance);
                 b.goes_on[k] = b.lanes.scattered(j).is_some_and(|s| {
                     path.beta = s.beta;
-                    path.how = Sampled { from: b.lanes.point(j), pdf: s.pdf, delta: false };
-                    path.covered = true;
+                    path.sampled(b.lanes.point(j), s.pdf, false);
                     roulette_and_go_on::<E>(ctx, path, s.origin, s.wi, sampler)
                 });
             }
