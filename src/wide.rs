@@ -81,12 +81,6 @@ impl F16 {
         zip(self, o, f32::max)
     }
 
-    /// `f32::min`: the other operand where one is NaN.
-    #[inline(always)]
-    pub fn min(self, o: F16) -> F16 {
-        zip(self, o, f32::min)
-    }
-
     /// glam's maximum, `self > o ? self : o`.
     #[inline(always)]
     pub fn max_glam(self, o: F16) -> F16 {
@@ -116,11 +110,6 @@ impl F16 {
     #[inline(always)]
     pub fn is_infinite(self) -> M16 {
         test(self, self, |a, _| a.is_infinite())
-    }
-
-    #[inline(always)]
-    pub fn is_nan(self) -> M16 {
-        test(self, self, |a, _| a.is_nan())
     }
 }
 
@@ -164,7 +153,6 @@ impl Neg for F16 {
 
 impl M16 {
     pub const NONE: M16 = M16([0; W]);
-    pub const ALL: M16 = M16([u32::MAX; W]);
 
     /// `a` in the lanes of the mask, `b` in the others.
     #[inline(always)]
@@ -188,29 +176,23 @@ impl M16 {
     }
 }
 
-impl BitAnd for M16 {
-    type Output = M16;
-    #[inline(always)]
-    fn bitand(self, o: M16) -> M16 {
-        let mut r = [0; W];
-        for i in 0..W {
-            r[i] = self.0[i] & o.0[i];
+macro_rules! mask_op {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl $trait for M16 {
+            type Output = M16;
+            #[inline(always)]
+            fn $f(self, o: M16) -> M16 {
+                let mut r = [0; W];
+                for i in 0..W {
+                    r[i] = self.0[i] $op o.0[i];
+                }
+                M16(r)
+            }
         }
-        M16(r)
-    }
+    };
 }
-
-impl BitOr for M16 {
-    type Output = M16;
-    #[inline(always)]
-    fn bitor(self, o: M16) -> M16 {
-        let mut r = [0; W];
-        for i in 0..W {
-            r[i] = self.0[i] | o.0[i];
-        }
-        M16(r)
-    }
-}
+mask_op!(BitAnd, bitand, &);
+mask_op!(BitOr, bitor, |);
 
 impl Not for M16 {
     type Output = M16;
@@ -394,7 +376,6 @@ mod tests {
         same(a / b, &|i| a.0[i] / b.0[i]);
         same(a.sqrt(), &|i| a.0[i].sqrt());
         same(a.max(b), &|i| a.0[i].max(b.0[i]));
-        same(a.min(b), &|i| a.0[i].min(b.0[i]));
         same(a.max_glam(b), &|i| Vec3::splat(a.0[i]).max(Vec3::splat(b.0[i])).x);
         same(a.gt(b).select(a, b), &|i| if a.0[i] > b.0[i] { a.0[i] } else { b.0[i] });
         same(a.is_finite().select(a, F16::splat(9.0)), &|i| if a.0[i].is_finite() { a.0[i] } else { 9.0 });

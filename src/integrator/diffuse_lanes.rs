@@ -20,8 +20,12 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
+use super::RenderContext;
+use super::direct::emitter_numbers;
+use super::scatter::bsdf_numbers;
 use crate::geometry::{OFFSET_SCALE, Ray};
 use crate::light::EmitterSample;
+use crate::sampling::Sampler;
 use crate::scene::SurfacePoint;
 use crate::wide::{F16, M16, V16, W};
 
@@ -104,8 +108,8 @@ impl Shaded {
 /// buffers kept across bounces and batches.
 #[derive(Default)]
 pub struct Lanes {
-    /// The walker's index of each vertex's path.
-    paths: Vec<u32>,
+    /// The walker's number of each vertex (its path's place in the bounce's list).
+    slots: Vec<u32>,
     /// The chunks of vertices; those past the current bounce's are left from earlier ones
     /// (so that a chunk is initialised once, when the buffer grows).
     vertices: Vec<Vertices>,
@@ -114,7 +118,7 @@ pub struct Lanes {
 
 /// A vertex's light sample as the scalar code would give it to the walker's terms.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LightSample {
+pub struct LightTerm {
     /// The shadow segment, where the sample connects.
     pub shadow: Option<Ray>,
     /// Its value where unoccluded (zero where it does not connect).
@@ -134,37 +138,58 @@ pub struct Scattered {
 impl Lanes {
     /// No vertices.
     pub fn clear(&mut self) {
-        self.paths.clear();
+        self.slots.clear();
     }
 
     /// The chunks holding the vertices pushed.
     #[inline(always)]
     fn chunks(&self) -> usize {
-        self.paths.len().div_ceil(W)
+        self.slots.len().div_ceil(W)
     }
 
     pub fn len(&self) -> usize {
-        self.paths.len()
+        self.slots.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.paths.is_empty()
+        self.slots.is_empty()
     }
 
-    /// The path of vertex `k`.
+    /// The walker's number of vertex `k`.
     #[inline(always)]
-    pub fn path(&self, k: usize) -> u32 {
-        self.paths[k]
+    pub fn slot(&self, k: usize) -> u32 {
+        self.slots[k]
     }
 
-    /// A Lambertian vertex of path `path` (reflectance `albedo`, throughput `beta`, `wo` the
-    /// unit direction back along the path) whose light sample picked `es` and whose BSDF
-    /// sample draws `u`.
+    /// `pt`'s Lambertian vertex `sp` (reflectance `albedo`, throughput `beta`, `wo` the unit
+    /// direction back along the path), numbered `slot` by the walker: its draws in `pt`'s
+    /// order (the light sample's numbers and emitter point, then the BSDF sample's), then
+    /// [`Lanes::push`].
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw(
+        &mut self,
+        ctx: &RenderContext,
+        slot: u32,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        albedo: Vec3,
+        beta: Vec3,
+        sampler: &mut Sampler,
+    ) {
+        let (u_select, u) = emitter_numbers(sampler);
+        let es = ctx.emitters.sample(ctx.scene, u_select, u);
+        let (_, u) = bsdf_numbers(sampler);
+        self.push(slot, sp, wo, albedo, beta, &es, u);
+    }
+
+    /// A Lambertian vertex numbered `slot` (as [`Lanes::draw`] says) whose light sample
+    /// picked `es` and whose BSDF sample draws `u`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
-        path: u32,
+        slot: u32,
         sp: &SurfacePoint,
         wo: Vec3,
         albedo: Vec3,
@@ -172,11 +197,11 @@ impl Lanes {
         es: &EmitterSample,
         u: Vec2,
     ) {
-        let k = self.paths.len();
+        let k = self.slots.len();
         if k == self.vertices.len() * W {
             self.vertices.push(Vertices::ZERO);
         }
-        self.paths.push(path);
+        self.slots.push(slot);
         let (v, i) = (&mut self.vertices[k / W], k % W);
         v.p.set(i, sp.p);
         v.ng.set(i, sp.ng);
@@ -209,13 +234,13 @@ impl Lanes {
 
     /// Vertex `k`'s light sample (after [`Lanes::shade`]).
     #[inline(always)]
-    pub fn light_sample(&self, k: usize) -> LightSample {
+    pub fn light_sample(&self, k: usize) -> LightTerm {
         let (s, i) = (&self.shaded[k / W], k % W);
         if !s.connects.lane(i) {
-            return LightSample { shadow: None, value: Vec3::ZERO };
+            return LightTerm { shadow: None, value: Vec3::ZERO };
         }
         let ray = Ray { origin: s.shadow_origin.get(i), dir: s.shadow_dir.get(i), tmin: 0.0, tmax: 1.0 };
-        LightSample { shadow: Some(ray), value: s.value.get(i) }
+        LightTerm { shadow: Some(ray), value: s.value.get(i) }
     }
 
     /// Vertex `k`'s BSDF sample, `None` where the path ends there (after [`Lanes::shade`]).
@@ -372,13 +397,13 @@ mod tests {
         beta: Vec3,
         es: &EmitterSample,
         u: Vec2,
-    ) -> (LightSample, Option<Scattered>) {
+    ) -> (LightTerm, Option<Scattered>) {
         let bsdf = Bsdf::Diffuse { albedo };
         let light = match connect_point(sp, &bsdf, wo, es) {
             Some(c) => {
-                LightSample { shadow: c.shadow, value: c.value(|s| power_heuristic(s.pdf_light, s.pdf_bsdf)) }
+                LightTerm { shadow: c.shadow, value: c.value(|s| power_heuristic(s.pdf_light, s.pdf_bsdf)) }
             }
-            None => LightSample { shadow: None, value: Vec3::ZERO },
+            None => LightTerm { shadow: None, value: Vec3::ZERO },
         };
         // (`scatter` with the numbers given: the sample, then the throughput's checks.)
         let scattered = bsdf.sample(&sp.geometry(), wo, 0.5, u, TransportMode::Radiance).and_then(|s| {

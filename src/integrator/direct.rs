@@ -97,9 +97,15 @@ pub fn sample_emitters_weighted(
     counters: &mut Counters,
     weight: impl FnOnce(LightSample) -> f32,
 ) -> Vec3 {
+    sample_emitters_at(ctx, sp, bsdf, wo, emitter_numbers(sampler), counters, weight)
+}
+
+/// A light sample's numbers, `u_select` and `u`, as
+/// [`Emitters::sample`](crate::light::Emitters::sample) takes them: three draws, in this order.
+#[inline(always)]
+pub fn emitter_numbers(sampler: &mut Sampler) -> (f32, Vec2) {
     let u_select = sampler.next_f32();
-    let u = sampler.next_2d();
-    sample_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters, weight)
+    (u_select, sampler.next_2d())
 }
 
 /// [`sample_emitters_weighted`] with its numbers given: `u_select` and `u` as

@@ -8,7 +8,7 @@
 use glam::Vec3;
 
 use super::deferred::Terms;
-use super::direct::{connect_emitters_at, power_heuristic};
+use super::direct::{connect_emitters_at, emitter_numbers, power_heuristic};
 use super::walker::{Estimator, Vertex, walk};
 use super::wavefront::walk_batch;
 use super::{Counters, Integrator, RenderContext};
@@ -53,9 +53,7 @@ pub fn light_sample(
     counters: &mut Counters,
     terms: &mut impl Terms,
 ) {
-    let u_select = sampler.next_f32();
-    let u = sampler.next_2d();
-    let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, (u_select, u), counters);
+    let c = connect_emitters_at(ctx, v.sp, v.bsdf, v.wo, emitter_numbers(sampler), counters);
     terms.sample(ctx, beta, c, |s| power_heuristic(s.pdf_light, s.pdf_bsdf), radiance);
 }
 

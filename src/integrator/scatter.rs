@@ -2,7 +2,7 @@
 //! throughput update, and Russian roulette. Written once for the camera walker
 //! ([`super::walker`]) and the light tracer ([`super::many_light`]).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::material::{Bsdf, BsdfSample, TransportMode};
 use crate::sampling::Sampler;
@@ -20,11 +20,18 @@ pub fn scatter(
     sampler: &mut Sampler,
     beta: &mut Vec3,
 ) -> Option<BsdfSample> {
-    let u_lobe = sampler.next_f32();
-    let u = sampler.next_2d();
+    let (u_lobe, u) = bsdf_numbers(sampler);
     let s = bsdf.sample(&sp.geometry(), wo, u_lobe, u, mode)?;
     *beta *= s.weight;
     (beta.max_element() > 0.0 && beta.is_finite()).then_some(s)
+}
+
+/// A BSDF sample's numbers, `u_lobe` and `u`, as [`Bsdf::sample`] takes them: three draws, in
+/// this order.
+#[inline(always)]
+pub fn bsdf_numbers(sampler: &mut Sampler) -> (f32, Vec2) {
+    let u_lobe = sampler.next_f32();
+    (u_lobe, sampler.next_2d())
 }
 
 /// Russian roulette: the path survives with probability q = min(0.95, `survival`), and a

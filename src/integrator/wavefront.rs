@@ -146,14 +146,7 @@ fn walk_paths<E: Estimator>(
                 Arrived::Done(goes_on) => goes_on,
                 Arrived::At(sp, wo, material) => match material.bsdf_at(sp.uv) {
                     Bsdf::Diffuse { albedo } if in_lanes => {
-                        // `pt`'s draws at the vertex, in its order: the light sample's three
-                        // numbers (and its emitter point), then the BSDF sample's three.
-                        let u_select = sampler.next_f32();
-                        let u = sampler.next_2d();
-                        let es = ctx.emitters.sample(ctx.scene, u_select, u);
-                        let _u_lobe = sampler.next_f32();
-                        let u = sampler.next_2d();
-                        b.lanes.push(k as u32, &sp, wo, albedo, path.beta, &es, u);
+                        b.lanes.draw(ctx, k as u32, &sp, wo, albedo, path.beta, sampler);
                         false // (decided below)
                     }
                     bsdf => leave(ctx, estimator, path, &sp, wo, &bsdf, sampler, counters, &mut b.deferred),
@@ -163,7 +156,7 @@ fn walk_paths<E: Estimator>(
         if !b.lanes.is_empty() {
             b.lanes.shade();
             for j in 0..b.lanes.len() {
-                let k = b.lanes.path(j) as usize;
+                let k = b.lanes.slot(j) as usize;
                 let i = b.live[k] as usize;
                 let (path, sampler) = (&mut paths[i], &mut samplers[i]);
                 // What `leave` does after `pt`'s terms at the vertex: its light sample, then
@@ -179,14 +172,8 @@ fn walk_paths<E: Estimator>(
                 });
             }
         }
-        let mut kept = 0;
-        for k in 0..b.live.len() {
-            if b.goes_on[k] {
-                b.live[kept] = b.live[k];
-                kept += 1;
-            }
-        }
-        b.live.truncate(kept);
+        let mut goes_on = b.goes_on.iter();
+        b.live.retain(|_| *goes_on.next().expect("one flag per live path"));
 
         b.deferred.finish(ctx, |i, term| paths[i as usize].radiance += term);
     }
