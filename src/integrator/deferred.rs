@@ -4,6 +4,11 @@
 //! [`Accelerator::occluded_batch`](crate::accel::Accelerator::occluded_batch)). An estimator
 //! writes its vertex once, against [`Terms`], for both walkers.
 //!
+//! A gather from the virtual lights goes the same way: its connections (a shadow ray and the
+//! contribution it carries, [`Connections`]) are traced as they come, in the gather's own
+//! batches ([`Immediate`]), or kept with the bounce's shadow rays ([`Deferred`]), and either
+//! sums the unoccluded ones in the same order and the same batches.
+//!
 //! A light sample's value is the one
 //! [`sample_emitters_at`](super::direct::sample_emitters_at) gives it (zero where it connects
 //! to nothing or is occluded), and a path's terms are added in the order the estimator gave
@@ -12,9 +17,19 @@
 
 use glam::Vec3;
 
-use super::RenderContext;
 use super::direct::{Connection, LightSample};
+use super::{Counters, RenderContext};
+use crate::accel::Accelerator;
 use crate::geometry::Ray;
+use crate::integrator::many_light::shadow_batch::{BATCH, with_shadow_batch};
+
+/// Where a gather's connections go, one at a time: each one's shadow ray with the
+/// contribution it carries where nothing blocks it. The gather's value is the sum of the
+/// unoccluded contributions, summed in the order they came, [`BATCH`] at a time (each batch
+/// on its own, then added to the total), whoever traces them ([`Terms::gather`]).
+pub trait Connections {
+    fn push(&mut self, ray: Ray, contrib: Vec3);
+}
 
 /// Where the terms of a camera vertex go, each added to the path's `radiance` (times the
 /// throughput `beta` it is given) in the order they are given.
@@ -38,6 +53,24 @@ pub trait Terms {
 
     /// `beta · value`.
     fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3);
+
+    /// What [`Terms::gather`] gives [`Terms::add_gathered`].
+    type Gathered: Copy;
+
+    /// A gather: `queue` gives its connections ([`Connections`]) and says whether the
+    /// receiver gathers at all (where it does not, the gather is zero, whatever was queued);
+    /// their shadow rays are counted in `counters`. What it returns goes to
+    /// [`Terms::add_gathered`], which adds the gather times a throughput, in the path's order
+    /// of terms.
+    fn gather(
+        &mut self,
+        ctx: &RenderContext,
+        counters: &mut Counters,
+        queue: impl FnOnce(&mut dyn Connections) -> bool,
+    ) -> Self::Gathered;
+
+    /// `beta` times the gather that gave `gathered` ([`Terms::gather`]).
+    fn add_gathered(&mut self, beta: Vec3, gathered: Self::Gathered, radiance: &mut Vec3);
 }
 
 /// The scalar walker's terms: each shadow ray traced as it comes, each term added at once.
@@ -87,6 +120,31 @@ impl Terms for Immediate {
     fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
         *radiance += beta * value;
     }
+
+    /// The gather's value, its shadow rays traced as they come, [`BATCH`] at a time.
+    type Gathered = Vec3;
+
+    #[inline(always)]
+    fn gather(
+        &mut self,
+        ctx: &RenderContext,
+        counters: &mut Counters,
+        queue: impl FnOnce(&mut dyn Connections) -> bool,
+    ) -> Vec3 {
+        with_shadow_batch(ctx.accel, |batch| {
+            if !queue(batch) {
+                return Vec3::ZERO;
+            }
+            let (total, traced) = batch.finish();
+            counters.shadow_rays += traced;
+            total
+        })
+    }
+
+    #[inline(always)]
+    fn add_gathered(&mut self, beta: Vec3, gathered: Vec3, radiance: &mut Vec3) {
+        *radiance += beta * gathered;
+    }
 }
 
 /// Where a term needs no shadow ray.
@@ -102,6 +160,12 @@ enum Op {
     /// Adds `beta · (sum / n)` to the path's radiance and starts a new sum, `n` in the
     /// term's `value.x`.
     Mean,
+    /// Adds `value` to the gather's sum of its current batch of [`BATCH`] connections.
+    Connection,
+    /// Adds `beta` times the gather's total (the sums of its batches) to the path's radiance
+    /// and starts a new gather; a gather whose receiver gathers nothing has `value.x` zero
+    /// (else one), and adds `beta · 0`.
+    Gathered,
 }
 
 /// A term of a path kept for the batch's shadow rays.
@@ -158,6 +222,28 @@ impl Terms for Deferred {
         self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Mean, beta, value });
     }
 
+    /// Whether the receiver gathers (its connections are kept as they come).
+    type Gathered = bool;
+
+    #[inline(always)]
+    fn gather(
+        &mut self,
+        _: &RenderContext,
+        counters: &mut Counters,
+        queue: impl FnOnce(&mut dyn Connections) -> bool,
+    ) -> bool {
+        let before = self.shadows.len();
+        let gathers = queue(self);
+        counters.shadow_rays += (self.shadows.len() - before) as u64;
+        gathers
+    }
+
+    #[inline(always)]
+    fn add_gathered(&mut self, beta: Vec3, gathers: bool, _: &mut Vec3) {
+        let value = Vec3::new(if gathers { 1.0 } else { 0.0 }, 0.0, 0.0);
+        self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Gathered, beta, value });
+    }
+
     #[inline(always)]
     fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
         if self.waiting {
@@ -165,6 +251,15 @@ impl Terms for Deferred {
         } else {
             *radiance += beta * value;
         }
+    }
+}
+
+/// A gather's connection, kept with its shadow ray for the batch's queries.
+impl Connections for Deferred {
+    #[inline(always)]
+    fn push(&mut self, ray: Ray, contrib: Vec3) {
+        let shadow = self.push_shadow(Some(ray));
+        self.keep(Term { path: self.path, shadow, op: Op::Connection, beta: Vec3::ZERO, value: contrib });
     }
 }
 
@@ -240,14 +335,17 @@ impl Deferred {
     /// they were kept, to `add` (the path, and what it adds to the path's radiance); then
     /// forgets them.
     #[inline(always)]
-    pub(crate) fn finish(&mut self, ctx: &RenderContext, mut add: impl FnMut(u32, Vec3)) {
+    pub(crate) fn finish(&mut self, accel: &dyn Accelerator, mut add: impl FnMut(u32, Vec3)) {
         if !self.shadows.is_empty() {
             self.blocked.clear();
             self.blocked.resize(self.shadows.len(), false);
-            ctx.accel.occluded_batch(&self.shadows, &mut self.blocked);
+            accel.occluded_batch(&self.shadows, &mut self.blocked);
         }
-        // (A vertex's samples and their mean are consecutive terms of one path.)
+        // (A vertex's samples and their mean are consecutive terms of one path, and so are a
+        // gather's connections and its total.)
         let mut sum = Vec3::ZERO;
+        // The gather's: its total, the sum of its current batch and that batch's connections.
+        let (mut total, mut batch, mut in_batch) = (Vec3::ZERO, Vec3::ZERO, 0);
         for t in &self.terms {
             let value =
                 if t.shadow != NO_SHADOW && self.blocked[t.shadow as usize] { Vec3::ZERO } else { t.value };
@@ -258,9 +356,108 @@ impl Deferred {
                     add(t.path, t.beta * (sum / t.value.x));
                     sum = Vec3::ZERO;
                 }
+                // As `ShadowBatch` sums: each batch from zero, its blocked connections left
+                // out, then added to the total.
+                Op::Connection => {
+                    if t.shadow == NO_SHADOW || !self.blocked[t.shadow as usize] {
+                        batch += t.value;
+                    }
+                    in_batch += 1;
+                    if in_batch == BATCH {
+                        total += batch;
+                        (batch, in_batch) = (Vec3::ZERO, 0);
+                    }
+                }
+                Op::Gathered => {
+                    if in_batch > 0 {
+                        total += batch;
+                    }
+                    let gathered = if t.value.x > 0.0 { total } else { Vec3::ZERO };
+                    add(t.path, t.beta * gathered);
+                    (total, batch, in_batch) = (Vec3::ZERO, Vec3::ZERO, 0);
+                }
             }
         }
         self.terms.clear();
         self.shadows.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{BruteForce, testmesh};
+    use crate::integrator::many_light::shadow_batch::ShadowBatch;
+
+    /// A gather's connections kept by the batched walker sum, bit for bit, as the gather's own
+    /// batches sum them ([`ShadowBatch`]): over more connections than a batch, some blocked,
+    /// of contributions whose sum depends on the order and the batches; each path's gather
+    /// on its own, after its light samples' mean; and a receiver that gathers nothing adds
+    /// `beta · 0`.
+    #[test]
+    fn kept_connections_sum_as_the_gathers_batches() {
+        let mesh = testmesh::cornell_like();
+        let accel = BruteForce::new(&mesh.positions, &mesh.indices);
+        let rays = testmesh::random_segments(&mesh.bounds(), 3 * BATCH + 5, 11);
+        let blocked = rays.iter().filter(|r| accel.occluded(r)).count();
+        assert!(blocked > 0 && blocked < rays.len(), "{blocked} of {}", rays.len());
+        // Contributions from 1e-4 to 1e4, so that where each batch's sum starts shows.
+        let contrib = |i: usize| {
+            let x = (i as f32 * 0.618_034).fract();
+            Vec3::new(10f32.powf(8.0 * x - 4.0), 1.0 / (1.0 + i as f32), 3.0 + x)
+        };
+        let gathers: [&[Ray]; 3] = [&rays, &rays[..BATCH], &rays[7..20]];
+        let expected: Vec<Vec3> = gathers
+            .iter()
+            .map(|g| {
+                with_shadow_batch(&accel, |b| {
+                    for (i, r) in g.iter().enumerate() {
+                        ShadowBatch::push(b, *r, contrib(i));
+                    }
+                    b.finish().0
+                })
+            })
+            .collect();
+        // The per-batch sums are not the plain running sum.
+        let mut running = Vec3::ZERO;
+        for (i, r) in rays.iter().enumerate() {
+            if !accel.occluded(r) {
+                running += contrib(i);
+            }
+        }
+        assert_ne!(running, expected[0]);
+
+        let mut d = Deferred::default();
+        let beta = Vec3::new(1.0, 0.5, 2.0);
+        let mut unused = Vec3::ZERO;
+        for (path, g) in gathers.iter().enumerate() {
+            d.at(path as u32);
+            // (A light sample's mean before the gather, as `pir-bdpt` gives them.)
+            d.keep(Term {
+                path: path as u32,
+                shadow: NO_SHADOW,
+                op: Op::Sum,
+                beta: Vec3::ZERO,
+                value: Vec3::ONE,
+            });
+            for (i, r) in g.iter().enumerate() {
+                Connections::push(&mut d, *r, contrib(i));
+            }
+            d.mean(beta, 1, &mut unused);
+            d.add_gathered(beta, true, &mut unused);
+        }
+        // A receiver that gathers nothing.
+        d.at(3);
+        d.add_gathered(beta, false, &mut unused);
+        let mut added = vec![];
+        d.finish(&accel, |path, term| added.push((path, term)));
+        let mut want = vec![];
+        for (path, e) in expected.iter().enumerate() {
+            want.push((path as u32, beta * Vec3::ONE));
+            want.push((path as u32, beta * *e));
+        }
+        want.push((3, beta * Vec3::ZERO));
+        assert_eq!(added, want);
+        assert_eq!(unused, Vec3::ZERO);
     }
 }

@@ -33,9 +33,13 @@
 //! sample's term, the throughput, roulette, the next ray). Between the two halves of the
 //! scalar step ([`super::walker::arrive`], [`super::walker::leave`]).
 //!
-//! What an estimator traces inside its own terms (`pir-bdpt`'s gather from the virtual
-//! lights, with its shadow rays batched per vertex; a sphere light's cone sample) is traced
-//! where the scalar walker traces it.
+//! A gather from the virtual lights (`pir-bdpt`'s, the forward many-light methods') gives its
+//! connections to [`Deferred`] too ([`Terms::gather`](super::deferred::Terms::gather)): their
+//! shadow rays join the bounce's batch, 16-wide packets filled from many receivers instead of
+//! a 4-wide one per receiver (the resampled gather's k = 4), and each path's gather is summed
+//! from them as the gather's own batches sum it. What an estimator traces otherwise inside its
+//! own terms (a sphere light's cone sample, `pir-mis`'s bounce) is traced where the scalar
+//! walker traces it.
 //!
 //! Measured (`docs/speed.md`): packets of 16 and batches of a whole tile (256 paths) were the
 //! fastest for `pt` (1.2–1.3× the scalar walker's speed on Embree); `pir-bdpt` is 1.08–1.11×
@@ -175,7 +179,7 @@ fn walk_paths<E: Estimator>(
         let mut goes_on = b.goes_on.iter();
         b.live.retain(|_| *goes_on.next().expect("one flag per live path"));
 
-        b.deferred.finish(ctx, |i, term| paths[i as usize].radiance += term);
+        b.deferred.finish(ctx.accel, |i, term| paths[i as usize].radiance += term);
     }
 }
 

@@ -66,19 +66,19 @@ impl Bidirectional<'_> {
         if path.connecting.rank() == 1 { self.light_samples } else { 1 }
     }
 
-    /// The terms of the non-delta vertex `v`: its light samples summed in `samples`, each
+    /// The terms of the non-delta vertex `v`: its light samples summed in `terms`, each
     /// weighed bidirectionally, and the gather from the VPLs where the vertex connects
-    /// (`None` where it does not), each per unit throughput.
+    /// (`None` where it does not) as `terms` queued it, each per unit throughput.
     #[inline(always)]
-    fn vertex(
+    fn vertex<T: Terms>(
         &self,
         path: &mut CameraPath,
         ctx: &RenderContext,
         v: &Vertex,
         sampler: &mut Sampler,
         counters: &mut Counters,
-        samples: &mut impl Terms,
-    ) -> Option<Vec3> {
+        terms: &mut T,
+    ) -> Option<T::Gathered> {
         let (sp, wo, bsdf, depth) = (&v.sp, v.wo, v.bsdf, v.depth);
         let (counts, connect, state) = (self.counts, self.connect, path.mis);
         let connects = path.connecting.pass(connect, bsdf);
@@ -94,7 +94,7 @@ impl Bidirectional<'_> {
         let count_previous = if path.connecting.previous_connects() { count_in } else { 0.0 };
         for u in sampler.next_2d_block(n) {
             let c = connect_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters);
-            samples.sum(ctx, c, |l| {
+            terms.sum(ctx, c, |l| {
                 let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
                 light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
             });
@@ -109,7 +109,7 @@ impl Bidirectional<'_> {
         let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
         let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - depth - 1;
-        Some(self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters))
+        Some(terms.gather(ctx, counters, |q| self.set.connect(v, max_vpl_depth, &weighing, sampler, q)))
     }
 }
 
@@ -224,7 +224,7 @@ impl Estimator for Bidirectional<'_> {
         let gathered = self.vertex(path, ctx, v, sampler, counters, terms);
         terms.mean(beta, self.samples_at(path), radiance);
         if let Some(g) = gathered {
-            terms.add(beta, g, radiance);
+            terms.add_gathered(beta, g, radiance);
         }
         if let Some(merging) = self.merging
             && let Some(r2) = path.caustic.merge_at(merging)

@@ -4,8 +4,11 @@
 //!
 //! for point lights (G clamped at the iteration's bound), or each term integrated over the
 //! cone of a sphere ([`super::spheres`]). Both BSDFs are evaluated in full (a glossy VPL emits
-//! its lobe), Φ_j is already divided by the number of light paths, and the shadow rays go to
-//! the accelerator in batches ([`ShadowBatch`]), in VPL order.
+//! its lobe), Φ_j is already divided by the number of light paths. The connections, each a
+//! shadow ray with the contribution it carries, go in VPL order to whoever traces them
+//! ([`Connections`]): the gather's own batches ([`super::shadow_batch::ShadowBatch`]), or
+//! the batched walker's bounce, with the shadow rays of every path's vertex
+//! ([`crate::integrator::deferred::Deferred`]), the same sum either way.
 //!
 //! With a light tree ([`super::Gather::Tree`]) the sum is estimated instead from k lights
 //! drawn per receiver ([`super::tree_gather`]): each drawn light's contribution (the same
@@ -19,10 +22,10 @@ use super::light_set::{LightSet, Selection};
 use super::light_tree::LightTree;
 use super::lobe::Lobe;
 use super::resample::{LANES, resample};
-use super::shadow_batch::{ShadowBatch, with_shadow_batch};
 use super::tree_gather::{Kernel, Pick, Receiver};
 use super::virtual_light::{Lights, Weigh};
 use crate::geometry::OffsetPoint;
+use crate::integrator::deferred::{Connections, Immediate, Terms};
 use crate::integrator::direct::shadow_segment;
 use crate::integrator::walker::Vertex;
 use crate::integrator::{Counters, RenderContext};
@@ -30,7 +33,8 @@ use crate::sampling::Sampler;
 
 impl<L: Lights> LightSet<L> {
     /// Indirect light at the camera vertex `v` from every virtual light of at most
-    /// `max_vpl_depth` segments, visibility included, each connection as `weighing` weighs it.
+    /// `max_vpl_depth` segments, visibility included, each connection as `weighing` weighs it:
+    /// [`LightSet::connect`], its shadow rays traced here.
     pub fn gather<W: Weigh<L>>(
         &self,
         ctx: &RenderContext,
@@ -40,24 +44,32 @@ impl<L: Lights> LightSet<L> {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
+        Immediate::default()
+            .gather(ctx, counters, |queue| self.connect(v, max_vpl_depth, weighing, sampler, queue))
+    }
+
+    /// The connections of the gather at the camera vertex `v` ([`LightSet::gather`]), each
+    /// a shadow ray with its weighted contribution, given to `queue` in light order (drawn
+    /// order for the sampled gathers); `false` (and none given) where the receiver reflects
+    /// nothing towards `v.wo`.
+    pub fn connect<W: Weigh<L>>(
+        &self,
+        v: &Vertex,
+        max_vpl_depth: u32,
+        weighing: &W,
+        sampler: &mut Sampler,
+        queue: &mut dyn Connections,
+    ) -> bool {
         let lights = &self.lights;
-        with_shadow_batch(ctx.accel, |batch| {
-            let queued = match self.selection {
-                Selection::All => all(lights, v, max_vpl_depth, weighing, sampler, batch),
-                Selection::Tree { ref tree, samples } => {
-                    drawn(lights, tree, samples, v, max_vpl_depth, weighing, sampler, batch)
-                }
-                Selection::Resampled { candidates, samples } => {
-                    resampled(lights, candidates, samples, v, max_vpl_depth, weighing, sampler, batch)
-                }
-            };
-            if !queued {
-                return Vec3::ZERO;
+        match self.selection {
+            Selection::All => all(lights, v, max_vpl_depth, weighing, sampler, queue),
+            Selection::Tree { ref tree, samples } => {
+                drawn(lights, tree, samples, v, max_vpl_depth, weighing, sampler, queue)
             }
-            let (total, traced) = batch.finish();
-            counters.shadow_rays += traced;
-            total
-        })
+            Selection::Resampled { candidates, samples } => {
+                resampled(lights, candidates, samples, v, max_vpl_depth, weighing, sampler, queue)
+            }
+        }
     }
 }
 
@@ -69,7 +81,7 @@ fn all<L: Lights, W: Weigh<L>>(
     max_vpl_depth: u32,
     weighing: &W,
     sampler: &mut Sampler,
-    batch: &mut ShadowBatch,
+    queue: &mut dyn Connections,
 ) -> bool {
     let rx = lights.receiver(v, max_vpl_depth, None);
     if !L::is_active(&rx) {
@@ -81,7 +93,7 @@ fn all<L: Lights, W: Weigh<L>>(
         for (i, c) in cs.into_iter().enumerate() {
             if c != Vec3::ZERO {
                 let j = chunk * LANES + i;
-                batch.push(shadow_segment(&x, lights.end(j)), weighing.weigh(lights, j, v.sp.p, c));
+                queue.push(shadow_segment(&x, lights.end(j)), weighing.weigh(lights, j, v.sp.p, c));
             }
         }
     }
@@ -99,7 +111,7 @@ fn drawn<L: Lights, W: Weigh<L>>(
     max_vpl_depth: u32,
     weighing: &W,
     sampler: &mut Sampler,
-    batch: &mut ShadowBatch,
+    queue: &mut dyn Connections,
 ) -> bool {
     let lobe = weighing.lobe(v);
     let rx = lights.receiver(v, max_vpl_depth, lobe);
@@ -110,7 +122,7 @@ fn drawn<L: Lights, W: Weigh<L>>(
         let c = lights.contribution(j, &rx, sampler);
         if c != Vec3::ZERO {
             let c = weighing.weigh(lights, j, v.sp.p, c);
-            batch.push(shadow_segment(&x, lights.end(j)), weighted(c, pick, k));
+            queue.push(shadow_segment(&x, lights.end(j)), weighted(c, pick, k));
         }
     }
     true
@@ -128,7 +140,7 @@ fn resampled<L: Lights, W: Weigh<L>>(
     max_vpl_depth: u32,
     weighing: &W,
     sampler: &mut Sampler,
-    batch: &mut ShadowBatch,
+    queue: &mut dyn Connections,
 ) -> bool {
     let rx = lights.receiver(v, max_vpl_depth, weighing.lobe(v));
     let active = L::is_active(&rx);
@@ -142,7 +154,7 @@ fn resampled<L: Lights, W: Weigh<L>>(
         |cands, window, sampler| lights.push_estimates(cands, window, &rx, sampler),
         |j, factor, sampler| {
             if let Some(c) = weighing.picked(lights, j, &rx, v.sp.p, sampler) {
-                batch.push(shadow_segment(&x, lights.end(j)), c * factor);
+                queue.push(shadow_segment(&x, lights.end(j)), c * factor);
             }
         },
     );

@@ -10,7 +10,7 @@ use super::mis::{EmitterPath, Technique, Weighing};
 use super::points::PointLights;
 use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
-use crate::integrator::deferred::Terms;
+use crate::integrator::deferred::{Connections, Terms};
 use crate::integrator::direct::{LightSample, Sampled, emission_weighted, sample_emitters_weighted};
 use crate::integrator::path::light_sample;
 use crate::integrator::scatter::scatter;
@@ -45,8 +45,9 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let gathered = self.set.gather(ctx, v, max_vpl_depth, &Plain, sampler, counters);
-        terms.add(beta, gathered, radiance);
+        let gathered =
+            terms.gather(ctx, counters, |q| self.set.connect(v, max_vpl_depth, &Plain, sampler, q));
+        terms.add_gathered(beta, gathered, radiance);
     }
 }
 
@@ -61,19 +62,20 @@ pub struct WeighedGathering<'a> {
 }
 
 impl WeighedGathering<'_> {
-    /// The gather at the vertex `v`, its connections weighed against the bounce.
+    /// The connections of the gather at the vertex `v` ([`LightSet::connect`]), weighed
+    /// against the bounce.
     #[inline(always)]
-    fn gather(
+    fn connect(
         &self,
         ctx: &RenderContext,
         v: &Vertex,
         sampler: &mut Sampler,
-        counters: &mut Counters,
-    ) -> Vec3 {
+        queue: &mut dyn Connections,
+    ) -> bool {
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
         let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: self.bound };
-        self.set.gather(ctx, v, max_vpl_depth, &weighing, sampler, counters)
+        self.set.connect(v, max_vpl_depth, &weighing, sampler, queue)
     }
 }
 
@@ -94,8 +96,8 @@ impl Estimator for WeighedGathering<'_> {
         terms: &mut impl Terms,
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
-        let gathered = self.gather(ctx, v, sampler, counters);
-        terms.add(beta, gathered, radiance);
+        let gathered = terms.gather(ctx, counters, |q| self.connect(ctx, v, sampler, q));
+        terms.add_gathered(beta, gathered, radiance);
     }
 
     #[inline]

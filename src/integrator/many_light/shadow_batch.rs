@@ -1,6 +1,10 @@
 //! The gather's queue of shadow rays: each ray with the contribution it carries, traced
 //! [`BATCH`] at a time through [`Accelerator::occluded_batch`] (Embree's packets), summing
-//! the contributions of the unoccluded ones in queue order.
+//! the contributions of the unoccluded ones in queue order: where the scalar walker and a
+//! bounce's own gather (`pir-mis`) trace the gather's connections
+//! ([`crate::integrator::deferred::Immediate`]); the batched walker keeps them with the
+//! bounce's shadow rays instead and sums them in the same batches
+//! ([`crate::integrator::deferred::Deferred`]).
 //!
 //! The queue's arrays are the thread's own, reused from gather to gather
 //! ([`with_shadow_batch`]): a receiver that queues four rays (the resampled gather) pays for
@@ -13,6 +17,7 @@ use glam::Vec3;
 
 use crate::accel::Accelerator;
 use crate::geometry::Ray;
+use crate::integrator::deferred::Connections;
 
 /// Shadow rays per batch handed to the accelerator.
 pub const BATCH: usize = 64;
@@ -45,6 +50,13 @@ pub struct ShadowBatch<'a> {
     traced: u64,
     /// The sum over traced batches (each batch summed on its own, then added).
     total: Vec3,
+}
+
+impl Connections for ShadowBatch<'_> {
+    #[inline]
+    fn push(&mut self, ray: Ray, contrib: Vec3) {
+        ShadowBatch::push(self, ray, contrib);
+    }
 }
 
 impl<'a> ShadowBatch<'a> {
