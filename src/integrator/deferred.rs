@@ -57,15 +57,16 @@ pub trait Terms {
     /// What [`Terms::gather`] gives [`Terms::add_gathered`].
     type Gathered: Copy;
 
-    /// A gather: `queue` gives its connections ([`Connections`]) and says whether the
-    /// receiver gathers at all (where it does not, the gather is zero, whatever was queued);
-    /// their shadow rays are counted in `counters`. What it returns goes to
+    /// A gather of at most `most` connections: `queue` gives them ([`Connections`]) and says
+    /// whether the receiver gathers at all (where it does not, the gather is zero, whatever
+    /// was queued); their shadow rays are counted in `counters`. What it returns goes to
     /// [`Terms::add_gathered`], which adds the gather times a throughput, in the path's order
     /// of terms.
     fn gather(
         &mut self,
-        ctx: &RenderContext,
+        accel: &dyn Accelerator,
         counters: &mut Counters,
+        most: usize,
         queue: impl FnOnce(&mut dyn Connections) -> bool,
     ) -> Self::Gathered;
 
@@ -127,11 +128,12 @@ impl Terms for Immediate {
     #[inline(always)]
     fn gather(
         &mut self,
-        ctx: &RenderContext,
+        accel: &dyn Accelerator,
         counters: &mut Counters,
+        _: usize,
         queue: impl FnOnce(&mut dyn Connections) -> bool,
     ) -> Vec3 {
-        with_shadow_batch(ctx.accel, |batch| {
+        with_shadow_batch(accel, |batch| {
             if !queue(batch) {
                 return Vec3::ZERO;
             }
@@ -222,28 +224,6 @@ impl Terms for Deferred {
         self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Mean, beta, value });
     }
 
-    /// Whether the receiver gathers (its connections are kept as they come).
-    type Gathered = bool;
-
-    #[inline(always)]
-    fn gather(
-        &mut self,
-        _: &RenderContext,
-        counters: &mut Counters,
-        queue: impl FnOnce(&mut dyn Connections) -> bool,
-    ) -> bool {
-        let before = self.shadows.len();
-        let gathers = queue(self);
-        counters.shadow_rays += (self.shadows.len() - before) as u64;
-        gathers
-    }
-
-    #[inline(always)]
-    fn add_gathered(&mut self, beta: Vec3, gathers: bool, _: &mut Vec3) {
-        let value = Vec3::new(if gathers { 1.0 } else { 0.0 }, 0.0, 0.0);
-        self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Gathered, beta, value });
-    }
-
     #[inline(always)]
     fn add(&mut self, beta: Vec3, value: Vec3, radiance: &mut Vec3) {
         if self.waiting {
@@ -252,6 +232,49 @@ impl Terms for Deferred {
             *radiance += beta * value;
         }
     }
+
+    type Gathered = KeptGather;
+
+    /// Kept where it has at most [`BATCH`] connections (the sampled gathers: `--gather-samples`
+    /// of them); a larger one (every VPL, `--gather all`) is traced at once in its own batches,
+    /// as the scalar walker traces it, so that what a bounce keeps stays bounded whatever
+    /// the number of VPLs.
+    #[inline(always)]
+    fn gather(
+        &mut self,
+        accel: &dyn Accelerator,
+        counters: &mut Counters,
+        most: usize,
+        queue: impl FnOnce(&mut dyn Connections) -> bool,
+    ) -> KeptGather {
+        if most > BATCH {
+            return KeptGather::Traced(Immediate::default().gather(accel, counters, most, queue));
+        }
+        let before = self.shadows.len();
+        let gathers = queue(self);
+        counters.shadow_rays += (self.shadows.len() - before) as u64;
+        KeptGather::Kept { gathers }
+    }
+
+    #[inline(always)]
+    fn add_gathered(&mut self, beta: Vec3, gathered: KeptGather, radiance: &mut Vec3) {
+        match gathered {
+            KeptGather::Kept { gathers } => {
+                let value = Vec3::new(if gathers { 1.0 } else { 0.0 }, 0.0, 0.0);
+                self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Gathered, beta, value });
+            }
+            KeptGather::Traced(total) => self.add(beta, total, radiance),
+        }
+    }
+}
+
+/// A gather as the batched walker's [`Deferred`] holds it.
+#[derive(Clone, Copy, Debug)]
+pub enum KeptGather {
+    /// Its connections kept with the bounce's shadow rays: whether the receiver gathers.
+    Kept { gathers: bool },
+    /// Traced at once (too many connections to keep): its value.
+    Traced(Vec3),
 }
 
 /// A gather's connection, kept with its shadow ray for the batch's queries.
@@ -444,11 +467,37 @@ mod tests {
                 Connections::push(&mut d, *r, contrib(i));
             }
             d.mean(beta, 1, &mut unused);
-            d.add_gathered(beta, true, &mut unused);
+            d.add_gathered(beta, KeptGather::Kept { gathers: true }, &mut unused);
         }
         // A receiver that gathers nothing.
         d.at(3);
-        d.add_gathered(beta, false, &mut unused);
+        d.add_gathered(beta, KeptGather::Kept { gathers: false }, &mut unused);
+        // Through `Terms::gather`: a gather of at most a batch is kept, its rays counted; a
+        // larger one is traced at once and added at once, nothing of the path waiting.
+        let mut counters = Counters::default();
+        fn queue_all(
+            g: &[Ray],
+            contrib: impl Fn(usize) -> Vec3,
+        ) -> impl FnOnce(&mut dyn Connections) -> bool {
+            move |q| {
+                for (i, r) in g.iter().enumerate() {
+                    q.push(*r, contrib(i));
+                }
+                true
+            }
+        }
+        d.at(4);
+        let kept = d.gather(&accel, &mut counters, BATCH, queue_all(gathers[2], contrib));
+        assert!(matches!(kept, KeptGather::Kept { gathers: true }), "{kept:?}");
+        d.add_gathered(beta, kept, &mut unused);
+        assert_eq!(counters.shadow_rays, gathers[2].len() as u64);
+        let mut radiance = Vec3::ZERO;
+        d.at(5);
+        let traced = d.gather(&accel, &mut counters, rays.len(), queue_all(&rays, contrib));
+        assert!(matches!(traced, KeptGather::Traced(t) if t == expected[0]), "{traced:?}");
+        d.add_gathered(beta, traced, &mut radiance);
+        assert_eq!(radiance, beta * expected[0]);
+        assert_eq!(counters.shadow_rays, (gathers[2].len() + rays.len()) as u64);
         let mut added = vec![];
         d.finish(&accel, |path, term| added.push((path, term)));
         let mut want = vec![];
@@ -457,6 +506,7 @@ mod tests {
             want.push((path as u32, beta * *e));
         }
         want.push((3, beta * Vec3::ZERO));
+        want.push((4, beta * expected[2]));
         assert_eq!(added, want);
         assert_eq!(unused, Vec3::ZERO);
     }

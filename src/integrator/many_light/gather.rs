@@ -44,8 +44,18 @@ impl<L: Lights> LightSet<L> {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
+        let most = self.most_connections();
         Immediate::default()
-            .gather(ctx, counters, |queue| self.connect(v, max_vpl_depth, weighing, sampler, queue))
+            .gather(ctx.accel, counters, most, |q| self.connect(v, max_vpl_depth, weighing, sampler, q))
+    }
+
+    /// The most connections a receiver's gather makes ([`LightSet::connect`]): every light,
+    /// or the sampled gathers' samples.
+    pub fn most_connections(&self) -> usize {
+        match self.selection {
+            Selection::All => self.lights.chunks() * LANES,
+            Selection::Tree { samples, .. } | Selection::Resampled { samples, .. } => samples,
+        }
     }
 
     /// The connections of the gather at the camera vertex `v` ([`LightSet::gather`]), each

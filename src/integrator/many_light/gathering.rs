@@ -45,8 +45,9 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let gathered =
-            terms.gather(ctx, counters, |q| self.set.connect(v, max_vpl_depth, &Plain, sampler, q));
+        let most = self.set.most_connections();
+        let gathered = terms
+            .gather(ctx.accel, counters, most, |q| self.set.connect(v, max_vpl_depth, &Plain, sampler, q));
         terms.add_gathered(beta, gathered, radiance);
     }
 }
@@ -96,7 +97,8 @@ impl Estimator for WeighedGathering<'_> {
         terms: &mut impl Terms,
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
-        let gathered = terms.gather(ctx, counters, |q| self.connect(ctx, v, sampler, q));
+        let most = self.set.most_connections();
+        let gathered = terms.gather(ctx.accel, counters, most, |q| self.connect(ctx, v, sampler, q));
         terms.add_gathered(beta, gathered, radiance);
     }
 
