@@ -109,12 +109,7 @@ impl Bidirectional<'_> {
         let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
         let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - depth - 1;
-        let most = self.set.most_connections();
-        Some(
-            terms.gather(ctx.accel, counters, most, |q| {
-                self.set.connect(v, max_vpl_depth, &weighing, sampler, q)
-            }),
-        )
+        Some(self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, sampler, counters))
     }
 }
 

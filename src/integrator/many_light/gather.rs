@@ -34,7 +34,7 @@ use crate::sampling::Sampler;
 impl<L: Lights> LightSet<L> {
     /// Indirect light at the camera vertex `v` from every virtual light of at most
     /// `max_vpl_depth` segments, visibility included, each connection as `weighing` weighs it:
-    /// [`LightSet::connect`], its shadow rays traced here.
+    /// [`LightSet::gather_with`] with its shadow rays traced here.
     pub fn gather<W: Weigh<L>>(
         &self,
         ctx: &RenderContext,
@@ -44,14 +44,30 @@ impl<L: Lights> LightSet<L> {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
+        self.gather_with(&mut Immediate::default(), ctx, v, max_vpl_depth, weighing, sampler, counters)
+    }
+
+    /// [`LightSet::gather`] through `terms` ([`Terms::gather`]): its connections traced at
+    /// once, or kept with the batched walker's bounce; what to give
+    /// [`Terms::add_gathered`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather_with<T: Terms, W: Weigh<L>>(
+        &self,
+        terms: &mut T,
+        ctx: &RenderContext,
+        v: &Vertex,
+        max_vpl_depth: u32,
+        weighing: &W,
+        sampler: &mut Sampler,
+        counters: &mut Counters,
+    ) -> T::Gathered {
         let most = self.most_connections();
-        Immediate::default()
-            .gather(ctx.accel, counters, most, |q| self.connect(v, max_vpl_depth, weighing, sampler, q))
+        terms.gather(ctx.accel, counters, most, |q| self.connect(v, max_vpl_depth, weighing, sampler, q))
     }
 
     /// The most connections a receiver's gather makes ([`LightSet::connect`]): every light,
     /// or the sampled gathers' samples.
-    pub fn most_connections(&self) -> usize {
+    fn most_connections(&self) -> usize {
         match self.selection {
             Selection::All => self.lights.chunks() * LANES,
             Selection::Tree { samples, .. } | Selection::Resampled { samples, .. } => samples,
@@ -62,7 +78,7 @@ impl<L: Lights> LightSet<L> {
     /// a shadow ray with its weighted contribution, given to `queue` in light order (drawn
     /// order for the sampled gathers); `false` (and none given) where the receiver reflects
     /// nothing towards `v.wo`.
-    pub fn connect<W: Weigh<L>>(
+    fn connect<W: Weigh<L>>(
         &self,
         v: &Vertex,
         max_vpl_depth: u32,

@@ -10,7 +10,7 @@ use super::mis::{EmitterPath, Technique, Weighing};
 use super::points::PointLights;
 use super::virtual_light::{Lights, Plain};
 use crate::geometry::{Ray, offset_origin};
-use crate::integrator::deferred::{Connections, Terms};
+use crate::integrator::deferred::Terms;
 use crate::integrator::direct::{LightSample, Sampled, emission_weighted, sample_emitters_weighted};
 use crate::integrator::path::light_sample;
 use crate::integrator::scatter::scatter;
@@ -45,9 +45,7 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let most = self.set.most_connections();
-        let gathered = terms
-            .gather(ctx.accel, counters, most, |q| self.set.connect(v, max_vpl_depth, &Plain, sampler, q));
+        let gathered = self.set.gather_with(terms, ctx, v, max_vpl_depth, &Plain, sampler, counters);
         terms.add_gathered(beta, gathered, radiance);
     }
 }
@@ -63,20 +61,21 @@ pub struct WeighedGathering<'a> {
 }
 
 impl WeighedGathering<'_> {
-    /// The connections of the gather at the vertex `v` ([`LightSet::connect`]), weighed
-    /// against the bounce.
+    /// The gather at the vertex `v` through `terms` ([`LightSet::gather_with`]), its
+    /// connections weighed against the bounce.
     #[inline(always)]
-    fn connect(
+    fn gather_with<T: Terms>(
         &self,
+        terms: &mut T,
         ctx: &RenderContext,
         v: &Vertex,
         sampler: &mut Sampler,
-        queue: &mut dyn Connections,
-    ) -> bool {
+        counters: &mut Counters,
+    ) -> T::Gathered {
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
         let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: self.bound };
-        self.set.connect(v, max_vpl_depth, &weighing, sampler, queue)
+        self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, sampler, counters)
     }
 }
 
@@ -97,8 +96,7 @@ impl Estimator for WeighedGathering<'_> {
         terms: &mut impl Terms,
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
-        let most = self.set.most_connections();
-        let gathered = terms.gather(ctx.accel, counters, most, |q| self.connect(ctx, v, sampler, q));
+        let gathered = self.gather_with(terms, ctx, v, sampler, counters);
         terms.add_gathered(beta, gathered, radiance);
     }
 
