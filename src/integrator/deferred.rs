@@ -58,8 +58,8 @@ pub trait Terms {
     type Gathered: Copy;
 
     /// A gather of at most `most` connections: `queue` gives them ([`Connections`]) and says
-    /// whether the receiver gathers at all (where it does not, the gather is zero, whatever
-    /// was queued); their shadow rays are counted in `counters`. What it returns goes to
+    /// whether the receiver gathers at all (where it does not, it gives none and the gather
+    /// is zero); their shadow rays are counted in `counters`. What it returns goes to
     /// [`Terms::add_gathered`], which adds the gather times a throughput, in the path's order
     /// of terms.
     fn gather(
@@ -186,7 +186,7 @@ struct Term {
 /// shades ([`Deferred::at`]); the terms an estimator gives are that path's. A term that needs
 /// no shadow ray, before the path's first that does, is added to the path's radiance at once
 /// (the scalar walker's order is kept either way, and most of `pt`'s light samples that add
-/// nothing need no shadow ray).
+/// nothing need no shadow ray); a kept gather's total always waits for its connections.
 #[derive(Default)]
 pub struct Deferred {
     path: u32,
@@ -235,10 +235,11 @@ impl Terms for Deferred {
 
     type Gathered = KeptGather;
 
-    /// Kept where it has at most [`BATCH`] connections (the sampled gathers: `--gather-samples`
-    /// of them); a larger one (every VPL, `--gather all`) is traced at once in its own batches,
-    /// as the scalar walker traces it, so that what a bounce keeps stays bounded whatever
-    /// the number of VPLs.
+    /// Kept where it has at most [`BATCH`] connections (the sampled gathers at their default
+    /// `--gather-samples`; a gather of every VPL where there are few); a larger one (every VPL
+    /// of many, or `--gather-samples` above [`BATCH`]) is traced at once in its own batches, as
+    /// the scalar walker traces it, so that what a bounce keeps stays bounded whatever the
+    /// number of VPLs.
     #[inline(always)]
     fn gather(
         &mut self,
@@ -252,6 +253,12 @@ impl Terms for Deferred {
         }
         let before = self.shadows.len();
         let gathers = queue(self);
+        // (As `Terms::gather` asks: a receiver that does not gather gave no connection, so
+        // the count is the scalar walker's.)
+        debug_assert!(
+            gathers || self.shadows.len() == before,
+            "a receiver that does not gather gave connections"
+        );
         counters.shadow_rays += (self.shadows.len() - before) as u64;
         KeptGather::Kept { gathers }
     }

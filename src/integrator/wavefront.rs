@@ -33,13 +33,14 @@
 //! sample's term, the throughput, roulette, the next ray). Between the two halves of the
 //! scalar step ([`super::walker::arrive`], [`super::walker::leave`]).
 //!
-//! A sampled gather from the virtual lights (`pir-bdpt`'s, the forward many-light methods'
-//! with `--gather resample` or `tree`) gives its connections to [`Deferred`] too
-//! ([`Terms::gather`](super::deferred::Terms::gather)): their shadow rays join the bounce's
-//! batch, 16-wide packets filled from many receivers instead of a 4-wide one per receiver
-//! (the resampled gather's k = 4), and each path's gather is summed from them as the
-//! gather's own batches sum it. A gather of every VPL (`--gather all`) is traced where the
-//! scalar walker traces it, so that what a bounce keeps does not grow with the VPLs. What an estimator traces otherwise inside its
+//! A gather from the virtual lights (`pir-bdpt`'s, the forward many-light methods') of at most
+//! 64 connections (the sampled gathers at their defaults) gives its connections to
+//! [`Deferred`] too ([`Terms::gather`](super::deferred::Terms::gather)): their shadow rays
+//! join the bounce's batch, 16-wide packets filled from many receivers instead of a 4-wide
+//! one per receiver (the resampled gather's k = 4), and each path's gather is summed from
+//! them as the gather's own batches sum it. A larger gather (every VPL of many) is traced
+//! where the scalar walker traces it, so that what a bounce keeps does not grow with the
+//! VPLs. What an estimator traces otherwise inside its
 //! own terms (a sphere light's cone sample, `pir-mis`'s bounce) is traced where the scalar
 //! walker traces it.
 //!

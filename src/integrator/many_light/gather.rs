@@ -77,7 +77,7 @@ impl<L: Lights> LightSet<L> {
     /// The connections of the gather at the camera vertex `v` ([`LightSet::gather`]), each
     /// a shadow ray with its weighted contribution, given to `queue` in light order (drawn
     /// order for the sampled gathers); `false` (and none given) where the receiver reflects
-    /// nothing towards `v.wo`.
+    /// nothing towards `v.wo` (the tree's gather says `true` there and gives none).
     fn connect<W: Weigh<L>>(
         &self,
         v: &Vertex,

@@ -1,10 +1,10 @@
 //! The gather's queue of shadow rays: each ray with the contribution it carries, traced
 //! [`BATCH`] at a time through [`Accelerator::occluded_batch`] (Embree's packets), summing
-//! the contributions of the unoccluded ones in queue order: where the scalar walker and a
-//! bounce's own gather (`pir-mis`) trace the gather's connections
-//! ([`crate::integrator::deferred::Immediate`]); the batched walker keeps them with the
-//! bounce's shadow rays instead and sums them in the same batches
-//! ([`crate::integrator::deferred::Deferred`]).
+//! the contributions of the unoccluded ones in queue order: where the scalar walker, a
+//! bounce's own gather (`pir-mis`) and the batched walker's gathers of more than [`BATCH`]
+//! connections trace the gather's connections ([`crate::integrator::deferred::Immediate`]);
+//! the batched walker keeps smaller gathers' connections with the bounce's shadow rays
+//! instead and sums them in the same batches ([`crate::integrator::deferred::Deferred`]).
 //!
 //! The queue's arrays are the thread's own, reused from gather to gather
 //! ([`with_shadow_batch`]): a receiver that queues four rays (the resampled gather) pays for
