@@ -15,7 +15,7 @@ use std::path::Path;
 
 use pir::accel::Backend;
 use pir::geometry::Ray;
-use pir::integrator::{Counters, Integrator, MethodConfig, RayByRay};
+use pir::integrator::{Counters, GatherKind, Integrator, MAX_GATHER_SAMPLES, MethodConfig, RayByRay};
 use pir::sampling::{Sampler, SamplerKind, Streams};
 use pir::scene::Scene;
 
@@ -179,6 +179,23 @@ fn bdpt_batched_paths_are_the_scalar_paths_on_the_bvh() {
 fn many_light_batched_paths_are_the_scalar_paths_on_the_bvh() {
     for method in ["pir-mis", "pir-clamp", "pir-vsl", "ir"] {
         same_paths_on_the_bvh(&config(method), &[1, 3, 4, 8]);
+    }
+}
+
+/// A gather's connections are kept with the bounce's shadow rays where there are at most 64
+/// of them and traced at once otherwise: the sampled gathers (the light tree's too), a full
+/// gather of few VPLs (kept) and of the default's (more than 64: traced), all as the scalar
+/// walker traces them.
+#[test]
+fn kept_and_traced_gathers_are_the_scalar_paths_on_the_bvh() {
+    let mut tree = config("pir-clamp");
+    tree.params.gather = Some(GatherKind::Tree);
+    let mut few = config("pir-clamp");
+    few.params.vpls = Some(4);
+    let mut most = config("pir-bdpt");
+    most.params.gather_samples = Some(MAX_GATHER_SAMPLES);
+    for method in [tree, few, config("ir"), most] {
+        same_paths_on_the_bvh(&method, &[1, 3]);
     }
 }
 

@@ -235,11 +235,10 @@ impl Terms for Deferred {
 
     type Gathered = KeptGather;
 
-    /// Kept where it has at most [`BATCH`] connections (the sampled gathers at their default
-    /// `--gather-samples`; a gather of every VPL where there are few); a larger one (every VPL
-    /// of many, or `--gather-samples` above [`BATCH`]) is traced at once in its own batches, as
-    /// the scalar walker traces it, so that what a bounce keeps stays bounded whatever the
-    /// number of VPLs.
+    /// Kept where it has at most [`BATCH`] connections (the sampled gathers, whose
+    /// `--gather-samples` is at most 64; a gather of every VPL where there are few); a larger
+    /// one (every VPL of many) is traced at once in its own batches, as the scalar walker
+    /// traces it, so that what a bounce keeps stays bounded whatever the number of VPLs.
     #[inline(always)]
     fn gather(
         &mut self,
