@@ -165,8 +165,7 @@ enum Op {
     /// Adds `value` to the gather's sum of its current batch of [`BATCH`] connections.
     Connection,
     /// Adds `beta` times the gather's total (the sums of its batches) to the path's radiance
-    /// and starts a new gather; a gather whose receiver gathers nothing has `value.x` zero
-    /// (else one), and adds `beta · 0`.
+    /// and starts a new gather (a receiver that gathers nothing gave no connection: `beta · 0`).
     Gathered,
 }
 
@@ -252,22 +251,27 @@ impl Terms for Deferred {
         }
         let before = self.shadows.len();
         let gathers = queue(self);
-        // (As `Terms::gather` asks: a receiver that does not gather gave no connection, so
-        // the count is the scalar walker's.)
+        // (As `Terms::gather` asks: a receiver that does not gather gave no connection, so its
+        // total is zero and the count is the scalar walker's.)
         debug_assert!(
             gathers || self.shadows.len() == before,
             "a receiver that does not gather gave connections"
         );
         counters.shadow_rays += (self.shadows.len() - before) as u64;
-        KeptGather::Kept { gathers }
+        KeptGather::Kept
     }
 
     #[inline(always)]
     fn add_gathered(&mut self, beta: Vec3, gathered: KeptGather, radiance: &mut Vec3) {
         match gathered {
-            KeptGather::Kept { gathers } => {
-                let value = Vec3::new(if gathers { 1.0 } else { 0.0 }, 0.0, 0.0);
-                self.keep(Term { path: self.path, shadow: NO_SHADOW, op: Op::Gathered, beta, value });
+            KeptGather::Kept => {
+                self.keep(Term {
+                    path: self.path,
+                    shadow: NO_SHADOW,
+                    op: Op::Gathered,
+                    beta,
+                    value: Vec3::ZERO,
+                });
             }
             KeptGather::Traced(total) => self.add(beta, total, radiance),
         }
@@ -277,8 +281,8 @@ impl Terms for Deferred {
 /// A gather as the batched walker's [`Deferred`] holds it.
 #[derive(Clone, Copy, Debug)]
 pub enum KeptGather {
-    /// Its connections kept with the bounce's shadow rays: whether the receiver gathers.
-    Kept { gathers: bool },
+    /// Its connections kept with the bounce's shadow rays.
+    Kept,
     /// Traced at once (too many connections to keep): its value.
     Traced(Vec3),
 }
@@ -385,12 +389,11 @@ impl Deferred {
                     add(t.path, t.beta * (sum / t.value.x));
                     sum = Vec3::ZERO;
                 }
-                // As `ShadowBatch` sums: each batch from zero, its blocked connections left
-                // out, then added to the total.
+                // As `ShadowBatch` sums: each batch from zero, then added to the total. (A blocked
+                // connection adds +0 where `ShadowBatch` leaves it out: the same bits, since a sum
+                // that starts at +0 is never −0.)
                 Op::Connection => {
-                    if t.shadow == NO_SHADOW || !self.blocked[t.shadow as usize] {
-                        batch += t.value;
-                    }
+                    batch += value;
                     in_batch += 1;
                     if in_batch == BATCH {
                         total += batch;
@@ -401,8 +404,7 @@ impl Deferred {
                     if in_batch > 0 {
                         total += batch;
                     }
-                    let gathered = if t.value.x > 0.0 { total } else { Vec3::ZERO };
-                    add(t.path, t.beta * gathered);
+                    add(t.path, t.beta * total);
                     (total, batch, in_batch) = (Vec3::ZERO, Vec3::ZERO, 0);
                 }
             }
@@ -473,11 +475,11 @@ mod tests {
                 Connections::push(&mut d, *r, contrib(i));
             }
             d.mean(beta, 1, &mut unused);
-            d.add_gathered(beta, KeptGather::Kept { gathers: true }, &mut unused);
+            d.add_gathered(beta, KeptGather::Kept, &mut unused);
         }
         // A receiver that gathers nothing.
         d.at(3);
-        d.add_gathered(beta, KeptGather::Kept { gathers: false }, &mut unused);
+        d.add_gathered(beta, KeptGather::Kept, &mut unused);
         // Through `Terms::gather`: a gather of at most a batch is kept, its rays counted; a
         // larger one is traced at once and added at once, nothing of the path waiting.
         let mut counters = Counters::default();
@@ -494,7 +496,7 @@ mod tests {
         }
         d.at(4);
         let kept = d.gather(&accel, &mut counters, BATCH, queue_all(gathers[2], contrib));
-        assert!(matches!(kept, KeptGather::Kept { gathers: true }), "{kept:?}");
+        assert!(matches!(kept, KeptGather::Kept), "{kept:?}");
         d.add_gathered(beta, kept, &mut unused);
         assert_eq!(counters.shadow_rays, gathers[2].len() as u64);
         let mut radiance = Vec3::ZERO;
