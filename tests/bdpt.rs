@@ -11,6 +11,7 @@ use glam::Vec3;
 use pir::integrator::many_light::Connect;
 use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::light_samples_for;
+use pir::integrator::many_light::config::PICKS_AFTER_COATED;
 use pir::integrator::many_light::importance::WORTH_IT;
 use pir::integrator::many_light::path_count::PILOT_PATHS;
 use pir::integrator::many_light::view_pilot::{self, VIEW_PILOT_RAYS};
@@ -112,6 +113,39 @@ fn bidirectional_weights_match_the_path_tracer_on_glossy_walls() {
             }
         }
     }
+}
+
+/// With `--connect glossy` the vertex after a glossy one over a diffuse base (the test
+/// scenes' glossy material) picks [`PICKS_AFTER_COATED`] lights, and the vertex after a
+/// rough metal its own count: the shadow rays that the deeper connections add to those of
+/// `--connect first` scale with the count only after the metal. (Both cubes' images are
+/// unbiased whatever the count: the coated one's against the path tracer above.)
+#[test]
+fn the_vertex_after_a_coated_one_picks_fewer_lights() {
+    let metal = Material {
+        bsdf: Bsdf::Glossy { albedo: Vec3::ZERO, specular: Vec3::splat(0.8), roughness: 0.15 },
+        ..glossy(1.0)
+    };
+    let job = Job { iterations: 4, max_depth: 6, ..Job::default() };
+    let rays = |scene: &Scene, connect: Connect, samples: usize| {
+        let gather = Gather::Resampled { candidates: 32, samples };
+        job.run(scene, &mut bdpt_connecting(Clamping::None, connect, 64).with_gather(gather))
+            .stats
+            .counters
+            .shadow_rays as f64
+    };
+    // The deeper connections' shadow rays at 4 picks over those at 1.
+    let deeper = |scene: &Scene| {
+        let at = |k| rays(scene, Connect::Glossy, k) - rays(scene, Connect::First, k);
+        let (four, one) = (at(4), at(1));
+        assert!(one > 1000.0, "too few deeper connections: {one}");
+        four / one
+    };
+    let (coated, metal) = (deeper(&closed_cube(glossy(1.0))), deeper(&closed_cube(metal)));
+    eprintln!("deeper shadow rays at 4 picks over 1: coated {coated:.3}, metal {metal:.3}");
+    assert!((coated - 1.0).abs() < 0.1, "after a coated vertex: {coated}");
+    assert!(metal > 3.0, "after a metal one: {metal}");
+    assert_eq!(PICKS_AFTER_COATED, 1);
 }
 
 /// A material that does not emit, named `name`.

@@ -44,12 +44,13 @@ impl<L: Lights> LightSet<L> {
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> Vec3 {
-        self.gather_with(&mut Immediate::default(), ctx, v, max_vpl_depth, weighing, sampler, counters)
+        self.gather_with(&mut Immediate::default(), ctx, v, max_vpl_depth, weighing, None, sampler, counters)
     }
 
     /// [`LightSet::gather`] through `terms` ([`Terms::gather`]): its connections traced at
     /// once, or kept with the batched walker's bounce; what to give
-    /// [`Terms::add_gathered`].
+    /// [`Terms::add_gathered`]. A sampled gather picks at most `picks` lights here where
+    /// that is given and fewer than its own count (any count estimates the same sum).
     #[allow(clippy::too_many_arguments)]
     pub fn gather_with<T: Terms, W: Weigh<L>>(
         &self,
@@ -58,11 +59,14 @@ impl<L: Lights> LightSet<L> {
         v: &Vertex,
         max_vpl_depth: u32,
         weighing: &W,
+        picks: Option<usize>,
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> T::Gathered {
         let most = self.most_connections();
-        terms.gather(ctx.accel, counters, most, |q| self.connect(v, max_vpl_depth, weighing, sampler, q))
+        terms.gather(ctx.accel, counters, most, |q| {
+            self.connect(v, max_vpl_depth, weighing, picks, sampler, q)
+        })
     }
 
     /// The most connections a receiver's gather makes ([`LightSet::connect`]): every light,
@@ -76,24 +80,28 @@ impl<L: Lights> LightSet<L> {
 
     /// The connections of the gather at the camera vertex `v` ([`LightSet::gather`]), each
     /// a shadow ray with its weighted contribution, given to `queue` in light order (drawn
-    /// order for the sampled gathers); `false` (and none given) where the receiver reflects
-    /// nothing towards `v.wo` (the tree's gather says `true` there and gives none).
+    /// order for the sampled gathers, which pick at most `picks` where given); `false` (and
+    /// none given) where the receiver reflects nothing towards `v.wo` (the tree's gather says
+    /// `true` there and gives none).
+    #[allow(clippy::too_many_arguments)]
     fn connect<W: Weigh<L>>(
         &self,
         v: &Vertex,
         max_vpl_depth: u32,
         weighing: &W,
+        picks: Option<usize>,
         sampler: &mut Sampler,
         queue: &mut dyn Connections,
     ) -> bool {
         let lights = &self.lights;
+        let at_most = |samples: usize| picks.map_or(samples, |k| k.clamp(1, samples));
         match self.selection {
             Selection::All => all(lights, v, max_vpl_depth, weighing, sampler, queue),
             Selection::Tree { ref tree, samples } => {
-                drawn(lights, tree, samples, v, max_vpl_depth, weighing, sampler, queue)
+                drawn(lights, tree, at_most(samples), v, max_vpl_depth, weighing, sampler, queue)
             }
             Selection::Resampled { candidates, samples } => {
-                resampled(lights, candidates, samples, v, max_vpl_depth, weighing, sampler, queue)
+                resampled(lights, candidates, at_most(samples), v, max_vpl_depth, weighing, sampler, queue)
             }
         }
     }

@@ -45,7 +45,7 @@ impl<L: Lights> Estimator for Gathering<'_, L> {
     ) {
         light_sample(ctx, v, beta, radiance, sampler, counters, terms);
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
-        let gathered = self.set.gather_with(terms, ctx, v, max_vpl_depth, &Plain, sampler, counters);
+        let gathered = self.set.gather_with(terms, ctx, v, max_vpl_depth, &Plain, None, sampler, counters);
         terms.add_gathered(beta, gathered, radiance);
     }
 }
@@ -75,7 +75,7 @@ impl WeighedGathering<'_> {
         let max_vpl_depth = ctx.max_depth - v.depth - 1;
         let fx = PreparedBsdf::new(*v.bsdf, v.sp.geometry(), v.wo, TransportMode::Radiance);
         let weighing = Weighing { technique: Technique::Connect { fx: &fx }, bound: self.bound };
-        self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, sampler, counters)
+        self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, None, sampler, counters)
     }
 }
 

@@ -54,7 +54,9 @@ pub struct MethodParams {
     pub gather: Option<GatherKind>,
     /// --gather tree or resample: VPLs drawn per camera vertex (k), 1 to 64 [default: 4 for
     /// pir-mis and pir-bdpt (pir-bdpt: 16 where it keeps fewer than one VPL in eight by its
-    /// share of the image), 8 otherwise].
+    /// share of the image), 8 otherwise]. pir-bdpt with --connect glossy draws one at a vertex
+    /// after a glossy one over a diffuse base (a rough plastic), where the vertex before it
+    /// already gathers most of that light.
     #[arg(long, value_name = "K")]
     #[serde(default)]
     pub gather_samples: Option<usize>,
@@ -68,7 +70,8 @@ pub struct MethodParams {
     /// pir-bdpt: which vertices of the camera path connect to the VPLs: first (the first
     /// non-delta vertex), first-two, all (every non-delta vertex) or glossy (the first, and
     /// each one after a glossy vertex, GGX alpha at most 0.15, whose narrow lobe few VPLs
-    /// reach); the path tracer's techniques run at every vertex either way [default: glossy
+    /// reach; one VPL drawn after a glossy vertex over a diffuse base, see --gather-samples);
+    /// the path tracer's techniques run at every vertex either way [default: glossy
     /// where fewer than half of the points the camera sees are lit directly, else first].
     #[arg(long, value_enum, value_name = "WHICH")]
     #[serde(default)]
