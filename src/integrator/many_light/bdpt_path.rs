@@ -6,7 +6,7 @@
 use glam::Vec3;
 
 use super::bidirectional::{CameraEnd, escape_weight, hit_weight, light_weight};
-use super::config::{Connect, Connecting, PICKS_AFTER_COATED};
+use super::config::{AFTER_COATED, Connect, Connecting};
 use super::light_set::LightSet;
 use super::merging::{Caustic, Merging};
 use super::mis::{Technique, Weighing};
@@ -109,7 +109,7 @@ impl Bidirectional<'_> {
         let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
         let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - depth - 1;
-        let picks = path.connecting.fewer_picks().then_some(PICKS_AFTER_COATED);
+        let picks = path.connecting.fewer_picks().then_some(AFTER_COATED);
         Some(self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, picks, sampler, counters))
     }
 }

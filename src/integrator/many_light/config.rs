@@ -126,29 +126,41 @@ pub fn glossy_vertex(b: &Bsdf) -> bool {
 
 /// Whether a vertex of this BSDF is glossy for `--connect glossy` ([`glossy_vertex`]) over
 /// a diffuse base (a rough plastic of α ≤ [`GLOSSY_ALPHA`]: not every non-delta lobe a
-/// microfacet lobe, [`Bsdf::widest_alpha`]): the vertex after it gathers
-/// [`PICKS_AFTER_COATED`] lights ([`Connecting::fewer_picks`]).
+/// microfacet lobe, [`Bsdf::widest_alpha`]): the vertex after it gathers as
+/// [`AFTER_COATED`] says ([`Connecting::fewer_picks`]).
 #[inline]
 pub fn coated_vertex(b: &Bsdf) -> bool {
     glossy_vertex(b) && b.widest_alpha().is_none()
 }
 
-/// The lights a sampled gather (`--gather resample` or `tree`) picks at a camera vertex that
+/// What a sampled gather draws at one receiver where that is fewer than its own counts
+/// (`--gather-samples`, `--gather-candidates`): `samples` lights (k), for `--gather resample`
+/// picked among a window of `candidates` (m).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Picks {
+    pub samples: usize,
+    pub candidates: usize,
+}
+
+/// What a sampled gather (`--gather resample` or `tree`) draws at a camera vertex that
 /// connects only because the non-delta vertex before it is glossy over a diffuse base
-/// ([`coated_vertex`]), where its own count (`--gather-samples`) is larger.
+/// ([`coated_vertex`], [`Connecting::fewer_picks`]): one light, among 32 candidates.
 ///
 /// Why: such a vertex (a wall seen in a coated floor, or seen from a painted wall whose coat
 /// is glossy) carries a path that the gather at the vertex before it mostly makes too, through
 /// the diffuse base, so its connections pay off only where the coat's lobe sent the path, and
 /// those are few; after a glossy vertex without a diffuse base (a rough metal) the vertex
-/// after it is where the light is found, and it keeps the full count. Any count gives an
-/// unbiased estimate of the same sum and the weights do not depend on it, so the image stays
-/// unbiased and consistent; only the cost and the noise change. Measured (`docs/results.md`,
-/// "Fewer picks after a coated vertex"): in the living room (painted walls and floor of α
-/// 0.15) 1.13–1.21× the efficiency at 640×360, the dense scene lit indirectly (a plastic
-/// bunny) 1.02–1.03×, and the same images where no glossy vertex has a diffuse base
-/// (Bitterli's veach-ajar, with its metal floor). A count of 2 was 5 % behind 1 there.
-pub const PICKS_AFTER_COATED: usize = 1;
+/// after it is where the light is found, and it keeps the full counts. Any counts give an
+/// unbiased estimate of the same sum and the weights do not depend on them, so the image
+/// stays unbiased and consistent; only the cost and the noise change. Measured
+/// (`docs/results.md`, "Fewer picks after a coated vertex"): in the living room (painted walls
+/// and floor of α 0.15) one pick of the 128 candidates gave 1.13–1.21× the efficiency at
+/// 640×360 and two picks 5 % less than one; one of 32 candidates 3 % more again there, and at
+/// 1920×1080 `pt`'s error 3.1–3.25× sooner against 2.9–3.05× with 128 (2.4× with the full
+/// counts). The dense scene lit indirectly (a plastic bunny) gains 1.02–1.05×; where no
+/// glossy vertex has a diffuse base (Bitterli's veach-ajar, with its metal floor) the images
+/// are the same.
+pub const AFTER_COATED: Picks = Picks { samples: 1, candidates: 32 };
 
 /// The widest microfacet roughness (α) at which a vertex is near-specular
 /// ([`near_specular`]): `pir-bdpt` neither connects there nor leaves a VPL there.
@@ -242,8 +254,8 @@ impl Connecting {
     }
 
     /// Whether the last non-delta vertex connects only because the one before it is glossy
-    /// over a diffuse base ([`coated_vertex`]): its sampled gather picks
-    /// [`PICKS_AFTER_COATED`] lights.
+    /// over a diffuse base ([`coated_vertex`]): its sampled gather draws as [`AFTER_COATED`]
+    /// says.
     #[inline]
     pub fn fewer_picks(&self) -> bool {
         self.fewer

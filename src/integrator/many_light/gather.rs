@@ -18,6 +18,7 @@
 
 use glam::Vec3;
 
+use super::config::Picks;
 use super::light_set::{LightSet, Selection};
 use super::light_tree::LightTree;
 use super::lobe::Lobe;
@@ -49,8 +50,8 @@ impl<L: Lights> LightSet<L> {
 
     /// [`LightSet::gather`] through `terms` ([`Terms::gather`]): its connections traced at
     /// once, or kept with the batched walker's bounce; what to give
-    /// [`Terms::add_gathered`]. A sampled gather picks at most `picks` lights here where
-    /// that is given and fewer than its own count (any count estimates the same sum).
+    /// [`Terms::add_gathered`]. A sampled gather draws at most as `picks` says where given
+    /// (any counts estimate the same sum).
     #[allow(clippy::too_many_arguments)]
     pub fn gather_with<T: Terms, W: Weigh<L>>(
         &self,
@@ -59,7 +60,7 @@ impl<L: Lights> LightSet<L> {
         v: &Vertex,
         max_vpl_depth: u32,
         weighing: &W,
-        picks: Option<usize>,
+        picks: Option<Picks>,
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> T::Gathered {
@@ -80,7 +81,7 @@ impl<L: Lights> LightSet<L> {
 
     /// The connections of the gather at the camera vertex `v` ([`LightSet::gather`]), each
     /// a shadow ray with its weighted contribution, given to `queue` in light order (drawn
-    /// order for the sampled gathers, which pick at most `picks` where given); `false` (and
+    /// order for the sampled gathers, which draw at most as `picks` says); `false` (and
     /// none given) where the receiver reflects nothing towards `v.wo` (the tree's gather says
     /// `true` there and gives none).
     #[allow(clippy::too_many_arguments)]
@@ -89,19 +90,22 @@ impl<L: Lights> LightSet<L> {
         v: &Vertex,
         max_vpl_depth: u32,
         weighing: &W,
-        picks: Option<usize>,
+        picks: Option<Picks>,
         sampler: &mut Sampler,
         queue: &mut dyn Connections,
     ) -> bool {
         let lights = &self.lights;
-        let at_most = |samples: usize| picks.map_or(samples, |k| k.clamp(1, samples));
+        // The counts here: the selection's own, or fewer as `picks` says (at least one each).
+        let (k, m) = picks.map_or((usize::MAX, usize::MAX), |p| (p.samples, p.candidates));
+        let fewer = |own: usize, here: usize| here.clamp(1, own);
         match self.selection {
             Selection::All => all(lights, v, max_vpl_depth, weighing, sampler, queue),
             Selection::Tree { ref tree, samples } => {
-                drawn(lights, tree, at_most(samples), v, max_vpl_depth, weighing, sampler, queue)
+                drawn(lights, tree, fewer(samples, k), v, max_vpl_depth, weighing, sampler, queue)
             }
             Selection::Resampled { candidates, samples } => {
-                resampled(lights, candidates, at_most(samples), v, max_vpl_depth, weighing, sampler, queue)
+                let (m, k) = (fewer(candidates, m), fewer(samples, k));
+                resampled(lights, m, k, v, max_vpl_depth, weighing, sampler, queue)
             }
         }
     }
