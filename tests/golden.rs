@@ -62,6 +62,7 @@ const EXTRA: &[&str] = &[
     "pir-bdpt --sampler independent",
     "pir-bdpt --scene scenes/stress/slit/scene.toml",
     "pir-bdpt --connect glossy --scene scenes/stress/corner/scene.toml",
+    "pir-bdpt --connect glossy --gather tree --scene scenes/stress/corner/scene.toml",
     "pir-bdpt --scene scenes/stress/caustic/scene.toml",
     "pir-bdpt --merge-radius 0 --scene scenes/stress/caustic/scene.toml",
     "pir-bdpt --scene scenes/stress/glossy/scene.toml",

@@ -109,8 +109,8 @@ impl Bidirectional<'_> {
         let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
         let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - depth - 1;
-        let picks = path.connecting.fewer_picks().then_some(AFTER_COATED);
-        Some(self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, picks, sampler, counters))
+        let draws = path.connecting.fewer_picks().then_some(AFTER_COATED);
+        Some(self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, draws, sampler, counters))
     }
 }
 

@@ -85,7 +85,8 @@
 //! "Light samples at the first vertex").
 //!
 //! Cost: a path tracer's rays plus a gather at each non-delta vertex of the camera path
-//! (the resampled gather: k shadow rays of m candidates).
+//! (the resampled gather: k shadow rays of m candidates; one of 32 after a coated vertex,
+//! [`super::config::AFTER_COATED`]).
 
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;

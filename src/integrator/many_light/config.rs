@@ -1,6 +1,7 @@
 //! What a many-light method is made of, as values: the virtual lights and their bias control
 //! ([`VirtualLights`], [`Clamping`], [`Radius`]), how a receiver gathers from them
-//! ([`Gather`]), which camera vertices connect ([`Connect`]), and the default light paths.
+//! ([`Gather`], and [`Draws`] where a vertex draws fewer, [`AFTER_COATED`]), which camera
+//! vertices connect ([`Connect`]), and the default light paths.
 //! The method registry builds its integrators from these.
 
 use super::schedule::{self, clamp_bound};
@@ -135,16 +136,17 @@ pub fn coated_vertex(b: &Bsdf) -> bool {
 
 /// What a sampled gather draws at one receiver where that is fewer than its own counts
 /// (`--gather-samples`, `--gather-candidates`): `samples` lights (k), for `--gather resample`
-/// picked among a window of `candidates` (m).
+/// picked among a window of `candidates` (m); each at least one and at most the gather's own.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Picks {
+pub struct Draws {
     pub samples: usize,
     pub candidates: usize,
 }
 
 /// What a sampled gather (`--gather resample` or `tree`) draws at a camera vertex that
 /// connects only because the non-delta vertex before it is glossy over a diffuse base
-/// ([`coated_vertex`], [`Connecting::fewer_picks`]): one light, among 32 candidates.
+/// ([`coated_vertex`], [`Connecting::fewer_picks`]): one light, among 32 candidates (at most
+/// the gather's own). The weights still count the gather's own k there ([`super::subpath::Counts`]).
 ///
 /// Why: such a vertex (a wall seen in a coated floor, or seen from a painted wall whose coat
 /// is glossy) carries a path that the gather at the vertex before it mostly makes too, through
@@ -154,13 +156,14 @@ pub struct Picks {
 /// unbiased estimate of the same sum and the weights do not depend on them, so the image
 /// stays unbiased and consistent; only the cost and the noise change. Measured
 /// (`docs/results.md`, "Fewer picks after a coated vertex"): in the living room (painted walls
-/// and floor of α 0.15) one pick of the 128 candidates gave 1.13–1.21× the efficiency at
-/// 640×360 and two picks 5 % less than one; one of 32 candidates 3 % more again there, and at
+/// and floor of α 0.15) one pick of the 128 candidates gave 1.16–1.21× the efficiency at
+/// 640×360 at three seeds of four (0.99 at the fourth, a firefly of its sequence) and two
+/// picks 5 % less than one; one of 32 candidates 3 % more again there, and at
 /// 1920×1080 `pt`'s error 3.1–3.25× sooner against 2.9–3.05× with 128 (2.4× with the full
 /// counts). The dense scene lit indirectly (a plastic bunny) gains 1.02–1.05×; where no
 /// glossy vertex has a diffuse base (Bitterli's veach-ajar, with its metal floor) the images
 /// are the same.
-pub const AFTER_COATED: Picks = Picks { samples: 1, candidates: 32 };
+pub const AFTER_COATED: Draws = Draws { samples: 1, candidates: 32 };
 
 /// The widest microfacet roughness (α) at which a vertex is near-specular
 /// ([`near_specular`]): `pir-bdpt` neither connects there nor leaves a VPL there.
@@ -246,8 +249,8 @@ impl Connecting {
         self.rank += 1;
         self.before_last = self.last;
         self.last = connect.at(self.rank, self.glossy);
-        // (Only `Connect::Glossy` makes a vertex coated, and after one at rank ≥ 2 it connects.)
-        self.fewer = self.rank >= 2 && self.coated;
+        // (Only `Connect::Glossy` makes a vertex coated, and the vertex after one connects.)
+        self.fewer = self.coated;
         self.glossy = connect.glossy(b);
         self.coated = self.glossy && coated_vertex(b);
         self.last

@@ -18,7 +18,7 @@
 
 use glam::Vec3;
 
-use super::config::Picks;
+use super::config::Draws;
 use super::light_set::{LightSet, Selection};
 use super::light_tree::LightTree;
 use super::lobe::Lobe;
@@ -50,8 +50,8 @@ impl<L: Lights> LightSet<L> {
 
     /// [`LightSet::gather`] through `terms` ([`Terms::gather`]): its connections traced at
     /// once, or kept with the batched walker's bounce; what to give
-    /// [`Terms::add_gathered`]. A sampled gather draws at most as `picks` says where given
-    /// (any counts estimate the same sum).
+    /// [`Terms::add_gathered`]. A sampled gather draws as `draws` says where given (any
+    /// counts estimate the same sum).
     #[allow(clippy::too_many_arguments)]
     pub fn gather_with<T: Terms, W: Weigh<L>>(
         &self,
@@ -60,13 +60,13 @@ impl<L: Lights> LightSet<L> {
         v: &Vertex,
         max_vpl_depth: u32,
         weighing: &W,
-        picks: Option<Picks>,
+        draws: Option<Draws>,
         sampler: &mut Sampler,
         counters: &mut Counters,
     ) -> T::Gathered {
         let most = self.most_connections();
         terms.gather(ctx.accel, counters, most, |q| {
-            self.connect(v, max_vpl_depth, weighing, picks, sampler, q)
+            self.connect(v, max_vpl_depth, weighing, draws, sampler, q)
         })
     }
 
@@ -81,7 +81,7 @@ impl<L: Lights> LightSet<L> {
 
     /// The connections of the gather at the camera vertex `v` ([`LightSet::gather`]), each
     /// a shadow ray with its weighted contribution, given to `queue` in light order (drawn
-    /// order for the sampled gathers, which draw at most as `picks` says); `false` (and
+    /// order for the sampled gathers, which draw as `draws` says where given); `false` (and
     /// none given) where the receiver reflects nothing towards `v.wo` (the tree's gather says
     /// `true` there and gives none).
     #[allow(clippy::too_many_arguments)]
@@ -90,21 +90,22 @@ impl<L: Lights> LightSet<L> {
         v: &Vertex,
         max_vpl_depth: u32,
         weighing: &W,
-        picks: Option<Picks>,
+        draws: Option<Draws>,
         sampler: &mut Sampler,
         queue: &mut dyn Connections,
     ) -> bool {
         let lights = &self.lights;
-        // The counts here: the selection's own, or fewer as `picks` says (at least one each).
-        let (k, m) = picks.map_or((usize::MAX, usize::MAX), |p| (p.samples, p.candidates));
-        let fewer = |own: usize, here: usize| here.clamp(1, own);
+        // The counts here: the selection's own, or as `draws` says (at least one each).
+        let (k_here, m_here) = draws.map_or((usize::MAX, usize::MAX), |d| (d.samples, d.candidates));
+        let count = |own: usize, here: usize| here.clamp(1, own);
         match self.selection {
             Selection::All => all(lights, v, max_vpl_depth, weighing, sampler, queue),
             Selection::Tree { ref tree, samples } => {
-                drawn(lights, tree, fewer(samples, k), v, max_vpl_depth, weighing, sampler, queue)
+                let k = count(samples, k_here);
+                drawn(lights, tree, k, v, max_vpl_depth, weighing, sampler, queue)
             }
             Selection::Resampled { candidates, samples } => {
-                let (m, k) = (fewer(candidates, m), fewer(samples, k));
+                let (m, k) = (count(candidates, m_here), count(samples, k_here));
                 resampled(lights, m, k, v, max_vpl_depth, weighing, sampler, queue)
             }
         }

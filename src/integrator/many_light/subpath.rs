@@ -33,7 +33,9 @@ pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 /// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
 ///   contribution) counts at most 2k (the resampled gather between Lambertian ends 4k / v,
 ///   next item): its picks are k samples, and the VPLs they pick are shared by every pixel,
-///   so that a larger count trades per-pixel noise for blotches.
+///   so that a larger count trades per-pixel noise for blotches. (The vertex after a coated
+///   one draws fewer, [`super::config::AFTER_COATED`], and counts the same: a count that
+///   followed its draws would have to be carried by the light subpath too.)
 ///   Measured: `docs/integrator-measurements.md`, "Counts of the sampled gathers".
 /// - **Between two Lambertian ends, the resampled gather** counts
 ///   [`LAMBERTIAN_PICK_COUNT`] · k / v (4k / v), at most N, with v

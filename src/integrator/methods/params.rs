@@ -54,23 +54,25 @@ pub struct MethodParams {
     pub gather: Option<GatherKind>,
     /// --gather tree or resample: VPLs drawn per camera vertex (k), 1 to 64 [default: 4 for
     /// pir-mis and pir-bdpt (pir-bdpt: 16 where it keeps fewer than one VPL in eight by its
-    /// share of the image), 8 otherwise]. pir-bdpt with --connect glossy draws one at a vertex
-    /// after a glossy one over a diffuse base (a rough plastic), where the vertex before it
-    /// already gathers most of that light.
+    /// share of the image), 8 otherwise]. pir-bdpt with --connect glossy draws one (among at
+    /// most 32 candidates) at a vertex after a glossy one over a diffuse base (a rough
+    /// plastic), where the vertex before it already gathers most of that light.
     #[arg(long, value_name = "K")]
     #[serde(default)]
     pub gather_samples: Option<usize>,
     /// --gather resample: candidate VPLs per camera vertex (m), a random window of the
     /// iteration's light paths whose unoccluded contributions choose the k that get shadow
     /// rays (every VPL when the iteration has at most 2m); 1 to 1024 [default: 64 for
-    /// pir-mis, 128 otherwise].
+    /// pir-mis, 128 otherwise; pir-bdpt: at most 32 where it draws one VPL, see
+    /// --gather-samples].
     #[arg(long, value_name = "M")]
     #[serde(default)]
     pub gather_candidates: Option<usize>,
     /// pir-bdpt: which vertices of the camera path connect to the VPLs: first (the first
     /// non-delta vertex), first-two, all (every non-delta vertex) or glossy (the first, and
     /// each one after a glossy vertex, GGX alpha at most 0.15, whose narrow lobe few VPLs
-    /// reach; one VPL drawn after a glossy vertex over a diffuse base, see --gather-samples);
+    /// reach; one VPL of at most 32 candidates after a glossy vertex over a diffuse base, see
+    /// --gather-samples);
     /// the path tracer's techniques run at every vertex either way [default: glossy
     /// where fewer than half of the points the camera sees are lit directly, else first].
     #[arg(long, value_enum, value_name = "WHICH")]
