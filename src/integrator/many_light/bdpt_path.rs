@@ -85,7 +85,7 @@ impl Bidirectional<'_> {
         let rank = path.connecting.rank();
         let geometry = sp.geometry();
         // The count of the connection from the previous camera vertex to this one.
-        let count_in = counts.between(path.previous.as_ref(), bsdf);
+        let count_in = counts.between_at(path.previous.as_ref(), bsdf, path.connecting.previous_fewer());
         let n = self.samples_at(path);
         let count = n as f32;
         // The samples' points: one block of the sequence, stratified among themselves.
@@ -105,11 +105,12 @@ impl Bidirectional<'_> {
         }
         let fx = PreparedBsdf::new(*bsdf, geometry, wo, TransportMode::Radiance);
         let count_in = count_previous;
-        let glossy = path.connecting.glossy();
-        let end = CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, glossy, counts, count_in };
+        let (after, fewer) = (path.connecting.after(), path.connecting.fewer_picks());
+        let end =
+            CameraEnd { fx: &fx, bsdf, geometry, wo, state, connect, rank, after, fewer, counts, count_in };
         let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: self.bound };
         let max_vpl_depth = ctx.max_depth - depth - 1;
-        let draws = path.connecting.fewer_picks().then_some(AFTER_COATED);
+        let draws = fewer.then_some(AFTER_COATED);
         Some(self.set.gather_with(terms, ctx, v, max_vpl_depth, &weighing, draws, sampler, counters))
     }
 }
@@ -238,7 +239,7 @@ impl Estimator for Bidirectional<'_> {
     #[inline(always)]
     fn on_scatter(&self, path: &mut CameraPath, v: &Vertex, s: &BsdfSample) {
         let (sp, wo, bsdf) = (&v.sp, v.wo, v.bsdf);
-        let count_in = self.counts.between(path.previous.as_ref(), bsdf);
+        let count_in = self.counts.between_at(path.previous.as_ref(), bsdf, path.connecting.previous_fewer());
         // (Only the camera's sums that are not zero need it: none at the first vertex.)
         let pdf_rev = match (s.delta, path.mis.dvc > 0.0) {
             (true, _) => s.pdf,

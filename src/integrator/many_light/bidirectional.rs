@@ -91,7 +91,7 @@
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use super::config::Connect;
+use super::config::{After, Connect};
 use super::light_paths::Vpl;
 use super::points::point_value;
 use super::subpath::{Counts, MisState};
@@ -229,9 +229,12 @@ pub struct CameraEnd<'a> {
     /// emitter techniques extend the camera subpath into the light subpath).
     pub connect: Connect,
     pub rank: u32,
-    /// Whether this vertex is glossy for `connect` ([`Connect::glossy`]; found once per
-    /// vertex, not per connection).
-    pub glossy: bool,
+    /// What this vertex makes of the camera vertex after it for `connect`
+    /// ([`Connect::after`]; found once per vertex, not per connection), and whether it draws
+    /// fewer itself ([`super::config::Connecting::fewer_picks`]), which its connections count
+    /// ([`Counts::at`]).
+    pub after: After,
+    pub fewer: bool,
     /// The connections' counts, and the count of the connection from the camera vertex
     /// before this one to this one (relative to [`Counts::paths`]; 0 where that vertex does
     /// not connect; any value where the sums are zero).
@@ -251,7 +254,7 @@ pub fn connection_weight(x: &CameraEnd, p: Vec3, vpl: &Vpl, bsdf_y: &Bsdf, emitt
     let w = d / dist2.sqrt();
     // The reverse densities only where their factors are not zero (at the camera's first
     // vertex its sums are, so the light subpath extended to x has no competitor to weigh).
-    let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.glossy(bsdf_y));
+    let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.after(bsdf_y));
     let densities = Densities {
         camera: x.fx.pdf(w),
         camera_rev: if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, w, x.wo) } else { 0.0 },
@@ -284,7 +287,7 @@ pub fn connection(x: &CameraEnd, p: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, bo
     let c = point_value(vpl, fx, fy, x.geometry.frame.n, w, dist2, bound);
     // (`dist2` is a positive number here: a NaN one made `fx` zero.)
     let bsdf_y = emitting.bsdf();
-    let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.glossy(bsdf_y));
+    let more = vpl.mis.beyond(x.connect, x.rank + 1, x.connect.after(bsdf_y));
     (c, weight_of(x, vpl, bsdf_y, w, dist2, more, Densities { camera, camera_rev, light, light_rev }))
 }
 
@@ -318,17 +321,19 @@ fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more:
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
     let one = match vpl.depth {
         1 => vpl.mis.dvcm,
-        _ if x.connect.at(x.rank + 1, x.glossy) => vpl.mis.dvcm * vpl.count_out,
+        // (The camera vertex at the VPL draws fewer where this one is coated.)
+        _ if x.after == After::Coated => vpl.mis.dvcm * vpl.count_out_fewer,
+        _ if x.connect.at(x.rank + 1, x.after.glossy()) => vpl.mis.dvcm * vpl.count_out,
         _ => 0.0,
     };
     let w_light = camera_pdf * (one + more * light_rev);
     // All of them relative to this connection's count.
-    weight((w_light + w_camera) / x.counts.factor(x.bsdf, bsdf_y))
+    weight((w_light + w_camera) / x.counts.at(x.bsdf, bsdf_y, x.fewer))
 }
 
 /// The weight of light tracing to the camera from the light subpath's vertex `y`: `mis` its
-/// sums on arriving there, `depth` its segments from the emitter, `glossy` whether it is
-/// glossy for `connect` ([`Connect::glossy`]), `count_out` the count of the
+/// sums on arriving there, `depth` its segments from the emitter, `after` what it makes of
+/// the camera vertex after it for `connect` ([`Connect::after`]), `count_out` the count of the
 /// connection from it (as the camera's first vertex) to the light subpath's previous vertex
 /// ([`Vpl::count_out`]); `pdf_camera` the camera's density of `y` per unit area (its direction
 /// density, [`crate::scene::CameraRays::direction_pdf`], times cos θ_y / d²), `light_rev` the
@@ -346,7 +351,7 @@ fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more:
 pub fn camera_weight(
     mis: &MisState,
     depth: u32,
-    glossy: bool,
+    after: After,
     count_out: f32,
     pdf_camera: f32,
     light_rev: f32,
@@ -354,7 +359,7 @@ pub fn camera_weight(
     light_samples: f32,
 ) -> f32 {
     let one = if depth == 1 { mis.dvcm * light_samples } else { mis.dvcm * count_out };
-    let more = mis.beyond(connect, 1, glossy);
+    let more = mis.beyond(connect, 1, after);
     weight(pdf_camera * (one + more * light_rev))
 }
 
@@ -362,8 +367,8 @@ pub fn camera_weight(
 mod tests {
     use super::*;
     use crate::geometry::Frame;
+    use crate::integrator::many_light::config::Connecting;
     use crate::integrator::many_light::config::Gather;
-    use crate::integrator::many_light::config::{Connecting, glossy_vertex};
     use crate::integrator::many_light::points::point_contribution;
     use crate::integrator::many_light::subpath::Scatter;
     use crate::material::TransportMode;
@@ -398,8 +403,19 @@ mod tests {
     /// (none at the camera or the emitter), as the renderer folds it in
     /// ([`Counts::between`]; a delta vertex is a mirror).
     fn factor(counts: Counts, a: Option<&Node>, b: &Node) -> f32 {
+        factor_at(counts, a, b, false)
+    }
+
+    /// [`factor`] where the camera end draws fewer or not ([`Counts::between_at`]).
+    fn factor_at(counts: Counts, a: Option<&Node>, b: &Node, fewer: bool) -> f32 {
         let bsdf = |n: &Node| n.bsdf.unwrap_or(Bsdf::Mirror { specular: Vec3::ONE });
-        counts.between(a.map(bsdf).as_ref(), &bsdf(b))
+        counts.between_at(a.map(bsdf).as_ref(), &bsdf(b), fewer)
+    }
+
+    /// Whether the camera vertex z[t] draws fewer ([`Connecting::fewer_picks`]; none at the
+    /// camera, t = 0).
+    fn fewer(z: &[Node], t: usize, connect: Connect) -> bool {
+        t > 0 && walk(z, t, connect).fewer_picks()
     }
 
     /// Where a test path's light comes from: its last vertex z[k].
@@ -465,7 +481,7 @@ mod tests {
             if j < t {
                 let (pdf, rev) = (z[j].pdf(&z[j - 1], &z[j + 1]), z[j].pdf(&z[j + 1], &z[j - 1]));
                 let delta = z[j].bsdf.is_none();
-                let count = factor(counts, (j > 1).then(|| &z[j - 1]), &z[j]);
+                let count = factor_at(counts, (j > 1).then(|| &z[j - 1]), &z[j], fewer(z, j - 1, connect));
                 let fold = walk(z, j, connect).previous_connects();
                 let scatter = Scatter::camera(pdf, rev, z[j].cos(&z[j + 1]), delta, fold, count);
                 s.scatter(scatter);
@@ -499,9 +515,11 @@ mod tests {
                 let (pdf, rev) = (z[j].pdf(&z[j + 1], &z[j - 1]), z[j].pdf(&z[j - 1], &z[j + 1]));
                 let delta = z[j].bsdf.is_none();
                 let count = factor(counts, (j + 1 < k).then(|| &z[j + 1]), &z[j]);
-                let glossy = z[j].bsdf.is_some_and(|b| glossy_vertex(&b));
+                let count_fewer = factor_at(counts, (j + 1 < k).then(|| &z[j + 1]), &z[j], true);
+                let after = z[j].bsdf.map_or(After::Plain, |b| After::of(&b));
                 let depth = (k - j) as u32;
-                s.scatter(Scatter::light(pdf, rev, z[j].cos(&z[j - 1]), delta, depth, count, glossy));
+                let cos = z[j].cos(&z[j - 1]);
+                s.scatter(Scatter::light(pdf, rev, cos, delta, depth, count, count_fewer, after));
             }
         }
         s
@@ -539,13 +557,13 @@ mod tests {
             let count_out = factor(counts, (2 < k).then(|| &z[2]), &z[1]);
             let light_rev = z[1].pdf(&z[0], &z[2]);
             let pdf_camera = camera_pdf_area(z);
-            let glossy = z[1].bsdf.is_some_and(|b| connect.glossy(&b));
+            let after = z[1].bsdf.map_or(After::Plain, |b| connect.after(&b));
             let depth = (k - 1) as u32;
-            camera_weight(&mis, depth, glossy, count_out, pdf_camera, light_rev, connect, samples_at(1))
+            camera_weight(&mis, depth, after, count_out, pdf_camera, light_rev, connect, samples_at(1))
         })];
         for t in 1..=k {
             let x = &z[t];
-            let count_in = factor(counts, (t > 1).then(|| &z[t - 1]), x);
+            let count_in = factor_at(counts, (t > 1).then(|| &z[t - 1]), x, fewer(z, t - 1, connect));
             if t == k {
                 w.push(match source {
                     Source::Area { pdf_area, pdf_nee } => {
@@ -614,6 +632,7 @@ mod tests {
                     arrival: 0.0,
                     mis: light_state(z, t + 1, source, counts),
                     count_out: factor(counts, (t + 2 < k).then(|| &z[t + 2]), y),
+                    count_out_fewer: factor_at(counts, (t + 2 < k).then(|| &z[t + 2]), y, true),
                     ..Vpl::for_test(y.p, y.g.ng, y.g.frame, w_in, Vec3::ONE, (k - t - 1) as u32)
                 };
                 let wo = x.dir(&z[t - 1]);
@@ -627,7 +646,8 @@ mod tests {
                     state: cam,
                     connect,
                     rank: rank(z, t),
-                    glossy: walk(z, t, connect).glossy(),
+                    after: walk(z, t, connect).after(),
+                    fewer: fewer(z, t, connect),
                     counts,
                     count_in: if walk(z, t, connect).previous_connects() { count_in } else { 0.0 },
                 };
@@ -692,7 +712,14 @@ mod tests {
     #[test]
     fn the_connection_weighs_its_count_against_the_emitter_techniques() {
         let mut s = Sampler::new(11, 0, Domain::LightPath, 0);
-        let counts = Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false };
+        let counts = Counts {
+            paths: 32.0,
+            lambertian: 0.5,
+            glossy: 0.125,
+            fewer_lambertian: 0.125,
+            fewer_glossy: 0.03125,
+            skip_near_specular: false,
+        };
         let pdf_area = 0.6;
         let mut checked = [0; 2];
         for _ in 0..400 {
@@ -819,7 +846,14 @@ mod tests {
                 let w = weights(
                     &z,
                     pdf_area,
-                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25, skip_near_specular: false },
+                    Counts {
+                        paths: 32.0,
+                        lambertian: 1.0,
+                        glossy: 0.25,
+                        fewer_lambertian: 0.25,
+                        fewer_glossy: 0.0625,
+                        skip_near_specular: false,
+                    },
                     Connect::First,
                     n,
                 );
@@ -872,8 +906,22 @@ mod tests {
                 // Every connection counted alike, and a glossy end counted a quarter.
                 for counts in [
                     Counts::uniform(32.0),
-                    Counts { paths: 32.0, lambertian: 1.0, glossy: 0.25, skip_near_specular: false },
-                    Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false },
+                    Counts {
+                        paths: 32.0,
+                        lambertian: 1.0,
+                        glossy: 0.25,
+                        fewer_lambertian: 0.25,
+                        fewer_glossy: 0.0625,
+                        skip_near_specular: false,
+                    },
+                    Counts {
+                        paths: 32.0,
+                        lambertian: 0.5,
+                        glossy: 0.125,
+                        fewer_lambertian: 0.125,
+                        fewer_glossy: 0.03125,
+                        skip_near_specular: false,
+                    },
                 ] {
                     // Next-event estimation by area, and by a cone denser or sparser there.
                     for pdf_nee in [0.37, 0.05, 4.0] {
@@ -945,7 +993,14 @@ mod tests {
             {
                 for counts in [
                     Counts::uniform(32.0).skipping_near_specular(),
-                    Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: true },
+                    Counts {
+                        paths: 32.0,
+                        lambertian: 0.5,
+                        glossy: 0.125,
+                        fewer_lambertian: 0.125,
+                        fewer_glossy: 0.03125,
+                        skip_near_specular: true,
+                    },
                 ] {
                     for pdf_nee in [0.37, 4.0] {
                         let source = Source::Area { pdf_area: 0.37, pdf_nee };
@@ -1001,7 +1056,14 @@ mod tests {
                 {
                     for counts in [
                         Counts::uniform(32.0),
-                        Counts { paths: 32.0, lambertian: 0.5, glossy: 0.125, skip_near_specular: false },
+                        Counts {
+                            paths: 32.0,
+                            lambertian: 0.5,
+                            glossy: 0.125,
+                            fewer_lambertian: 0.125,
+                            fewer_glossy: 0.03125,
+                            skip_near_specular: false,
+                        },
                     ] {
                         let w = weights_from(&z, source, counts, connect, light_samples);
                         let Some(sum) = finite_sum(&w) else { continue };

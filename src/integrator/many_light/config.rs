@@ -146,7 +146,10 @@ pub struct Draws {
 /// What a sampled gather (`--gather resample` or `tree`) draws at a camera vertex that
 /// connects only because the non-delta vertex before it is glossy over a diffuse base
 /// ([`coated_vertex`], [`Connecting::fewer_picks`]): one light, among 32 candidates (at most
-/// the gather's own). The weights still count the gather's own k there ([`super::subpath::Counts`]).
+/// the gather's own). The weights count those draws there ([`super::subpath::Counts::at`]),
+/// the light subpath too, by what the camera-side neighbour of each of its vertices is
+/// ([`After`]): measured, 1.3–2.2 % lower relative MSE in the living room at the same
+/// samples, and the worst pixel at 1920×1080 down from 177 and 113 to 56 and 67.
 ///
 /// Why: such a vertex (a wall seen in a coated floor, or seen from a painted wall whose coat
 /// is glossy) carries a path that the gather at the vertex before it mostly makes too, through
@@ -189,6 +192,37 @@ pub fn near_specular(b: &Bsdf) -> bool {
     b.widest_alpha().is_some_and(|a| a <= NEAR_SPECULAR_ALPHA)
 }
 
+/// What a non-delta vertex makes of the camera vertex after it under `--connect glossy`
+/// ([`Connect::at`], [`AFTER_COATED`]): nothing, a connection with the gather's own counts
+/// (glossy, [`glossy_vertex`]) or one with fewer draws (glossy over a diffuse base,
+/// [`coated_vertex`]). A function of the vertex alone, so that both subpaths agree on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum After {
+    Plain,
+    Glossy,
+    Coated,
+}
+
+impl After {
+    /// What a vertex of BSDF `b` makes of the one after it, whatever the rule.
+    #[inline]
+    pub fn of(b: &Bsdf) -> After {
+        if !glossy_vertex(b) {
+            After::Plain
+        } else if b.widest_alpha().is_none() {
+            After::Coated
+        } else {
+            After::Glossy
+        }
+    }
+
+    /// Whether the vertex after it connects under `--connect glossy`.
+    #[inline]
+    pub fn glossy(self) -> bool {
+        self != After::Plain
+    }
+}
+
 impl Connect {
     /// The name `--connect` takes for it (clap's, from the enum).
     pub fn name(self) -> String {
@@ -200,6 +234,13 @@ impl Connect {
     #[inline]
     pub fn glossy(self, b: &Bsdf) -> bool {
         self == Connect::Glossy && glossy_vertex(b)
+    }
+
+    /// What a vertex of BSDF `b` makes of the one after it under this rule ([`After`]):
+    /// [`After::Plain`] but for [`Connect::Glossy`].
+    #[inline]
+    pub fn after(self, b: &Bsdf) -> After {
+        if self == Connect::Glossy { After::of(b) } else { After::Plain }
     }
 
     /// Whether the camera vertex of rank `rank` among its path's non-delta vertices connects
@@ -234,14 +275,22 @@ pub struct Connecting {
     glossy: bool,
     coated: bool,
     /// Whether the last one connects only because the one before it is glossy over a diffuse
-    /// base ([`Connecting::fewer_picks`]).
+    /// base ([`Connecting::fewer_picks`]), and the one before it.
     fewer: bool,
+    before_fewer: bool,
 }
 
 impl Connecting {
     /// At the camera, before any vertex.
-    pub const CAMERA: Connecting =
-        Connecting { rank: 0, last: true, before_last: true, glossy: false, coated: false, fewer: false };
+    pub const CAMERA: Connecting = Connecting {
+        rank: 0,
+        last: true,
+        before_last: true,
+        glossy: false,
+        coated: false,
+        fewer: false,
+        before_fewer: false,
+    };
 
     /// Passes the next non-delta vertex, of BSDF `b`: whether it connects.
     #[inline]
@@ -250,6 +299,7 @@ impl Connecting {
         self.before_last = self.last;
         self.last = connect.at(self.rank, self.glossy);
         // (Only `Connect::Glossy` makes a vertex coated, and the vertex after one connects.)
+        self.before_fewer = self.fewer;
         self.fewer = self.coated;
         self.glossy = connect.glossy(b);
         self.coated = self.glossy && coated_vertex(b);
@@ -262,6 +312,23 @@ impl Connecting {
     #[inline]
     pub fn fewer_picks(&self) -> bool {
         self.fewer
+    }
+
+    /// [`Connecting::fewer_picks`] of the non-delta vertex before the last one (false for the
+    /// camera): the count of its connection to the last one ([`super::subpath::Counts::at`]).
+    #[inline]
+    pub fn previous_fewer(&self) -> bool {
+        self.before_fewer
+    }
+
+    /// What the last non-delta vertex makes of the one after it ([`After`]).
+    #[inline]
+    pub fn after(&self) -> After {
+        match (self.glossy, self.coated) {
+            (_, true) => After::Coated,
+            (true, false) => After::Glossy,
+            (false, false) => After::Plain,
+        }
     }
 
     /// The last non-delta vertex's rank (0 before any).

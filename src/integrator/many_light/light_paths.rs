@@ -33,7 +33,7 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::config::glossy_vertex;
+use super::config::After;
 use super::importance::Acceptance;
 use super::merging::{LightChain, Photon};
 use super::subpath::{Counts, MisState, Scatter};
@@ -88,8 +88,10 @@ pub struct Vpl {
     pub mis: MisState,
     /// The count of the connection from this vertex, as a camera vertex, to the VPL at the
     /// light path's previous vertex, relative to the paths the weights count
-    /// ([`Counts::factor`]); 1 for a vertex lit directly.
+    /// ([`Counts::factor`]); 1 for a vertex lit directly. And the same where that camera
+    /// vertex draws fewer ([`Counts::at`]: the camera vertex before it is coated).
     pub count_out: f32,
+    pub count_out_fewer: f32,
 }
 
 impl Vpl {
@@ -111,6 +113,7 @@ impl Vpl {
             nee_pdf: 0.0,
             mis: MisState::default(),
             count_out: 1.0,
+            count_out_fewer: 1.0,
         }
     }
 
@@ -382,6 +385,7 @@ fn follow(
         };
         // The count of the connection from here to the previous vertex's VPL.
         let count = counts.between(previous.as_ref(), bsdf);
+        let count_fewer = counts.between_at(previous.as_ref(), bsdf, true);
         // Only where light can be reflected: a vertex on the back of a surface (light paths
         // that miss an opening and strike the wall around it from outside) or on a black
         // material would add nothing to any receiver, yet take a place in every gather's
@@ -422,6 +426,7 @@ fn follow(
                 },
                 mis,
                 count_out: count,
+                count_out_fewer: count_fewer,
             });
         }
         // Where a delta chain of the class reached the vertex, a photon.
@@ -447,9 +452,10 @@ fn follow(
         }
         let Some(s) = scatter(bsdf, &sp, w_in, TransportMode::Importance, sampler, &mut beta) else { break };
         let pdf_rev = if s.delta { s.pdf } else { bsdf.pdf(&sp.geometry(), s.wi, w_in) };
-        let glossy = glossy_vertex(bsdf);
+        let after = After::of(bsdf);
         chain = chain.and_then(|c| c.scatter(bsdf, &sp.geometry(), w_in, &s));
-        mis.scatter(Scatter::light(s.pdf, pdf_rev, sp.ng.dot(s.wi).abs(), s.delta, depth, count, glossy));
+        let cos_out = sp.ng.dot(s.wi).abs();
+        mis.scatter(Scatter::light(s.pdf, pdf_rev, cos_out, s.delta, depth, count, count_fewer, after));
         previous = Some(*bsdf);
         if depth >= RR_DEPTH && !survives_roulette(survival, &mut beta, sampler) {
             break;

@@ -6,7 +6,7 @@
 
 use std::f32::consts::PI;
 
-use super::config::{Connect, Gather, near_specular};
+use super::config::{AFTER_COATED, After, Connect, Gather, near_specular};
 use crate::material::Bsdf;
 
 /// What a pick of the resampled gather counts, where the emitters are in view, in a
@@ -33,9 +33,10 @@ pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 /// - **A sampled gather** (k shadow rays to VPLs picked by an estimate of their
 ///   contribution) counts at most 2k (the resampled gather between Lambertian ends 4k / v,
 ///   next item): its picks are k samples, and the VPLs they pick are shared by every pixel,
-///   so that a larger count trades per-pixel noise for blotches. (The vertex after a coated
-///   one draws fewer, [`super::config::AFTER_COATED`], and counts the same: a count that
-///   followed its draws would have to be carried by the light subpath too.)
+///   so that a larger count trades per-pixel noise for blotches. A camera vertex that
+///   draws fewer, after a coated one ([`AFTER_COATED`]), counts its own draws the same way
+///   ([`Counts::at`]; the light subpath carries that count for the connection whose
+///   camera-side neighbour is coated, [`MisState::dvc_last_fewer`]).
 ///   Measured: `docs/integrator-measurements.md`, "Counts of the sampled gathers".
 /// - **Between two Lambertian ends, the resampled gather** counts
 ///   [`LAMBERTIAN_PICK_COUNT`] · k / v (4k / v), at most N, with v
@@ -57,6 +58,9 @@ pub struct Counts {
     pub lambertian: f32,
     /// The count of a connection with a glossy end, relative to `paths` (in (0, 1]).
     pub glossy: f32,
+    /// The same two where the camera vertex draws fewer ([`AFTER_COATED`]).
+    pub fewer_lambertian: f32,
+    pub fewer_glossy: f32,
     /// Whether a connection with a near-specular end ([`near_specular`]) counts zero: the
     /// technique is not used (no gather at such a camera vertex, no VPL at such a light
     /// vertex), and the weights leave it out (`pir-bdpt`).
@@ -70,32 +74,44 @@ impl Counts {
     /// [`super::path_count::Pilot`]; 1 when not measured).
     pub fn new(paths: usize, gather: Gather, visibility: f32) -> Counts {
         let n = (paths as f32).max(1.0);
-        let (glossy, lambertian) = match gather {
-            Gather::All => (n, n),
-            Gather::Tree { samples } => (n.min(2.0 * samples as f32), n.min(2.0 * samples as f32)),
-            Gather::Resampled { samples, .. } => {
-                let k2 = 2.0 * samples as f32;
-                let in_view = LAMBERTIAN_PICK_COUNT * samples as f32;
-                // Not measured: as if in view; measured and nothing in view: N.
-                let lambertian = match visibility {
-                    v if v.is_nan() => in_view,
-                    v if v <= 0.0 => n,
-                    v => in_view / v.min(1.0),
-                };
-                (n.min(k2), n.min(lambertian))
-            }
+        let of = |samples: usize| -> (f32, f32) {
+            let (glossy, lambertian) = match gather {
+                Gather::All => (n, n),
+                Gather::Tree { .. } => (n.min(2.0 * samples as f32), n.min(2.0 * samples as f32)),
+                Gather::Resampled { .. } => {
+                    let k2 = 2.0 * samples as f32;
+                    let in_view = LAMBERTIAN_PICK_COUNT * samples as f32;
+                    // Not measured: as if in view; measured and nothing in view: N.
+                    let lambertian = match visibility {
+                        v if v.is_nan() => in_view,
+                        v if v <= 0.0 => n,
+                        v => in_view / v.min(1.0),
+                    };
+                    (n.min(k2), n.min(lambertian))
+                }
+            };
+            let relative = |c: f32| (c / n).clamp(f32::MIN_POSITIVE, 1.0);
+            (relative(glossy), relative(lambertian))
         };
-        Counts {
-            paths: n,
-            lambertian: (lambertian / n).clamp(f32::MIN_POSITIVE, 1.0),
-            glossy: (glossy / n).clamp(f32::MIN_POSITIVE, 1.0),
-            skip_near_specular: false,
-        }
+        let samples = match gather {
+            Gather::All => 1,
+            Gather::Tree { samples } | Gather::Resampled { samples, .. } => samples.max(1),
+        };
+        let (glossy, lambertian) = of(samples);
+        let (fewer_glossy, fewer_lambertian) = of(AFTER_COATED.samples.min(samples));
+        Counts { paths: n, lambertian, glossy, fewer_lambertian, fewer_glossy, skip_near_specular: false }
     }
 
     /// Every connection counted as `paths` (the tests' weights, and [`Gather::All`]).
     pub fn uniform(paths: f32) -> Counts {
-        Counts { paths, lambertian: 1.0, glossy: 1.0, skip_near_specular: false }
+        Counts {
+            paths,
+            lambertian: 1.0,
+            glossy: 1.0,
+            fewer_lambertian: 1.0,
+            fewer_glossy: 1.0,
+            skip_near_specular: false,
+        }
     }
 
     /// The same counts, with the connections that have a near-specular end counted zero
@@ -125,13 +141,28 @@ impl Counts {
     /// skip those ([`Counts::skip_near_specular`]).
     #[inline]
     pub fn factor(&self, a: &Bsdf, b: &Bsdf) -> f32 {
+        self.at(a, b, false)
+    }
+
+    /// [`Counts::factor`] where the camera vertex (either end) draws fewer (`fewer`: after a
+    /// coated one, [`AFTER_COATED`]) or not.
+    #[inline]
+    pub fn at(&self, a: &Bsdf, b: &Bsdf, fewer: bool) -> f32 {
+        let (l, g) =
+            if fewer { (self.fewer_lambertian, self.fewer_glossy) } else { (self.lambertian, self.glossy) };
         if lambertian(a) && lambertian(b) {
-            self.lambertian
+            l
         } else if self.connects_at(a) && self.connects_at(b) {
-            self.glossy
+            g
         } else {
             0.0
         }
+    }
+
+    /// [`Counts::between`] where the vertex `a` (as the camera vertex) draws fewer or not.
+    #[inline]
+    pub fn between_at(&self, a: Option<&Bsdf>, b: &Bsdf, fewer: bool) -> f32 {
+        a.map_or(1.0, |a| self.at(a, b, fewer))
     }
 }
 
@@ -162,13 +193,23 @@ pub struct MisState {
     /// neighbour (the next non-delta vertex towards here) is glossy
     /// ([`super::config::glossy_vertex`]; light subpaths only): those `--connect glossy` allows.
     pub dvc_glossy: f32,
+    /// `dvc_last` with the connection counted as a camera vertex that draws fewer counts it
+    /// ([`Counts::at`]): what it contributes where its camera-side neighbour is coated
+    /// ([`After::Coated`]; light subpaths only).
+    pub dvc_last_fewer: f32,
 }
 
 impl MisState {
     /// A camera subpath without light tracing to the camera: no technique reaches the
     /// camera from the light side.
-    pub const CAMERA: MisState =
-        MisState { dvcm: 0.0, dvc: 0.0, dvc_emitter: 0.0, dvc_last: 0.0, dvc_glossy: 0.0 };
+    pub const CAMERA: MisState = MisState {
+        dvcm: 0.0,
+        dvc: 0.0,
+        dvc_emitter: 0.0,
+        dvc_last: 0.0,
+        dvc_glossy: 0.0,
+        dvc_last_fewer: 0.0,
+    };
 
     /// A camera subpath whose first ray's direction the camera sampled with density `pdf_dir`
     /// per unit solid angle, a pixel the unit of the film's area
@@ -186,7 +227,7 @@ impl MisState {
     /// emitter hit, `dvc`) count once against the connections' N.
     pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
         let dvc = PI / (pdf_area * paths);
-        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc, dvc_last: 0.0, dvc_glossy: 0.0 }
+        MisState { dvcm: PI / (cos_e * paths), dvc, dvc_emitter: dvc, ..MisState::CAMERA }
     }
 
     /// A light subpath of `paths` per iteration, started at a light that is not a triangle
@@ -202,13 +243,7 @@ impl MisState {
     /// unit area.
     pub fn light_source(nee: f32, emission: f32, paths: f32) -> MisState {
         let dvc = if nee.is_infinite() { 0.0 } else { finite(1.0 / (nee * emission * paths)) };
-        MisState {
-            dvcm: finite(1.0 / (emission * paths)),
-            dvc,
-            dvc_emitter: dvc,
-            dvc_last: 0.0,
-            dvc_glossy: 0.0,
-        }
+        MisState { dvcm: finite(1.0 / (emission * paths)), dvc, dvc_emitter: dvc, ..MisState::CAMERA }
     }
 
     /// The subpath reaches its next vertex, at squared distance `dist2`, where the cosine to
@@ -220,22 +255,24 @@ impl MisState {
         self.dvc_emitter = finite(self.dvc_emitter / cos);
         self.dvc_last = finite(self.dvc_last / cos);
         self.dvc_glossy = finite(self.dvc_glossy / cos);
+        self.dvc_last_fewer = finite(self.dvc_last_fewer / cos);
     }
 
     /// The part of a light subpath's `dvc` at its vertex y (the techniques that extend the
     /// camera subpath two or more vertices into the light subpath, past y) whose techniques
     /// `connect` lets make the path, where y is the camera's vertex of rank `rank`
-    /// ([`Connect::at`]; 1 for light tracing to the camera) and `glossy` says whether y is
-    /// glossy ([`super::config::glossy_vertex`]).
+    /// ([`Connect::at`]; 1 for light tracing to the camera) and `after` says what y makes of
+    /// the camera vertex after it ([`After`]; `Plain` but for `--connect glossy`).
     #[inline]
-    pub fn beyond(&self, connect: Connect, rank: u32, glossy: bool) -> f32 {
-        match connect {
-            Connect::First => self.dvc_emitter,
-            Connect::FirstTwo if rank <= 1 => self.dvc_emitter + self.dvc_last,
-            Connect::FirstTwo => self.dvc_emitter,
-            Connect::All => self.dvc,
-            Connect::Glossy if glossy => self.dvc_emitter + self.dvc_glossy + self.dvc_last,
-            Connect::Glossy => self.dvc_emitter + self.dvc_glossy,
+    pub fn beyond(&self, connect: Connect, rank: u32, after: After) -> f32 {
+        match (connect, after) {
+            (Connect::First, _) => self.dvc_emitter,
+            (Connect::FirstTwo, _) if rank <= 1 => self.dvc_emitter + self.dvc_last,
+            (Connect::FirstTwo, _) => self.dvc_emitter,
+            (Connect::All, _) => self.dvc,
+            (Connect::Glossy, After::Coated) => self.dvc_emitter + self.dvc_glossy + self.dvc_last_fewer,
+            (Connect::Glossy, After::Glossy) => self.dvc_emitter + self.dvc_glossy + self.dvc_last,
+            (Connect::Glossy, After::Plain) => self.dvc_emitter + self.dvc_glossy,
         }
     }
 
@@ -256,16 +293,23 @@ impl MisState {
             self.dvc_emitter = finite(self.dvc_emitter * s.cos_out);
             self.dvc_last = finite(self.dvc_last * s.cos_out);
             self.dvc_glossy = finite(self.dvc_glossy * s.cos_out);
+            self.dvc_last_fewer = finite(self.dvc_last_fewer * s.cos_out);
         } else {
             let k = s.cos_out / s.pdf;
             let dvcm = if s.fold { self.dvcm * s.count } else { 0.0 };
             let emitter = if s.emitter { self.dvcm } else { 0.0 };
             self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
             // The connection folded in last has this vertex as its camera-side neighbour.
-            let glossy = self.dvc_glossy + if s.glossy { self.dvc_last } else { 0.0 };
-            self.dvc_glossy = finite(k * glossy * s.pdf_rev);
-            let connection = if s.emitter { 0.0 } else { dvcm };
+            let last = match s.after {
+                After::Plain => 0.0,
+                After::Glossy => self.dvc_last,
+                After::Coated => self.dvc_last_fewer,
+            };
+            self.dvc_glossy = finite(k * (self.dvc_glossy + last) * s.pdf_rev);
+            let (connection, fewer) =
+                if s.emitter || !s.fold { (0.0, 0.0) } else { (dvcm, self.dvcm * s.count_fewer) };
             self.dvc_last = finite(k * connection);
+            self.dvc_last_fewer = finite(k * fewer);
             self.dvc_emitter = finite(k * (self.dvc_emitter * s.pdf_rev + emitter));
             self.dvcm = finite(1.0 / s.pdf);
         }
@@ -282,10 +326,13 @@ pub struct Scatter {
     pub fold: bool,
     pub emitter: bool,
     /// The count of the technique `dvcm` stands for, relative to [`Counts::paths`] (1 for
-    /// next-event estimation): what it is weighed with once folded into `dvc`.
+    /// next-event estimation): what it is weighed with once folded into `dvc`; and the same
+    /// where its camera vertex draws fewer ([`Counts::at`]; light subpaths only).
     pub count: f32,
-    /// Whether the vertex is glossy ([`super::config::glossy_vertex`]; light subpaths only).
-    pub glossy: bool,
+    pub count_fewer: f32,
+    /// What the vertex makes of the camera vertex after it ([`After::of`]; light subpaths
+    /// only).
+    pub after: After,
 }
 
 impl Scatter {
@@ -295,16 +342,28 @@ impl Scatter {
     /// connection to this vertex counts `count` times ([`Counts::factor`] of the two).
     #[inline]
     pub fn camera(pdf: f32, pdf_rev: f32, cos_out: f32, delta: bool, fold: bool, count: f32) -> Self {
-        Scatter { pdf, pdf_rev, cos_out, delta, fold, emitter: false, count, glossy: false }
+        Scatter {
+            pdf,
+            pdf_rev,
+            cos_out,
+            delta,
+            fold,
+            emitter: false,
+            count,
+            count_fewer: 0.0,
+            after: After::Plain,
+        }
     }
 
     /// A light subpath's sample at its vertex of `depth` segments from the emitter: at the
     /// first, the technique `dvcm` stands for is next-event estimation; further on, the
     /// connection of this vertex (as a camera vertex) to the previous one's VPL, which counts
     /// `count` times ([`Counts::between`] this vertex and the previous one, which is 1 at
-    /// the first vertex, whose previous one is the emitter); `glossy` whether the vertex is
-    /// glossy ([`super::config::glossy_vertex`]).
+    /// the first vertex, whose previous one is the emitter), `count_fewer` the same where this
+    /// vertex as a camera vertex draws fewer ([`Counts::between_at`]); `after` what the vertex
+    /// makes of the camera vertex after it ([`After::of`]).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub fn light(
         pdf: f32,
         pdf_rev: f32,
@@ -312,9 +371,10 @@ impl Scatter {
         delta: bool,
         depth: u32,
         count: f32,
-        glossy: bool,
+        count_fewer: f32,
+        after: After,
     ) -> Self {
-        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count, glossy }
+        Scatter { pdf, pdf_rev, cos_out, delta, fold: true, emitter: depth == 1, count, count_fewer, after }
     }
 }
 

@@ -93,8 +93,8 @@ impl ToCamera {
             // The reverse density only where the sums it multiplies are not zero.
             let light_rev = if v.mis.dvc > 0.0 { v.bsdf.pdf(&geometry, w, v.w_in) } else { 0.0 };
             let n = self.light_samples as f32;
-            let glossy = self.connect.glossy(v.bsdf);
-            camera_weight(v.mis, v.depth, glossy, v.count_out, pdf_camera, light_rev, self.connect, n)
+            let after = self.connect.after(v.bsdf);
+            camera_weight(v.mis, v.depth, after, v.count_out, pdf_camera, light_rev, self.connect, n)
         } else {
             1.0
         };
