@@ -689,13 +689,16 @@ mod tests {
                 }
                 let tilt = Vec3::new(s.next_f32() - 0.5, s.next_f32() - 0.5, s.next_f32() - 0.5) * 0.3;
                 let n = (n.normalize_or(Vec3::Z) + tilt).normalize();
+                // Diffuse, or glossy over a diffuse base (coated where α ≤ 0.15), or a rough
+                // metal (glossy without a base, [`After::Glossy`] where α ≤ 0.15).
                 let bsdf = if delta_at == Some(j) {
                     None
                 } else if s.next_f32() < 0.5 {
                     Some(Bsdf::Diffuse { albedo: Vec3::splat(0.7) })
                 } else {
+                    let albedo = if s.next_f32() < 0.5 { Vec3::splat(0.2) } else { Vec3::ZERO };
                     Some(Bsdf::Glossy {
-                        albedo: Vec3::splat(0.2),
+                        albedo,
                         specular: Vec3::splat(0.6),
                         roughness: 0.1 + 0.4 * s.next_f32(),
                     })
@@ -781,6 +784,17 @@ mod tests {
             };
             assert!(close(count(c, &lambert, &lambert), expected), "{v}: {c:?}");
             assert_eq!(c.between(None, &glossy), 1.0);
+            // A camera vertex that draws one (`AFTER_COATED`) counts one pick: 2 for a glossy
+            // end, 4 / v between Lambertian ends; the exhaustive gather counts every path.
+            let fewer = |c: Counts, a: &Bsdf, b: &Bsdf| c.paths * c.at(a, b, true);
+            assert!(close(fewer(c, &glossy, &lambert), 2.0) && close(fewer(tree, &lambert, &lambert), 2.0));
+            let one_pick = match v {
+                v if v.is_nan() => 4.0,
+                v if v <= 0.0 => 512.0,
+                v => (4.0 / v).min(512.0),
+            };
+            assert!(close(fewer(c, &lambert, &lambert), one_pick), "{v}: {c:?}");
+            assert!(close(fewer(all, &lambert, &glossy), 512.0));
         }
         // Fewer paths than 2k: every connection counts them all.
         let few = Counts::new(5, resample, 0.5);

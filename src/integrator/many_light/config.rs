@@ -148,7 +148,7 @@ pub struct Draws {
 /// ([`coated_vertex`], [`Connecting::fewer_picks`]): one light, among 32 candidates (at most
 /// the gather's own). The weights count those draws there ([`super::subpath::Counts::at`]),
 /// the light subpath too, by what the camera-side neighbour of each of its vertices is
-/// ([`After`]): measured, 1.3–2.2 % lower relative MSE in the living room at the same
+/// ([`After`]): measured, 1.4–2.2 % lower relative MSE in the living room at the same
 /// samples, and the worst pixel at 1920×1080 down from 177 and 113 to 56 and 67.
 ///
 /// Why: such a vertex (a wall seen in a coated floor, or seen from a painted wall whose coat
@@ -156,14 +156,15 @@ pub struct Draws {
 /// the diffuse base, so its connections pay off only where the coat's lobe sent the path, and
 /// those are few; after a glossy vertex without a diffuse base (a rough metal) the vertex
 /// after it is where the light is found, and it keeps the full counts. Any counts give an
-/// unbiased estimate of the same sum and the weights do not depend on them, so the image
-/// stays unbiased and consistent; only the cost and the noise change. Measured
+/// unbiased estimate of the same sum, and the weights sum to one whatever each technique's
+/// count, so the image stays unbiased and consistent; only the cost and the noise change. Measured
 /// (`docs/results.md`, "Fewer picks after a coated vertex"): in the living room (painted walls
 /// and floor of α 0.15) one pick of the 128 candidates gave 1.16–1.21× the efficiency at
 /// 640×360 at three seeds of four (0.99 at the fourth, a firefly of its sequence) and two
 /// picks 5 % less than one; one of 32 candidates 3 % more again there, and at
 /// 1920×1080 `pt`'s error 3.1–3.25× sooner against 2.9–3.05× with 128 (2.4× with the full
-/// counts). The dense scene lit indirectly (a plastic bunny) gains 1.02–1.05×; where no
+/// counts; 3.11–3.16× once the weights count the draws, which lowers the error per
+/// iteration). The dense scene lit indirectly (a plastic bunny) gains 1.02–1.05×; where no
 /// glossy vertex has a diffuse base (Bitterli's veach-ajar, with its metal floor) the images
 /// are the same.
 pub const AFTER_COATED: Draws = Draws { samples: 1, candidates: 32 };
@@ -376,10 +377,19 @@ mod tests {
     /// A coat too rough to be glossy.
     const ROUGH: Bsdf = Bsdf::Glossy { albedo: Vec3::splat(0.2), specular: Vec3::splat(0.6), roughness: 0.3 };
 
-    /// Per vertex of the path, whether it connects and whether it picks fewer lights.
+    /// Per vertex of the path, whether it connects and whether it picks fewer lights;
+    /// checking on the way that [`Connecting::previous_fewer`] is the vertex before's.
     fn walk(connect: Connect, path: &[Bsdf]) -> Vec<(bool, bool)> {
         let mut c = Connecting::CAMERA;
-        path.iter().map(|b| (c.pass(connect, b), c.fewer_picks())).collect()
+        let mut before = false;
+        path.iter()
+            .map(|b| {
+                let step = (c.pass(connect, b), c.fewer_picks());
+                assert_eq!(c.previous_fewer(), before);
+                before = step.1;
+                step
+            })
+            .collect()
     }
 
     #[test]

@@ -159,7 +159,7 @@ impl Counts {
         }
     }
 
-    /// [`Counts::between`] where the vertex `a` (as the camera vertex) draws fewer or not.
+    /// [`Counts::between`] where the camera end of the connection draws fewer or not.
     #[inline]
     pub fn between_at(&self, a: Option<&Bsdf>, b: &Bsdf, fewer: bool) -> f32 {
         a.map_or(1.0, |a| self.at(a, b, fewer))
