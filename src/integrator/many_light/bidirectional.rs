@@ -399,6 +399,19 @@ mod tests {
         (a.p - b.p).length_squared()
     }
 
+    /// Counts of 32 light paths: `lambertian` and `glossy` relative to them, and a quarter of
+    /// each where the camera vertex draws fewer ([`Counts::at`]).
+    fn counts_of(lambertian: f32, glossy: f32) -> Counts {
+        Counts {
+            paths: 32.0,
+            lambertian,
+            glossy,
+            fewer_lambertian: lambertian / 4.0,
+            fewer_glossy: glossy / 4.0,
+            skip_near_specular: false,
+        }
+    }
+
     /// The count of the connection between `b` and the vertex `a` before it on its subpath
     /// (none at the camera or the emitter), as the renderer folds it in
     /// ([`Counts::between`]; a delta vertex is a mirror).
@@ -715,14 +728,7 @@ mod tests {
     #[test]
     fn the_connection_weighs_its_count_against_the_emitter_techniques() {
         let mut s = Sampler::new(11, 0, Domain::LightPath, 0);
-        let counts = Counts {
-            paths: 32.0,
-            lambertian: 0.5,
-            glossy: 0.125,
-            fewer_lambertian: 0.125,
-            fewer_glossy: 0.03125,
-            skip_near_specular: false,
-        };
+        let counts = counts_of(0.5, 0.125);
         let pdf_area = 0.6;
         let mut checked = [0; 2];
         for _ in 0..400 {
@@ -857,20 +863,7 @@ mod tests {
             let pdf_bsdf = x.pdf(&z[0], e);
             // With n light samples, the power heuristic with counts: (n p_l)² / ((n p_l)² + p_b²).
             for n in [1, 3] {
-                let w = weights(
-                    &z,
-                    pdf_area,
-                    Counts {
-                        paths: 32.0,
-                        lambertian: 1.0,
-                        glossy: 0.25,
-                        fewer_lambertian: 0.25,
-                        fewer_glossy: 0.0625,
-                        skip_near_specular: false,
-                    },
-                    Connect::First,
-                    n,
-                );
+                let w = weights(&z, pdf_area, counts_of(1.0, 0.25), Connect::First, n);
                 let nee = crate::integrator::direct::power_heuristic(n as f32 * pdf_light, pdf_bsdf);
                 // Per unit area of the emitter point, each over the camera's density of z_1.
                 let to_area = e.cos(x) / dist2(x, e);
@@ -918,25 +911,7 @@ mod tests {
                 (Connect::Glossy, 2),
             ] {
                 // Every connection counted alike, and a glossy end counted a quarter.
-                for counts in [
-                    Counts::uniform(32.0),
-                    Counts {
-                        paths: 32.0,
-                        lambertian: 1.0,
-                        glossy: 0.25,
-                        fewer_lambertian: 0.25,
-                        fewer_glossy: 0.0625,
-                        skip_near_specular: false,
-                    },
-                    Counts {
-                        paths: 32.0,
-                        lambertian: 0.5,
-                        glossy: 0.125,
-                        fewer_lambertian: 0.125,
-                        fewer_glossy: 0.03125,
-                        skip_near_specular: false,
-                    },
-                ] {
+                for counts in [Counts::uniform(32.0), counts_of(1.0, 0.25), counts_of(0.5, 0.125)] {
                     // Next-event estimation by area, and by a cone denser or sparser there.
                     for pdf_nee in [0.37, 0.05, 4.0] {
                         let source = Source::Area { pdf_area: 0.37, pdf_nee };
@@ -1007,14 +982,7 @@ mod tests {
             {
                 for counts in [
                     Counts::uniform(32.0).skipping_near_specular(),
-                    Counts {
-                        paths: 32.0,
-                        lambertian: 0.5,
-                        glossy: 0.125,
-                        fewer_lambertian: 0.125,
-                        fewer_glossy: 0.03125,
-                        skip_near_specular: true,
-                    },
+                    counts_of(0.5, 0.125).skipping_near_specular(),
                 ] {
                     for pdf_nee in [0.37, 4.0] {
                         let source = Source::Area { pdf_area: 0.37, pdf_nee };
@@ -1068,17 +1036,7 @@ mod tests {
                 for (connect, light_samples) in
                     [(Connect::First, 1), (Connect::All, 1), (Connect::FirstTwo, 4), (Connect::Glossy, 1)]
                 {
-                    for counts in [
-                        Counts::uniform(32.0),
-                        Counts {
-                            paths: 32.0,
-                            lambertian: 0.5,
-                            glossy: 0.125,
-                            fewer_lambertian: 0.125,
-                            fewer_glossy: 0.03125,
-                            skip_near_specular: false,
-                        },
-                    ] {
+                    for counts in [Counts::uniform(32.0), counts_of(0.5, 0.125)] {
                         let w = weights_from(&z, source, counts, connect, light_samples);
                         let Some(sum) = finite_sum(&w) else { continue };
                         assert!(

@@ -131,7 +131,7 @@ pub fn glossy_vertex(b: &Bsdf) -> bool {
 /// [`AFTER_COATED`] says ([`Connecting::fewer_picks`]).
 #[inline]
 pub fn coated_vertex(b: &Bsdf) -> bool {
-    glossy_vertex(b) && b.widest_alpha().is_none()
+    After::of(b) == After::Coated
 }
 
 /// What a sampled gather draws at one receiver where that is fewer than its own counts
@@ -230,15 +230,9 @@ impl Connect {
         clap::ValueEnum::to_possible_value(&self).map(|v| v.get_name().to_string()).unwrap_or_default()
     }
 
-    /// Whether a vertex of BSDF `b` counts as glossy for this rule: only [`Connect::Glossy`]
-    /// asks ([`glossy_vertex`]), so that the others need not look at the BSDF.
-    #[inline]
-    pub fn glossy(self, b: &Bsdf) -> bool {
-        self == Connect::Glossy && glossy_vertex(b)
-    }
-
     /// What a vertex of BSDF `b` makes of the one after it under this rule ([`After`]):
-    /// [`After::Plain`] but for [`Connect::Glossy`].
+    /// [`After::Plain`] but for [`Connect::Glossy`], so that the other rules need not look at
+    /// the BSDF.
     #[inline]
     pub fn after(self, b: &Bsdf) -> After {
         if self == Connect::Glossy { After::of(b) } else { After::Plain }
@@ -271,10 +265,8 @@ pub struct Connecting {
     /// light tracing reaches it).
     last: bool,
     before_last: bool,
-    /// Whether the last one is glossy ([`Connect::glossy`]), and glossy over a diffuse base
-    /// ([`coated_vertex`]).
-    glossy: bool,
-    coated: bool,
+    /// What the last one makes of the vertex after it under the rule ([`Connect::after`]).
+    after: After,
     /// Whether the last one connects only because the one before it is glossy over a diffuse
     /// base ([`Connecting::fewer_picks`]), and the one before it.
     fewer: bool,
@@ -287,8 +279,7 @@ impl Connecting {
         rank: 0,
         last: true,
         before_last: true,
-        glossy: false,
-        coated: false,
+        after: After::Plain,
         fewer: false,
         before_fewer: false,
     };
@@ -298,12 +289,11 @@ impl Connecting {
     pub fn pass(&mut self, connect: Connect, b: &Bsdf) -> bool {
         self.rank += 1;
         self.before_last = self.last;
-        self.last = connect.at(self.rank, self.glossy);
+        self.last = connect.at(self.rank, self.after.glossy());
         // (Only `Connect::Glossy` makes a vertex coated, and the vertex after one connects.)
         self.before_fewer = self.fewer;
-        self.fewer = self.coated;
-        self.glossy = connect.glossy(b);
-        self.coated = self.glossy && coated_vertex(b);
+        self.fewer = self.after == After::Coated;
+        self.after = connect.after(b);
         self.last
     }
 
@@ -325,23 +315,13 @@ impl Connecting {
     /// What the last non-delta vertex makes of the one after it ([`After`]).
     #[inline]
     pub fn after(&self) -> After {
-        match (self.glossy, self.coated) {
-            (_, true) => After::Coated,
-            (true, false) => After::Glossy,
-            (false, false) => After::Plain,
-        }
+        self.after
     }
 
     /// The last non-delta vertex's rank (0 before any).
     #[inline]
     pub fn rank(&self) -> u32 {
         self.rank
-    }
-
-    /// Whether the last non-delta vertex is glossy ([`Connect::glossy`]).
-    #[inline]
-    pub fn glossy(&self) -> bool {
-        self.glossy
     }
 
     /// Whether the last non-delta vertex (or the camera, before any) connects.
