@@ -85,6 +85,18 @@ impl Lobe {
         self.diffuse
     }
 
+    /// The bound at the mirror direction: ρ_s / (π α² cos θ_o), [`Lobe::bound`] of 1 times 4.
+    #[inline(always)]
+    pub fn peak(&self) -> f32 {
+        self.scale / (self.alpha * self.alpha)
+    }
+
+    /// 1 / α².
+    #[inline(always)]
+    pub fn inv_alpha2(&self) -> f32 {
+        1.0 / (self.alpha * self.alpha)
+    }
+
     /// ρ_s D'(θ/2) / (4 cos θ_o) towards a direction at angle θ from r, cos θ = `c`, for a cone
     /// of directions of angular radius θ_b, tan(θ_b / 2) = `tan_half`: D' is GGX of
     /// α' = min(1, α + [`SPREAD`] · tan(θ_b / 2)) (α' = 1 is the uniform distribution, 1/π),
