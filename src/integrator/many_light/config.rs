@@ -238,6 +238,14 @@ impl Connect {
         if self == Connect::Glossy { After::of(b) } else { After::Plain }
     }
 
+    /// Whether the camera vertex after the one of rank `rank` connects with the gather's own
+    /// counts (not [`AFTER_COATED`]'s fewer), `after` what that one makes of it
+    /// ([`Connect::after`]).
+    #[inline]
+    pub fn next_connects_fully(self, rank: u32, after: After) -> bool {
+        self.at(rank + 1, after.glossy()) && after != After::Coated
+    }
+
     /// Whether the camera vertex of rank `rank` among its path's non-delta vertices connects
     /// (1: the first non-delta vertex, after any mirror or glass the camera ray met first,
     /// so that a wall seen in a mirror connects as one seen directly; 0: the camera itself,
@@ -392,5 +400,26 @@ mod tests {
         assert_eq!(walk(Connect::All, &[COATED, COATED, DIFFUSE]), [full, full, full]);
         assert_eq!(walk(Connect::FirstTwo, &[COATED, COATED, DIFFUSE]), [full, full, no]);
         assert_eq!(walk(Connect::First, &[COATED, COATED]), [full, no]);
+    }
+
+    /// The vertex after a camera vertex connects in full after a metal under `glossy`, after
+    /// the first under `first-two`, always under `all`; after a coated vertex it draws fewer,
+    /// and under `first` none after the first connects ([`Connect::next_connects_fully`], where
+    /// the weighed gather leaves a glossy receiver's lobe out of its draw).
+    #[test]
+    fn the_next_vertex_connects_in_full_after_a_metal_or_where_the_rule_connects_it() {
+        let after = |b: &Bsdf| Connect::Glossy.after(b);
+        assert!(Connect::Glossy.next_connects_fully(1, after(&METAL)));
+        assert!(Connect::Glossy.next_connects_fully(3, after(&METAL)));
+        assert!(!Connect::Glossy.next_connects_fully(1, after(&COATED)));
+        assert!(!Connect::Glossy.next_connects_fully(1, after(&DIFFUSE)));
+        assert!(!Connect::Glossy.next_connects_fully(2, after(&ROUGH)));
+        for b in [METAL, COATED, DIFFUSE] {
+            let plain = Connect::First.after(&b);
+            assert!(!Connect::First.next_connects_fully(1, plain));
+            assert!(Connect::FirstTwo.next_connects_fully(1, plain));
+            assert!(!Connect::FirstTwo.next_connects_fully(2, plain));
+            assert!(Connect::All.next_connects_fully(4, plain));
+        }
     }
 }
