@@ -11,6 +11,11 @@
 //! f · cos θ_i towards ω_i (per channel mean; exact in the plane of incidence up to G1). D of a
 //! half angle is in closed form, cos² (θ/2) = (1 + cos θ)/2: no trigonometry.
 //!
+//! A rough conductor (Mitsuba's `roughconductor`) is the same lobe with a Fresnel factor of
+//! at most 1 and no diffuse part, so the bound holds for its GGX lobes with ρ_s its specular
+//! reflectance; its Beckmann lobes take the GGX bound of their α as a shape (the same peak,
+//! wider tails), which is all a draw needs.
+//!
 //! Which lights the sampled gathers draw is all this shapes, never the value they add: any
 //! positive weighting of the lights that can contribute leaves the estimates unbiased.
 
@@ -138,11 +143,11 @@ mod tests {
     use crate::material::{LocalGeometry, PreparedBsdf, TransportMode};
     use crate::sampling::{Domain, Sampler};
 
-    /// Over random glossy receivers and rough (GGX) metals and directions, the lobe's bound ρ_d/π cos θ_i +
-    /// [`Lobe::bound`] is at least the BSDF's f · cos θ_i (channel mean, to f32 rounding),
-    /// and at the mirror direction it is tight up to the two G1 (at least 70 % of it for α up
-    /// to 0.3, ω_o within 60° of the normal); [`Lobe::widened`] with θ_b = 0 is the same
-    /// number.
+    /// Over random glossy receivers, rough (GGX) metals and directions, the lobe's bound
+    /// ρ_d/π cos θ_i + [`Lobe::bound`] is at least the BSDF's f · cos θ_i (channel mean, to
+    /// f32 rounding), and at the mirror direction of a glossy receiver it is tight up to the
+    /// two G1 (at least 70 % of it for α up to 0.3, ω_o within 60° of the normal);
+    /// [`Lobe::widened`] with θ_b = 0 is the same number.
     #[test]
     fn the_half_angle_bounds_the_lobe() {
         let mut s = Sampler::new(31, 0, Domain::Iteration, 0);

@@ -211,8 +211,8 @@ impl Weigh<PointLights> for Weighing<'_> {
     /// weight, and a draw that leaves the lobe out (p̂ the geometry term alone) finds them
     /// seldom and weighs them high. Measured (`docs/results.md`, "The lobe in the weighed
     /// gather's draw"): at the same samples `pir-bdpt`'s relative MSE 17–20 % lower on the
-    /// near-mirror floor (α 0.05) and 15 % in the glossy corner (α 0.1); an exact p̂ (each
-    /// candidate's weighted contribution) gains no more than 25 % there. At α 0.22–0.24 (the
+    /// near-mirror floor (α 0.05) and 15 % in the glossy corner (α 0.1); on the floor an exact
+    /// p̂ (each candidate's weighted contribution) gains 22–25 %. At α 0.22–0.24 (the
     /// glossy Cornell box) the lobe changed nothing but the cost. Any positive p̂ where
     /// the contribution is leaves the estimate unbiased ([`super::resample`]). In Bitterli's
     /// veach-ajar, whose metal floor (α 0.1) the vertex after connects from in full, the lobe
