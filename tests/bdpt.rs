@@ -12,7 +12,7 @@ use pir::integrator::many_light::Connect;
 use pir::integrator::many_light::Pilot;
 use pir::integrator::many_light::bidirectional::light_samples_for;
 use pir::integrator::many_light::importance::WORTH_IT;
-use pir::integrator::many_light::path_count::PILOT_PATHS;
+use pir::integrator::many_light::path_count::{CAUSTIC_RARE, PILOT_PATHS};
 use pir::integrator::many_light::view_pilot::{self, VIEW_PILOT_RAYS};
 use pir::integrator::methods::{PirBdpt, Pt};
 use pir::integrator::{
@@ -525,11 +525,20 @@ fn light_samples_follow_the_emitters_visibility_unless_given() {
 /// `pir-bdpt` with the parameters `set` makes, prepared for `scene` (its pilots run) at
 /// 32 × 32 pixels: its report's value of a key, as the EXR metadata records it.
 fn prepared(scene: &Scene, set: impl FnOnce(&mut MethodParams)) -> impl Fn(&str) -> Option<String> {
+    prepared_at(scene, pilot_job(SamplerKind::Sobol).max_depth, set)
+}
+
+/// [`prepared`] for paths of at most `max_depth` segments.
+fn prepared_at(
+    scene: &Scene,
+    max_depth: u32,
+    set: impl FnOnce(&mut MethodParams),
+) -> impl Fn(&str) -> Option<String> {
     let mut config = MethodConfig::new(Method::new(&PirBdpt));
     set(&mut config.params);
     let mut integrator = config.integrator(scene.bounds().diagonal());
     integrator.set_camera(scene.camera().with_resolution(32, 32).rays());
-    pilot_job(SamplerKind::Sobol)
+    Job { max_depth, ..pilot_job(SamplerKind::Sobol) }
         .with_context(scene, |ctx| integrator.prepare(ctx, &mut Counters::default()));
     let report = config.report(scene.bounds().diagonal(), integrator.measured());
     move |key: &str| report.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone())
@@ -568,12 +577,15 @@ fn near_mirror_floor() -> Scene {
 
 /// `pir-bdpt` keeps its VPLs by their share of the image
 /// (`src/integrator/many_light/importance.rs`) where most of them light what the camera does
-/// not see (the near-mirror floor), with more light paths; not where the camera sees all the
-/// light paths reach (inside the emitting cube), nor when `--vpls` gives the light paths.
+/// not see (the near-mirror floor with paths of at most 3 segments, whose VPLs are all lit
+/// directly: deeper ones, which its floor's narrow lobe leads light paths to, ask for the
+/// most light paths, and then none is left out), with more light paths; not where the camera
+/// sees all the light paths reach (inside the emitting cube), nor when `--vpls` gives the
+/// light paths.
 #[test]
 fn vpls_are_kept_by_their_share_of_the_image_where_most_miss_the_view() {
     let chosen = |scene: &Scene, vpls: Option<usize>| {
-        let value = prepared(scene, |p| p.vpls = vpls);
+        let value = prepared_at(scene, 3, |p| p.vpls = vpls);
         let kept = value("vpl-acceptance").map(|v| v.parse::<f32>().unwrap());
         (kept, value("vpls").unwrap().parse::<usize>().unwrap())
     };
@@ -581,10 +593,57 @@ fn vpls_are_kept_by_their_share_of_the_image_where_most_miss_the_view() {
     let (kept, paths) = chosen(&floor, None);
     eprintln!("near-mirror floor: {paths} light paths, the pilot's would keep {kept:?} of their VPLs");
     assert!(kept.is_some_and(|k| k > 0.0 && k < WORTH_IT), "near-mirror floor: {kept:?}");
-    assert!(paths > BDPT_PATHS, "{paths} light paths");
+    assert!(paths > BDPT_PATHS && paths < BDPT_AUTO_PATHS.at_most, "{paths} light paths");
     assert_eq!(chosen(&floor, None), (kept, paths), "the same seed must choose the same");
     assert_eq!(chosen(&floor, Some(256)), (None, 256));
     assert_eq!(chosen(&closed_cube(diffuse(0.5, 1.0)), None), (None, BDPT_PATHS));
+}
+
+/// A narrow glossy lobe that leads light paths to surfaces makes caustics that ask for more
+/// light paths (`path_count.rs`, `light_paths::NARROW_LOBE_DENSITY`): the near-mirror floor
+/// (GGX α 0.05) takes the most, and keeps every VPL; the same floor at α 0.1 makes too few
+/// such vertices (fewer than one path in 64) to ask for more than the fewest (its VPLs'
+/// share of the image may still ask for some), and the emitting cube none.
+#[test]
+fn a_narrow_lobe_asks_for_light_paths_as_a_mirror_does() {
+    let auto = BDPT_AUTO_PATHS;
+    let pilot = |scene: &Scene| {
+        let mut counters = Counters::default();
+        pilot_job(SamplerKind::Sobol).with_context(scene, |ctx| Pilot::run(ctx, &mut counters))
+    };
+    let floor = pilot(&near_mirror_floor());
+    eprintln!("near-mirror floor: {floor:?}");
+    assert!(floor.caustic_per_path >= CAUSTIC_RARE, "{floor:?}");
+    assert_eq!(auto.for_yield(floor.per_path, floor.caustic_per_path), auto.at_most);
+    let chosen = |scene: &Scene| {
+        let value = prepared(scene, |_| {});
+        (value("vpl-acceptance"), value("vpls").unwrap().parse::<usize>().unwrap())
+    };
+    assert_eq!(chosen(&near_mirror_floor()), (None, auto.at_most));
+    let wider = near_mirror_floor_of_roughness(0.1);
+    let wide = pilot(&wider);
+    eprintln!("the floor at α 0.1: {wide:?}");
+    assert!(wide.caustic_per_path < CAUSTIC_RARE, "{wide:?}");
+    assert_eq!(auto.for_yield(wide.per_path, wide.caustic_per_path), BDPT_PATHS);
+    let (_, paths) = chosen(&wider);
+    assert!(paths < auto.at_most, "the floor at α 0.1: {paths} light paths");
+    assert_eq!(pilot(&closed_cube(diffuse(0.5, 1.0))).caustic_per_path, 0.0);
+}
+
+/// The near-mirror floor with its floor's GGX α at `roughness` (written to a temporary scene
+/// file beside the test's others).
+fn near_mirror_floor_of_roughness(roughness: f32) -> Scene {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/stress/glossy");
+    let text = std::fs::read_to_string(format!("{dir}/scene.toml")).unwrap();
+    assert!(text.contains("roughness = 0.05") && text.contains("obj = \"glossy.obj\""));
+    let text = text
+        .replace("roughness = 0.05", &format!("roughness = {roughness}"))
+        .replace("obj = \"glossy.obj\"", &format!("obj = {:?}", format!("{dir}/glossy.obj")));
+    let path = std::env::temp_dir().join(format!("pir-floor-{roughness}-{}.toml", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let scene = pir::scene::load(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    scene
 }
 
 /// With VPLs kept by their share of the image, the image's mean is still `pt`'s (each kept
@@ -592,7 +651,9 @@ fn vpls_are_kept_by_their_share_of_the_image_where_most_miss_the_view() {
 #[test]
 fn kept_vpls_leave_the_image_unbiased_and_independent_of_the_threads() {
     let scene = near_mirror_floor();
-    let job = Job { iterations: 48, width: 24, height: 24, max_depth: 4, ..Job::default() };
+    // (Paths of 3 segments: their VPLs are lit directly, so the floor's narrow lobe does not
+    // ask for the most light paths, which would keep every VPL.)
+    let job = Job { iterations: 48, width: 24, height: 24, max_depth: 3, ..Job::default() };
     let pt = Job { iterations: 192, seed: 7, ..job.clone() }.run(&scene, &mut PathTracer);
     let integrator = || {
         bdpt(Clamping::None, 64)
@@ -602,8 +663,9 @@ fn kept_vpls_leave_the_image_unbiased_and_independent_of_the_threads() {
     };
     let r = job.run(&scene, &mut integrator());
     assert!(
-        r.stats.counters.light_paths > 48 * BDPT_PATHS as u64,
-        "kept VPLs should come with more light paths: {:?}",
+        r.stats.counters.light_paths > 48 * BDPT_PATHS as u64
+            && r.stats.counters.light_paths < 48 * BDPT_AUTO_PATHS.at_most as u64,
+        "kept VPLs should come with more light paths, fewer than the most: {:?}",
         r.stats.counters
     );
     let (m, p, z) = z_between(&r, &pt);

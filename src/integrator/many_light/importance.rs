@@ -128,7 +128,7 @@ impl Acceptance {
         if view.points.is_empty() {
             return None;
         }
-        let (vpls, rays) = trace_pilot_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, max_vpl_depth);
+        let (vpls, rays, _) = trace_pilot_vpls(ctx, PILOT_ITERATION, PILOT_PATHS, max_vpl_depth);
         let bound = Clamping::default_bound(ctx.scene.bounds().diagonal());
         counters.pilot_rays += rays;
         let mut queries = Counters::default();

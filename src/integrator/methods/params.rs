@@ -23,7 +23,7 @@ pub struct MethodParams {
     /// VPL methods: light paths traced per iteration (each leaves a VPL at every non-delta
     /// vertex) [default: 32; for pir-bdpt 256, or as many more as leave 64 VPLs where light
     /// paths seldom reach a surface that reflects them, or 1024 caustic vertices where a
-    /// mirror or glass leads them to surfaces, or up to 8 times as many where most VPLs light
+    /// mirror, glass or a near-mirror lobe leads them to surfaces, or up to 8 times as many where most VPLs light
     /// what the camera does not see (then kept by their share of the image), chosen by a
     /// pilot, at most 4096].
     #[arg(long, value_name = "N")]
