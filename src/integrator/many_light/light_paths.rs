@@ -179,7 +179,8 @@ pub struct Traced {
     pub shadow_rays: u64,
     /// VPLs that a narrow lobe (not a delta one, nor that of a near-specular vertex,
     /// [`super::config::near_specular`]) led the light path to: the previous vertex's density
-    /// of the direction at least [`NARROW_LOBE_DENSITY`].
+    /// of the direction at least [`NARROW_LOBE_DENSITY`]. Counted before an acceptance
+    /// leaves any VPL out (the pilot has none).
     pub narrow: usize,
 }
 
@@ -345,12 +346,12 @@ struct Start {
     chain: Option<LightChain>,
 }
 
-/// The solid-angle density (per steradian, times the survival probability) of the scattered
-/// direction at or above which a light path's vertex was led to the next one by a narrow lobe
-/// ([`Traced::narrow`]): 10, some 30 times a Lambertian lobe's largest (1/π). A GGX lobe
-/// reaches it near its peak for α up to about 0.09 (its peak density 1/(4πα²) towards the
-/// normal), so the near-mirror floor's coat (α 0.05, 94 % of its reflectance) does and the
-/// glossy corner's floor (α 0.1, 67 %) rarely.
+/// The solid-angle density (per steradian) of the scattered direction at or above which a
+/// light path's vertex was led to the next one by a narrow lobe ([`Traced::narrow`]): 10,
+/// some 30 times a Lambertian lobe's largest (1/π). A GGX lobe's density near its peak is
+/// about its sampling probability over 4πα² cos θ_o, so at normal incidence it reaches 10 for
+/// α up to about 0.09 (more at grazing incidence): the near-mirror floor's coat (α 0.05, 94 %
+/// of its reflectance) does often and the glossy corner's floor (α 0.1, 67 %) rarely.
 ///
 /// Why: the light such a lobe sends on is a glossy caustic, which light tracing to the camera
 /// and the connections from the vertex it lands on make, and whose noise falls with the light
@@ -370,6 +371,9 @@ fn follow(
     out: &mut Traced,
 ) {
     let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis, mut chain } = start;
+    // The previous vertex's solid-angle density of the direction it scattered into (none at
+    // the emitter, infinite after a delta vertex), without its survival probability.
+    let mut scattered_pdf: Option<f32> = None;
     let beta0 = beta.max_element();
     // The BSDF of the light path's previous vertex (none at the emitter).
     let mut previous: Option<Bsdf> = None;
@@ -415,7 +419,7 @@ fn follow(
         // Nor where no connection reaches it (a near-specular vertex, [`Counts::connects_at`]).
         let reflects = depth <= depths.vpl && bsdf.reflects_from(&sp.geometry(), w_in);
         if reflects && counts.connects_at(bsdf) {
-            let narrow = density.is_finite() && density >= NARROW_LOBE_DENSITY;
+            let narrow = scattered_pdf.is_some_and(|p| p.is_finite() && p >= NARROW_LOBE_DENSITY);
             if narrow && previous.as_ref().is_some_and(|b| !near_specular(b)) {
                 out.narrow += 1;
             }
@@ -488,6 +492,7 @@ fn follow(
         }
         from = sp.p;
         density = if s.delta { f32::INFINITY } else { survival * s.pdf };
+        scattered_pdf = Some(if s.delta { f32::INFINITY } else { s.pdf });
         ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }
 }

@@ -31,7 +31,7 @@
 //! narrow glossy lobe led a path to counts as a caustic too
 //! ([`super::light_paths::NARROW_LOBE_DENSITY`]): on the near-mirror floor (a coat of α 0.05)
 //! one path in twelve makes one, and 4,096 paths instead of the 880 chosen without them took
-//! `pir-bdpt` from 1.18–1.27× `pt`'s relative MSE at equal time to 0.91–0.94×
+//! `pir-bdpt` from 1.18–1.27× `pt`'s relative MSE at equal time to 0.90–0.95×
 //! (`docs/results.md`, "Glossy caustics ask for light paths too"); of the other study and
 //! Mitsuba scenes none makes one in 64 (the glossy corner 5 in 4,096 paths, the dense
 //! scenes 4 and 12, the living room 9, veach-ajar 22), so their counts stay.
