@@ -91,7 +91,7 @@
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use super::config::{After, Connect};
+use super::config::{After, Connect, Next};
 use super::light_paths::Vpl;
 use super::points::point_value;
 use super::subpath::{Counts, MisState};
@@ -319,12 +319,12 @@ fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more:
     };
     // One vertex further: next-event estimation at the VPL (lit directly) or a connection
     // from it; two or more: the emitter techniques, and connections if every vertex connects.
-    let one = match vpl.depth {
-        1 => vpl.mis.dvcm,
+    let one = match (vpl.depth, x.connect.next(x.rank, x.after)) {
+        (1, _) => vpl.mis.dvcm,
+        (_, Next::Full) => vpl.mis.dvcm * vpl.count_out,
         // (The camera vertex at the VPL draws fewer where this one is coated.)
-        _ if x.after == After::Coated => vpl.mis.dvcm * vpl.count_out_fewer,
-        _ if x.connect.at(x.rank + 1, x.after.glossy()) => vpl.mis.dvcm * vpl.count_out,
-        _ => 0.0,
+        (_, Next::Fewer) => vpl.mis.dvcm * vpl.count_out_fewer,
+        (_, Next::None) => 0.0,
     };
     let w_light = camera_pdf * (one + more * light_rev);
     // All of them relative to this connection's count.

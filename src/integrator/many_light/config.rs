@@ -125,15 +125,6 @@ pub fn glossy_vertex(b: &Bsdf) -> bool {
     b.glossy_alpha().is_some_and(|a| a <= GLOSSY_ALPHA)
 }
 
-/// Whether a vertex of this BSDF is glossy for `--connect glossy` ([`glossy_vertex`]) over
-/// a diffuse base (a rough plastic of α ≤ [`GLOSSY_ALPHA`]: not every non-delta lobe a
-/// microfacet lobe, [`Bsdf::widest_alpha`]): the vertex after it gathers as
-/// [`AFTER_COATED`] says ([`Connecting::fewer_picks`]).
-#[inline]
-pub fn coated_vertex(b: &Bsdf) -> bool {
-    After::of(b) == After::Coated
-}
-
 /// What a sampled gather draws at one receiver where that is fewer than its own counts
 /// (`--gather-samples`, `--gather-candidates`): `samples` lights (k), for `--gather resample`
 /// picked among a window of `candidates` (m); each at least one and at most the gather's own.
@@ -145,7 +136,7 @@ pub struct Draws {
 
 /// What a sampled gather (`--gather resample` or `tree`) draws at a camera vertex that
 /// connects only because the non-delta vertex before it is glossy over a diffuse base
-/// ([`coated_vertex`], [`Connecting::fewer_picks`]): one light, among 32 candidates (at most
+/// ([`After::Coated`], [`Connecting::fewer_picks`]): one light, among 32 candidates (at most
 /// the gather's own). The weights count those draws there ([`super::subpath::Counts::at`]),
 /// the light subpath too, by what the camera-side neighbour of each of its vertices is
 /// ([`After`]): measured, 1.4–2.2 % lower relative MSE in the living room at the same
@@ -196,7 +187,7 @@ pub fn near_specular(b: &Bsdf) -> bool {
 /// What a non-delta vertex makes of the camera vertex after it under `--connect glossy`
 /// ([`Connect::at`], [`AFTER_COATED`]): nothing, a connection with the gather's own counts
 /// (glossy, [`glossy_vertex`]) or one with fewer draws (glossy over a diffuse base,
-/// [`coated_vertex`]). A function of the vertex alone, so that both subpaths agree on it.
+/// [`After::Coated`]). A function of the vertex alone, so that both subpaths agree on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum After {
     Plain,
@@ -224,6 +215,15 @@ impl After {
     }
 }
 
+/// How the camera vertex after a given one connects ([`Connect::next`]): not at all, with
+/// the gather's own counts, or with [`AFTER_COATED`]'s fewer draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Next {
+    None,
+    Full,
+    Fewer,
+}
+
 impl Connect {
     /// The name `--connect` takes for it (clap's, from the enum).
     pub fn name(self) -> String {
@@ -238,12 +238,18 @@ impl Connect {
         if self == Connect::Glossy { After::of(b) } else { After::Plain }
     }
 
-    /// Whether the camera vertex after the one of rank `rank` connects with the gather's own
-    /// counts (not [`AFTER_COATED`]'s fewer), `after` what that one makes of it
-    /// ([`Connect::after`]).
+    /// How the camera vertex after the one of rank `rank` connects ([`Next`]), `after` what
+    /// that one makes of it ([`Connect::after`]): fewer draws only after a coated vertex,
+    /// which only `--connect glossy` makes and after which the next vertex always connects.
     #[inline]
-    pub fn next_connects_fully(self, rank: u32, after: After) -> bool {
-        self.at(rank + 1, after.glossy()) && after != After::Coated
+    pub fn next(self, rank: u32, after: After) -> Next {
+        if !self.at(rank + 1, after.glossy()) {
+            Next::None
+        } else if after == After::Coated {
+            Next::Fewer
+        } else {
+            Next::Full
+        }
     }
 
     /// Whether the camera vertex of rank `rank` among its path's non-delta vertices connects
@@ -295,18 +301,18 @@ impl Connecting {
     /// Passes the next non-delta vertex, of BSDF `b`: whether it connects.
     #[inline]
     pub fn pass(&mut self, connect: Connect, b: &Bsdf) -> bool {
+        let next = connect.next(self.rank, self.after);
         self.rank += 1;
         self.before_last = self.last;
-        self.last = connect.at(self.rank, self.after.glossy());
-        // (Only `Connect::Glossy` makes a vertex coated, and the vertex after one connects.)
+        self.last = next != Next::None;
         self.before_fewer = self.fewer;
-        self.fewer = self.after == After::Coated;
+        self.fewer = next == Next::Fewer;
         self.after = connect.after(b);
         self.last
     }
 
     /// Whether the last non-delta vertex connects only because the one before it is glossy
-    /// over a diffuse base ([`coated_vertex`]): its sampled gather draws as [`AFTER_COATED`]
+    /// over a diffuse base ([`After::Coated`]): its sampled gather draws as [`AFTER_COATED`]
     /// says.
     #[inline]
     pub fn fewer_picks(&self) -> bool {
@@ -382,8 +388,9 @@ mod tests {
 
     #[test]
     fn a_vertex_connecting_after_a_coated_one_picks_fewer_lights_and_after_a_metal_its_own_count() {
-        assert!(coated_vertex(&COATED) && !coated_vertex(&METAL) && !coated_vertex(&ROUGH));
-        assert!(!coated_vertex(&DIFFUSE) && glossy_vertex(&METAL));
+        let coated = |b: &Bsdf| After::of(b) == After::Coated;
+        assert!(coated(&COATED) && !coated(&METAL) && !coated(&ROUGH));
+        assert!(!coated(&DIFFUSE) && glossy_vertex(&METAL));
         let (no, full, fewer) = ((false, false), (true, false), (true, true));
         // The first vertex keeps its count even when coated; the vertex after a coated one
         // picks fewer; after a metal, the full count; after a diffuse or rough one, no connection.
@@ -404,22 +411,22 @@ mod tests {
 
     /// The vertex after a camera vertex connects in full after a metal under `glossy`, after
     /// the first under `first-two`, always under `all`; after a coated vertex it draws fewer,
-    /// and under `first` none after the first connects ([`Connect::next_connects_fully`], where
-    /// the weighed gather leaves a glossy receiver's lobe out of its draw).
+    /// and under `first` none after the first connects ([`Connect::next`]; where it connects
+    /// in full, the weighed gather leaves a glossy receiver's lobe out of its draw).
     #[test]
     fn the_next_vertex_connects_in_full_after_a_metal_or_where_the_rule_connects_it() {
         let after = |b: &Bsdf| Connect::Glossy.after(b);
-        assert!(Connect::Glossy.next_connects_fully(1, after(&METAL)));
-        assert!(Connect::Glossy.next_connects_fully(3, after(&METAL)));
-        assert!(!Connect::Glossy.next_connects_fully(1, after(&COATED)));
-        assert!(!Connect::Glossy.next_connects_fully(1, after(&DIFFUSE)));
-        assert!(!Connect::Glossy.next_connects_fully(2, after(&ROUGH)));
+        assert_eq!(Connect::Glossy.next(1, after(&METAL)), Next::Full);
+        assert_eq!(Connect::Glossy.next(3, after(&METAL)), Next::Full);
+        assert_ne!(Connect::Glossy.next(1, after(&COATED)), Next::Full);
+        assert_ne!(Connect::Glossy.next(1, after(&DIFFUSE)), Next::Full);
+        assert_ne!(Connect::Glossy.next(2, after(&ROUGH)), Next::Full);
         for b in [METAL, COATED, DIFFUSE] {
             let plain = Connect::First.after(&b);
-            assert!(!Connect::First.next_connects_fully(1, plain));
-            assert!(Connect::FirstTwo.next_connects_fully(1, plain));
-            assert!(!Connect::FirstTwo.next_connects_fully(2, plain));
-            assert!(Connect::All.next_connects_fully(4, plain));
+            assert_ne!(Connect::First.next(1, plain), Next::Full);
+            assert_eq!(Connect::FirstTwo.next(1, plain), Next::Full);
+            assert_ne!(Connect::FirstTwo.next(2, plain), Next::Full);
+            assert_eq!(Connect::All.next(4, plain), Next::Full);
         }
     }
 }

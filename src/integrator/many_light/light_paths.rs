@@ -371,9 +371,9 @@ fn follow(
     out: &mut Traced,
 ) {
     let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis, mut chain } = start;
-    // The previous vertex's solid-angle density of the direction it scattered into (none at
-    // the emitter, infinite after a delta vertex), without its survival probability.
-    let mut scattered_pdf: Option<f32> = None;
+    // The previous vertex's solid-angle density of the direction it scattered into (infinite
+    // after a delta vertex), without its survival probability; unused at the first vertex.
+    let mut scattered_pdf = 0.0f32;
     let beta0 = beta.max_element();
     // The BSDF of the light path's previous vertex (none at the emitter).
     let mut previous: Option<Bsdf> = None;
@@ -419,7 +419,7 @@ fn follow(
         // Nor where no connection reaches it (a near-specular vertex, [`Counts::connects_at`]).
         let reflects = depth <= depths.vpl && bsdf.reflects_from(&sp.geometry(), w_in);
         if reflects && counts.connects_at(bsdf) {
-            let narrow = scattered_pdf.is_some_and(|p| p.is_finite() && p >= NARROW_LOBE_DENSITY);
+            let narrow = scattered_pdf.is_finite() && scattered_pdf >= NARROW_LOBE_DENSITY;
             if narrow && previous.as_ref().is_some_and(|b| !near_specular(b)) {
                 out.narrow += 1;
             }
@@ -492,7 +492,7 @@ fn follow(
         }
         from = sp.p;
         density = if s.delta { f32::INFINITY } else { survival * s.pdf };
-        scattered_pdf = Some(if s.delta { f32::INFINITY } else { s.pdf });
+        scattered_pdf = if s.delta { f32::INFINITY } else { s.pdf };
         ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }
 }

@@ -59,7 +59,7 @@ use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use super::bidirectional::{CameraEnd, connection, connection_weight};
-use super::config::glossy_vertex;
+use super::config::{Next, glossy_vertex};
 use super::light_paths::Vpl;
 use super::lobe::Lobe;
 use super::points::{PointLights, PointReceiver};
@@ -202,7 +202,7 @@ impl Weigh<PointLights> for Weighing<'_> {
     /// The lobe of a glossy receiver (GGX α ≤ [`super::config::GLOSSY_ALPHA`],
     /// [`glossy_vertex`]), so that the resampled gather draws the lights in its lobe more
     /// often; none at a wider one, nor where `pir-bdpt`'s camera vertex after it connects
-    /// with the gather's own counts ([`super::config::Connect::next_connects_fully`]: the
+    /// with the gather's own counts ([`super::config::Connect::next`]: the
     /// paths through the lobe are then mostly that connection's).
     ///
     /// Why: a weighed connection's value follows the lobe more than the weights take from it.
@@ -220,7 +220,7 @@ impl Weigh<PointLights> for Weighing<'_> {
     #[inline]
     fn lobe(&self, v: &Vertex) -> Option<Lobe> {
         let next_takes_the_lobe = match self.technique {
-            Technique::Bidirectional { ref end } => end.connect.next_connects_fully(end.rank, end.after),
+            Technique::Bidirectional { ref end } => end.connect.next(end.rank, end.after) == Next::Full,
             _ => false,
         };
         if glossy_vertex(v.bsdf) && !next_takes_the_lobe {

@@ -6,7 +6,7 @@
 
 use std::f32::consts::PI;
 
-use super::config::{AFTER_COATED, After, Connect, Gather, near_specular};
+use super::config::{AFTER_COATED, After, Connect, Gather, Next, near_specular};
 use crate::material::Bsdf;
 
 /// What a pick of the resampled gather counts, where the emitters are in view, in a
@@ -265,14 +265,25 @@ impl MisState {
     /// the camera vertex after it ([`After`]; `Plain` but for `--connect glossy`).
     #[inline]
     pub fn beyond(&self, connect: Connect, rank: u32, after: After) -> f32 {
-        match (connect, after) {
-            (Connect::First, _) => self.dvc_emitter,
-            (Connect::FirstTwo, _) if rank <= 1 => self.dvc_emitter + self.dvc_last,
-            (Connect::FirstTwo, _) => self.dvc_emitter,
+        let next = connect.next(rank, after);
+        match (connect, next) {
             (Connect::All, _) => self.dvc,
-            (Connect::Glossy, After::Coated) => self.dvc_emitter + self.dvc_glossy + self.dvc_last_fewer,
-            (Connect::Glossy, After::Glossy) => self.dvc_emitter + self.dvc_glossy + self.dvc_last,
-            (Connect::Glossy, After::Plain) => self.dvc_emitter + self.dvc_glossy,
+            (Connect::Glossy, Next::None) => self.dvc_emitter + self.dvc_glossy,
+            (Connect::Glossy, _) => self.dvc_emitter + self.dvc_glossy + self.last(next),
+            (_, Next::None) => self.dvc_emitter,
+            _ => self.dvc_emitter + self.last(next),
+        }
+    }
+
+    /// The connection folded in last as the vertex after its camera-side neighbour makes it
+    /// ([`Next`]): none, with the gather's counts (`dvc_last`) or with fewer draws
+    /// (`dvc_last_fewer`).
+    #[inline]
+    fn last(&self, next: Next) -> f32 {
+        match next {
+            Next::None => 0.0,
+            Next::Full => self.dvc_last,
+            Next::Fewer => self.dvc_last_fewer,
         }
     }
 
@@ -300,11 +311,9 @@ impl MisState {
             let emitter = if s.emitter { self.dvcm } else { 0.0 };
             self.dvc = finite(k * (self.dvc * s.pdf_rev + dvcm));
             // The connection folded in last has this vertex as its camera-side neighbour.
-            let last = match s.after {
-                After::Plain => 0.0,
-                After::Glossy => self.dvc_last,
-                After::Coated => self.dvc_last_fewer,
-            };
+            // (The glossy sum holds what `--connect glossy` connects after this vertex, which
+            // is never the first: rank 1 here stands for any.)
+            let last = self.last(Connect::Glossy.next(1, s.after));
             self.dvc_glossy = finite(k * (self.dvc_glossy + last) * s.pdf_rev);
             let (connection, fewer) =
                 if s.emitter || !s.fold { (0.0, 0.0) } else { (dvcm, self.dvcm * s.count_fewer) };
