@@ -51,7 +51,8 @@
 //! the techniques that end it earlier still. They are updated at every hit and scatter from
 //! the BSDF's densities in both directions, and a connection, a light sample or an emitter
 //! hit finishes the sum with its own end's densities. pir's changes: the camera subpath starts
-//! at 1 / the camera's direction density (light tracing's N over N, in sums relative to N;
+//! at [`LIGHT_TRACING_COUNT`] / the camera's direction density (light tracing's count over
+//! N, in sums relative to N: a quarter, not the N splats it makes, see the constant;
 //! zero without light tracing, which the camera path then leaves out too), the light subpath
 //! carries its sums by which camera vertices `--connect` lets connect ([`MisState::beyond`]:
 //! the connection folded in last, and those after a glossy vertex), and the counts n_u:
@@ -94,7 +95,7 @@ use std::f32::consts::FRAC_1_PI;
 use super::config::{After, Connect, Next};
 use super::light_paths::Vpl;
 use super::points::point_value;
-use super::subpath::{Counts, MisState};
+use super::subpath::{Counts, LIGHT_TRACING_COUNT, MisState};
 use crate::integrator::direct::LightSample;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 
@@ -340,7 +341,8 @@ fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more:
 /// density of `y`'s BSDF sampling, from the camera's direction, the way the light came; the
 /// first camera vertex takes `light_samples` light samples.
 ///
-/// The others, relative to light tracing (which counts N, each light path splatting once):
+/// The others, relative to light tracing (which counts [`LIGHT_TRACING_COUNT`] against N,
+/// although each light path splats once):
 /// the camera path ending at `y` (next-event estimation there if it is lit directly, else
 /// the connection to the previous vertex's VPL; `dvcm`) and further on (`dvc`, only the
 /// emitter techniques where the camera connects at its first vertex only, and the connections
@@ -360,7 +362,8 @@ pub fn camera_weight(
 ) -> f32 {
     let one = if depth == 1 { mis.dvcm * light_samples } else { mis.dvcm * count_out };
     let more = mis.beyond(connect, 1, after);
-    weight(pdf_camera * (one + more * light_rev))
+    // All of them relative to light tracing's own count.
+    weight(pdf_camera * (one + more * light_rev) / LIGHT_TRACING_COUNT)
 }
 
 #[cfg(test)]
@@ -723,7 +726,8 @@ mod tests {
 
     /// On a path camera → z_1 → z_2 → emitter z_3, the connection at z_1 weighs exactly
     /// n_c P_c / (n_c P_c + P_nee + P_hit + P_lt) with the densities written out (the camera
-    /// ray's common to the first three left out, light tracing's divided by it) and n_c its count by its two ends: Lambertian and glossy
+    /// ray's common to the first three left out, light tracing's divided by it and counted
+    /// [`LIGHT_TRACING_COUNT`] N) and n_c its count by its two ends: Lambertian and glossy
     /// vertices, counts below one of either kind.
     #[test]
     fn the_connection_weighs_its_count_against_the_emitter_techniques() {
@@ -743,8 +747,9 @@ mod tests {
             let camera_z2 = z[1].pdf(&z[0], &z[2]) * z[2].cos(&z[1]) / dist2(&z[1], &z[2]);
             let p_nee = camera_z2 * pdf_area;
             let p_hit = camera_z2 * z[2].pdf(&z[1], &z[3]) * z[3].cos(&z[2]) / dist2(&z[2], &z[3]);
-            // Light tracing: the light path to z_1, over the camera's density of z_1.
-            let p_lt = counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2])
+            // Light tracing: the light path to z_1, over the camera's density of z_1, counted
+            // LIGHT_TRACING_COUNT N.
+            let p_lt = LIGHT_TRACING_COUNT * counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2])
                 / dist2(&z[1], &z[2])
                 / camera_pdf_area(&z);
             let expected = n_c * p_c / (n_c * p_c + p_nee + p_hit + p_lt);
@@ -844,7 +849,8 @@ mod tests {
     /// The direct light of the first non-delta vertex (a path of two segments) is weighed as
     /// `pt` weighs it, the power heuristic of next-event estimation against BSDF sampling,
     /// within the share that light tracing to the camera leaves them, which is light
-    /// tracing's density N p_L(z_1) against theirs, balanced, with the densities written out.
+    /// tracing's density c N p_L(z_1) (c its count, [`LIGHT_TRACING_COUNT`]) against theirs,
+    /// balanced, with the densities written out.
     #[test]
     fn direct_light_is_weighed_as_the_path_tracer_weighs_it() {
         let mut s = Sampler::new(5, 0, Domain::LightPath, 0);
@@ -867,7 +873,9 @@ mod tests {
                 let nee = crate::integrator::direct::power_heuristic(n as f32 * pdf_light, pdf_bsdf);
                 // Per unit area of the emitter point, each over the camera's density of z_1.
                 let to_area = e.cos(x) / dist2(x, e);
-                let p_lt = 32.0 * pdf_area * e.cos(x) / PI * x.cos(e) / dist2(x, e) / camera_pdf_area(&z);
+                let p_lt = LIGHT_TRACING_COUNT * 32.0 * pdf_area * e.cos(x) / PI * x.cos(e)
+                    / dist2(x, e)
+                    / camera_pdf_area(&z);
                 let lt = p_lt / (p_lt + n as f32 * pdf_area + pdf_bsdf * to_area);
                 let rest = 1.0 - lt;
                 assert!((w[0].unwrap() - lt).abs() < 1e-4 * lt.max(1e-2), "n {n}: {w:?} against {lt}");

@@ -173,6 +173,27 @@ fn lambertian(b: &Bsdf) -> bool {
     matches!(b, Bsdf::Diffuse { .. })
 }
 
+/// The count of light tracing to the camera in the weights, relative to N
+/// ([`MisState::from_camera`], [`super::bidirectional::camera_weight`]): a quarter of its
+/// paths, although each of the N light paths splats once.
+///
+/// **Why less than its paths.** The balance heuristic weighs techniques by their densities,
+/// as if every sample of each were independent. The camera's are not: a pixel's camera
+/// samples, its light samples among them, are stratified over the iterations (`--sampler
+/// sobol`), and a light sample from a point the camera sees is as good as light tracing's
+/// splat of the same path where both densities are alike. Light tracing's splats land where
+/// the light paths happen to reach, a few per pixel and iteration, and no stratification
+/// spreads them over a pixel; so where light tracing takes half the weight of the light
+/// that the camera sees directly lit, its noise is most of the pixel's. In the diffuse
+/// corner (`scenes/stress/corner/diffuse.toml`, 64×64, light at close range) `pir-bdpt`'s
+/// error in direct light alone (`--max-depth 2`, 10 s) was 26 times `pt`'s, and with no
+/// light tracing it was level with it. Any counts give weights that sum to one, so the
+/// estimate stays unbiased and consistent whatever this factor; it only moves light from
+/// one technique to another where both make the same path. Caustics seen directly, which
+/// only light tracing makes, keep their whole weight (`docs/results.md`, "Light tracing
+/// counts a quarter").
+pub const LIGHT_TRACING_COUNT: f32 = 0.25;
+
 /// The running sums of one subpath's MIS weights (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MisState {
@@ -214,11 +235,11 @@ impl MisState {
     /// A camera subpath whose first ray's direction the camera sampled with density `pdf_dir`
     /// per unit solid angle, a pixel the unit of the film's area
     /// ([`crate::scene::CameraRays::direction_pdf`]), where light tracing to the camera
-    /// competes: its N light paths each splat, so relative to N it counts once, and `dvcm`
-    /// starts at 1 / `pdf_dir` (Georgiev's light subpath count over the camera's density,
-    /// in pir's sums relative to N).
+    /// competes: its N light paths each splat, so relative to N it counts
+    /// [`LIGHT_TRACING_COUNT`], and `dvcm` starts at that count over `pdf_dir` (Georgiev's
+    /// light subpath count over the camera's density, in pir's sums relative to N).
     pub fn from_camera(pdf_dir: f32) -> MisState {
-        MisState { dvcm: finite(1.0 / pdf_dir), ..MisState::CAMERA }
+        MisState { dvcm: finite(LIGHT_TRACING_COUNT / pdf_dir), ..MisState::CAMERA }
     }
 
     /// A light subpath of `paths` per iteration, started at an emitter point of area density
