@@ -16,8 +16,10 @@
 //!   sampled gather counts fewer: [`Counts`]);
 //! - t = 0: light tracing to the camera ([`super::to_camera`]): the light path that came
 //!   from the emitter through z_k … z_2 to z_1 connects z_1 to the lens and splats into the
-//!   film; each of the N light paths splats, so it counts N, against the camera's density
-//!   of z_1 (its direction density with a pixel as the unit of area, times cos / d²). An
+//!   film; each of the N light paths splats once, but it counts [`LIGHT_TRACING_COUNT`] N
+//!   (see the constant: its splats are not stratified as the camera's light samples are),
+//!   against the camera's density of z_1 (its direction density with a pixel as the unit
+//!   of area, times cos / d²). An
 //!   emitter seen directly (k = 1) is the camera's alone: light tracing does not connect the
 //!   emitter's own point to the lens.
 //!
@@ -26,7 +28,8 @@
 //! z_1; the hit is always possible. Every technique reaches every path length up to `max_depth`, so the set
 //! of techniques is the same for every path of a given shape and the balance heuristic's
 //! weights p_t n_t / Σ_u p_u n_u (n_u for a connection as [`Counts`] says from its two
-//! ends, the light samples for next-event estimation, 1 for the hit) sum to one: without
+//! ends, the light samples for next-event estimation, 1 for the hit, c N for light tracing)
+//! sum to one: without
 //! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests). Light tracing
 //! makes the paths no other technique can, a caustic seen directly (z_1 diffuse, z_2 … z_{k−1}
 //! delta): the camera finds them only by BSDF sampling into the delta chain, which rarely
@@ -39,10 +42,12 @@
 //! keeps p_c n_c / Σ_u p_u n_u. The three shares of a path still sum to one, whatever the
 //! densities. A path that no connection can make (the direct light of the first non-delta
 //! vertex: a connection needs two non-delta vertices before the emitter) is weighed as `pt`
-//! weighs it, within the share light tracing leaves it (which is small: the camera's density
-//! of a point, thousands of pixels over what it sees, against N light paths), which keeps
-//! `pir-bdpt` as good as `pt` where direct light dominates (`docs/integrator-measurements.md`,
-//! "Which heuristic").
+//! weighs it, within the share light tracing leaves it (small over most of the image: the
+//! camera's density of a point, thousands of pixels over what it sees, against a quarter of
+//! the N light paths; not near a light, where light paths crowd, which is why light tracing
+//! counts a quarter, [`LIGHT_TRACING_COUNT`]), which keeps `pir-bdpt` as good as `pt` where
+//! direct light dominates (`docs/integrator-measurements.md`, "Which heuristic";
+//! `docs/results.md`, "Light tracing counts a quarter").
 //!
 //! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
 //! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
@@ -451,10 +456,11 @@ mod tests {
     /// The test camera's density of the direction from z[0] to `to`, as
     /// [`crate::scene::CameraRays::direction_pdf`] has it: W H / (A cos³ θ) about the view
     /// axis +z (every test path lies in front of it), W H / A chosen so that light tracing
-    /// and the camera's techniques weigh alike on the test paths.
+    /// (counted [`LIGHT_TRACING_COUNT`] N) and the camera's techniques weigh alike on the
+    /// test paths.
     fn camera_pdf_dir(z: &[Node], to: &Node) -> f32 {
         let cos = z[0].dir(to).z;
-        100.0 / (cos * cos * cos)
+        100.0 * LIGHT_TRACING_COUNT / (cos * cos * cos)
     }
 
     /// The camera's density of z[1] per unit area.

@@ -186,11 +186,12 @@ fn lambertian(b: &Bsdf) -> bool {
 /// spreads them over a pixel; so where light tracing takes half the weight of the light
 /// that the camera sees directly lit, its noise is most of the pixel's. In the diffuse
 /// corner (`scenes/stress/corner/diffuse.toml`, 64×64, light at close range) `pir-bdpt`'s
-/// error in direct light alone (`--max-depth 2`, 10 s) was 26 times `pt`'s, and with no
-/// light tracing it was level with it. Any counts give weights that sum to one, so the
+/// error in direct light alone (`--max-depth 2`, 10 s) was 24 times `pt`'s, with no light
+/// tracing level with it, and with light tracing counted a quarter 1.9 times. Any counts give weights that sum to one, so the
 /// estimate stays unbiased and consistent whatever this factor; it only moves light from
 /// one technique to another where both make the same path. Caustics seen directly, which
-/// only light tracing makes, keep their whole weight (`docs/results.md`, "Light tracing
+/// otherwise only the rare emitter hit through the delta chain makes, keep nearly all of
+/// light tracing's weight (`docs/results.md`, "Light tracing
 /// counts a quarter").
 pub const LIGHT_TRACING_COUNT: f32 = 0.25;
 
