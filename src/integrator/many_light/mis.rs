@@ -290,6 +290,72 @@ mod tests {
         }
     }
 
+    /// `pir-bdpt`'s gather leaves a glossy receiver's lobe out of its draw where the camera
+    /// vertex after the receiver connects with the full counts (after a metal under
+    /// `--connect glossy`, after any vertex under `all` and `first-two`), whose connections
+    /// carry the paths in the lobe, and keeps it where that vertex connects with fewer draws
+    /// (after a coated one under `glossy`) or not at all (`first`); a Lambertian receiver has
+    /// no lobe either way.
+    #[test]
+    fn the_bidirectional_draw_leaves_the_lobe_to_a_next_vertex_that_connects_in_full() {
+        use super::super::config::{After, Connect};
+        use super::super::subpath::{Counts, MisState};
+        use crate::geometry::Frame;
+        use crate::material::conductor::ComplexIor;
+        use crate::material::microfacet::{Distribution, Microfacet};
+        use crate::material::{Bsdf, TransportMode};
+        use crate::scene::SurfacePoint;
+        use glam::Vec2;
+        let sp = SurfacePoint {
+            p: Vec3::ZERO,
+            ng: Vec3::Z,
+            frame: Frame::from_normal(Vec3::Z),
+            prim: 0,
+            material: 0,
+            uv: Vec2::ZERO,
+            back: false,
+        };
+        let wo = Vec3::new(0.0, 0.6, 0.8);
+        let metal = Bsdf::RoughConductor {
+            specular: Vec3::splat(0.9),
+            ior: ComplexIor { eta: Vec3::new(0.2, 0.5, 1.4), k: Vec3::new(3.6, 2.4, 1.9) },
+            microfacet: Microfacet::new(Distribution::Ggx, 0.1),
+        };
+        let coated = Bsdf::Glossy { albedo: Vec3::splat(0.2), specular: Vec3::splat(0.6), roughness: 0.1 };
+        let lambertian = Bsdf::Diffuse { albedo: Vec3::splat(0.5) };
+        for (bsdf, connect, after, lobe) in [
+            (metal, Connect::Glossy, After::Glossy, false),
+            (metal, Connect::All, After::Plain, false),
+            (metal, Connect::FirstTwo, After::Plain, false),
+            (metal, Connect::First, After::Plain, true),
+            (coated, Connect::Glossy, After::Coated, true),
+            (coated, Connect::All, After::Plain, false),
+            (coated, Connect::First, After::Plain, true),
+            (lambertian, Connect::Glossy, After::Plain, false),
+            (lambertian, Connect::All, After::Plain, false),
+        ] {
+            assert_eq!(connect.after(&bsdf), after, "{bsdf:?} under {connect:?}");
+            let geometry = sp.geometry();
+            let fx = PreparedBsdf::new(bsdf, geometry, wo, TransportMode::Radiance);
+            let end = CameraEnd {
+                fx: &fx,
+                bsdf: &bsdf,
+                geometry,
+                wo,
+                state: MisState::CAMERA,
+                connect,
+                rank: 1,
+                after,
+                fewer: false,
+                counts: Counts::uniform(32.0),
+                count_in: 1.0,
+            };
+            let weighing = Weighing { technique: Technique::Bidirectional { end }, bound: 1.0 };
+            let v = Vertex { sp: &sp, wo, bsdf: &bsdf, depth: 1 };
+            assert_eq!(weighing.lobe(&v).is_some(), lobe, "{bsdf:?} under {connect:?}");
+        }
+    }
+
     #[test]
     fn balance_weights_sum_to_one() {
         for (a, b) in [(1.0, 2.0), (1e-30, 1e30), (3.0, 3.0), (0.5, 1e-8)] {
