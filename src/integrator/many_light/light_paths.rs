@@ -409,9 +409,9 @@ fn follow(
             d if d >= RR_DEPTH => (beta.max_element() / beta0).min(MAX_SURVIVAL),
             _ => 1.0,
         };
-        // The count of the connection from here to the previous vertex's VPL.
-        let count = counts.between(previous.as_ref(), bsdf);
-        let count_fewer = counts.between_at(previous.as_ref(), bsdf, true);
+        // The count of the connection from here to the previous vertex's VPL, without and
+        // with fewer draws at the camera end.
+        let (count, count_fewer) = counts.between_both(previous.as_ref(), bsdf);
         // Only where light can be reflected: a vertex on the back of a surface (light paths
         // that miss an opening and strike the wall around it from outside) or on a black
         // material would add nothing to any receiver, yet take a place in every gather's

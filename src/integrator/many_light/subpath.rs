@@ -148,14 +148,19 @@ impl Counts {
     /// coated one, [`AFTER_COATED`]) or not.
     #[inline]
     pub fn at(&self, a: &Bsdf, b: &Bsdf, fewer: bool) -> f32 {
-        let (l, g) =
-            if fewer { (self.fewer_lambertian, self.fewer_glossy) } else { (self.lambertian, self.glossy) };
+        let (full, with_fewer) = self.both(a, b);
+        if fewer { with_fewer } else { full }
+    }
+
+    /// [`Counts::at`] without and with fewer draws, from one look at the two ends.
+    #[inline]
+    fn both(&self, a: &Bsdf, b: &Bsdf) -> (f32, f32) {
         if lambertian(a) && lambertian(b) {
-            l
+            (self.lambertian, self.fewer_lambertian)
         } else if self.connects_at(a) && self.connects_at(b) {
-            g
+            (self.glossy, self.fewer_glossy)
         } else {
-            0.0
+            (0.0, 0.0)
         }
     }
 
@@ -163,6 +168,13 @@ impl Counts {
     #[inline]
     pub fn between_at(&self, a: Option<&Bsdf>, b: &Bsdf, fewer: bool) -> f32 {
         a.map_or(1.0, |a| self.at(a, b, fewer))
+    }
+
+    /// [`Counts::between`] without and with fewer draws at the camera end (what a light
+    /// subpath's vertex keeps of both), from one look at the two ends.
+    #[inline]
+    pub fn between_both(&self, a: Option<&Bsdf>, b: &Bsdf) -> (f32, f32) {
+        a.map_or((1.0, 1.0), |a| self.both(a, b))
     }
 }
 
