@@ -6,7 +6,8 @@
 # reference (`pir compare`: mean over pixels and channels of (x − r)² / (r² + 0.01)) and
 # efficiency = 1 / (relative MSE × wall time). The last columns are pir's efficiency over
 # Mitsuba's (≥ 1: pir is at least as efficient), by wall time and by CPU time; on a machine
-# shared with other work the CPU-time ratio is the steadier of the two.
+# shared with other work the CPU-time ratio is the steadier of the two. pir writes its EXR alone
+# (`--no-preview`), as Mitsuba does.
 #
 #     docs/pt_vs_mitsuba.sh [SPP]          (default 512; about 2 minutes per scene on 2 cores)
 #
@@ -189,7 +190,7 @@ for entry in "${scenes[@]}"; do
         [[ $sampler == default ]] && choice=()
         read -r w_pir c_pir e_pir < <(measure "$ref" "$tmp/pir.exr" \
             "$pir" render "$scene" --method pt --spp "$spp" --seed "$seed" "${size[@]}" "${choice[@]}" \
-            "${pir_args[@]}" -o "$tmp/pir.exr")
+            --no-preview "${pir_args[@]}" -o "$tmp/pir.exr")
         row=$(printf '%-13s %-17s %8s %8s %12s %11s' "$name" "pir ($sampler)" "$w_pir" "$c_pir" "$e_pir" \
             "$(eff "$w_pir" "$e_pir")")
         if [[ -n $py ]]; then
