@@ -258,24 +258,28 @@ impl Weigh<PointLights> for Weighing<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Frame;
+    use crate::material::Bsdf;
+    use crate::scene::SurfacePoint;
 
-    /// The weighed gathers draw by the lobe of a glossy receiver (α ≤ 0.15) and by the
-    /// geometry term alone at a wider or a Lambertian one.
-    #[test]
-    fn the_weighed_draw_follows_the_lobe_of_a_glossy_receiver_only() {
-        use crate::geometry::Frame;
-        use crate::material::Bsdf;
-        use crate::scene::SurfacePoint;
-        use glam::Vec2;
-        let sp = SurfacePoint {
+    /// A receiver at the origin facing +z.
+    fn surface_point() -> SurfacePoint {
+        SurfacePoint {
             p: Vec3::ZERO,
             ng: Vec3::Z,
             frame: Frame::from_normal(Vec3::Z),
             prim: 0,
             material: 0,
-            uv: Vec2::ZERO,
+            uv: glam::Vec2::ZERO,
             back: false,
-        };
+        }
+    }
+
+    /// The weighed gathers draw by the lobe of a glossy receiver (α ≤ 0.15) and by the
+    /// geometry term alone at a wider or a Lambertian one.
+    #[test]
+    fn the_weighed_draw_follows_the_lobe_of_a_glossy_receiver_only() {
+        let sp = surface_point();
         let weighing = Weighing { technique: Technique::Bounce { bounce: 1.0 }, bound: 1.0 };
         let glossy =
             |roughness| Bsdf::Glossy { albedo: Vec3::splat(0.05), specular: Vec3::splat(0.8), roughness };
@@ -300,21 +304,10 @@ mod tests {
     fn the_bidirectional_draw_leaves_the_lobe_to_a_next_vertex_that_connects_in_full() {
         use super::super::config::{After, Connect};
         use super::super::subpath::{Counts, MisState};
-        use crate::geometry::Frame;
+        use crate::material::TransportMode;
         use crate::material::conductor::ComplexIor;
         use crate::material::microfacet::{Distribution, Microfacet};
-        use crate::material::{Bsdf, TransportMode};
-        use crate::scene::SurfacePoint;
-        use glam::Vec2;
-        let sp = SurfacePoint {
-            p: Vec3::ZERO,
-            ng: Vec3::Z,
-            frame: Frame::from_normal(Vec3::Z),
-            prim: 0,
-            material: 0,
-            uv: Vec2::ZERO,
-            back: false,
-        };
+        let sp = surface_point();
         let wo = Vec3::new(0.0, 0.6, 0.8);
         let metal = Bsdf::RoughConductor {
             specular: Vec3::splat(0.9),
