@@ -419,8 +419,8 @@ fn light_tracing_alone_gives_the_furnace_its_value() {
     }
 }
 
-/// Light tracing to the camera counts a quarter of its paths in the weights
-/// ([`LIGHT_TRACING_COUNT`]), so that the light the camera sees lit directly stays with the
+/// Light tracing to the camera counts a quarter of its paths in the weights from a vertex
+/// lit directly ([`LIGHT_TRACING_COUNT`]), so that the light the camera sees lit directly stays with the
 /// light samples, which the Sobol sampler stratifies over a pixel's iterations and light
 /// tracing's splats are not: in the diffuse corner, direct light alone (`max_depth` 2), the
 /// noise of `pir-bdpt` is within twice `pt`'s (the mean squared difference of two seeds'

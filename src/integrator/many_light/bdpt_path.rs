@@ -96,6 +96,7 @@ impl Bidirectional<'_> {
             let c = connect_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters);
             terms.sum(ctx, c, |l| {
                 let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
+                let state = state.for_light_sample(depth);
                 light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
             });
         }
@@ -166,7 +167,7 @@ impl Estimator for Bidirectional<'_> {
             let emission = light.emission_density(f32::INFINITY, radius);
             let w = match path.depth {
                 0 => 1.0,
-                _ => escape_weight(&path.mis, nee, emission, self.counts.paths, left_samples),
+                d => escape_weight(&path.mis.for_hit(d + 1), nee, emission, self.counts.paths, left_samples),
             };
             *radiance += beta * le * w;
         }
@@ -202,7 +203,14 @@ impl Estimator for Bidirectional<'_> {
             let left_samples = if path.connecting.rank() == 1 { self.light_samples as f32 } else { 1.0 };
             let w = match path.depth {
                 0 => 1.0,
-                _ => hit_weight(&path.mis, pdf_nee, pdf_area, cos_in, self.counts.paths, left_samples),
+                d => hit_weight(
+                    &path.mis.for_hit(d + 1),
+                    pdf_nee,
+                    pdf_area,
+                    cos_in,
+                    self.counts.paths,
+                    left_samples,
+                ),
             };
             let share = self.merging.map_or(1.0, |m| path.caustic.hit_share(m, pdf_area));
             *radiance += beta * le * (w * share);

@@ -16,8 +16,9 @@
 //!   sampled gather counts fewer: [`Counts`]);
 //! - t = 0: light tracing to the camera ([`super::to_camera`]): the light path that came
 //!   from the emitter through z_k … z_2 to z_1 connects z_1 to the lens and splats into the
-//!   film; each of the N light paths splats once, but it counts [`LIGHT_TRACING_COUNT`] N
-//!   (see the constant: its splats are not stratified as the camera's light samples are),
+//!   film; each of the N light paths splats, so it counts N (but
+//!   [`super::subpath::LIGHT_TRACING_COUNT`] N where z_1 is lit directly, k = 2, whose
+//!   splats compete with light samples that the sampler stratifies and they are not),
 //!   against the camera's density of z_1 (its direction density with a pixel as the unit
 //!   of area, times cos / d²). An
 //!   emitter seen directly (k = 1) is the camera's alone: light tracing does not connect the
@@ -28,7 +29,8 @@
 //! z_1; the hit is always possible. Every technique reaches every path length up to `max_depth`, so the set
 //! of techniques is the same for every path of a given shape and the balance heuristic's
 //! weights p_t n_t / Σ_u p_u n_u (n_u for a connection as [`Counts`] says from its two
-//! ends, the light samples for next-event estimation, 1 for the hit, c N for light tracing)
+//! ends, the light samples for next-event estimation, 1 for the hit, N or a quarter of it
+//! for light tracing)
 //! sum to one: without
 //! a bound the estimate is unbiased per iteration (`ir-bdpt`, the tests). Light tracing
 //! makes the paths no other technique can, a caustic seen directly (z_1 diffuse, z_2 … z_{k−1}
@@ -45,9 +47,10 @@
 //! weighs it, within the share light tracing leaves it (small over most of the image: the
 //! camera's density of a point, thousands of pixels over what it sees, against a quarter of
 //! the N light paths; not near a light, where light paths crowd, which is why light tracing
-//! counts a quarter, [`LIGHT_TRACING_COUNT`]), which keeps `pir-bdpt` as good as `pt` where
-//! direct light dominates (`docs/integrator-measurements.md`, "Which heuristic";
-//! `docs/results.md`, "Light tracing counts a quarter").
+//! counts a quarter on these paths, [`super::subpath::LIGHT_TRACING_COUNT`]), which keeps
+//! `pir-bdpt` as good as `pt` where direct light dominates
+//! (`docs/integrator-measurements.md`, "Which heuristic"; `docs/results.md`, "Light tracing
+//! counts a quarter where it meets light samples").
 //!
 //! **Computing the weights.** As in Georgiev's vertex connection and merging (the technical
 //! report "Implementing vertex connection and merging", 2012, in bidirectional mode), each
@@ -56,9 +59,10 @@
 //! the techniques that end it earlier still. They are updated at every hit and scatter from
 //! the BSDF's densities in both directions, and a connection, a light sample or an emitter
 //! hit finishes the sum with its own end's densities. pir's changes: the camera subpath starts
-//! at [`LIGHT_TRACING_COUNT`] / the camera's direction density (light tracing's count over
-//! N, in sums relative to N: a quarter, not the N splats it makes, see the constant;
-//! zero without light tracing, which the camera path then leaves out too), the light subpath
+//! at 1 / the camera's direction density (light tracing's N over N, in sums relative to N;
+//! zero without light tracing, which the camera path then leaves out too; the two camera
+//! techniques of a path of two segments read its term a quarter, [`MisState::for_light_sample`],
+//! [`MisState::for_hit`]), the light subpath
 //! carries its sums by which camera vertices `--connect` lets connect ([`MisState::beyond`]:
 //! the connection folded in last, and those after a glossy vertex), and the counts n_u:
 //! the light subpath's sums
@@ -100,7 +104,7 @@ use std::f32::consts::FRAC_1_PI;
 use super::config::{After, Connect, Next};
 use super::light_paths::Vpl;
 use super::points::point_value;
-use super::subpath::{Counts, LIGHT_TRACING_COUNT, MisState};
+use super::subpath::{Counts, MisState, light_tracing_count};
 use crate::integrator::direct::LightSample;
 use crate::material::{Bsdf, LocalGeometry, PreparedBsdf};
 
@@ -346,8 +350,9 @@ fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more:
 /// density of `y`'s BSDF sampling, from the camera's direction, the way the light came; the
 /// first camera vertex takes `light_samples` light samples.
 ///
-/// The others, relative to light tracing (which counts [`LIGHT_TRACING_COUNT`] against N,
-/// although each light path splats once):
+/// The others, relative to light tracing (which counts N, each light path splatting once,
+/// or [`super::subpath::LIGHT_TRACING_COUNT`] N from a vertex lit directly,
+/// [`light_tracing_count`]):
 /// the camera path ending at `y` (next-event estimation there if it is lit directly, else
 /// the connection to the previous vertex's VPL; `dvcm`) and further on (`dvc`, only the
 /// emitter techniques where the camera connects at its first vertex only, and the connections
@@ -368,7 +373,7 @@ pub fn camera_weight(
     let one = if depth == 1 { mis.dvcm * light_samples } else { mis.dvcm * count_out };
     let more = mis.beyond(connect, 1, after);
     // All of them relative to light tracing's own count.
-    weight(pdf_camera * (one + more * light_rev) / LIGHT_TRACING_COUNT)
+    weight(pdf_camera * (one + more * light_rev) / light_tracing_count(depth))
 }
 
 #[cfg(test)]
@@ -378,7 +383,7 @@ mod tests {
     use crate::integrator::many_light::config::Connecting;
     use crate::integrator::many_light::config::Gather;
     use crate::integrator::many_light::points::point_contribution;
-    use crate::integrator::many_light::subpath::Scatter;
+    use crate::integrator::many_light::subpath::{LIGHT_TRACING_COUNT, Scatter};
     use crate::material::TransportMode;
     use crate::sampling::{Domain, Sampler};
     use std::f32::consts::PI;
@@ -456,11 +461,10 @@ mod tests {
     /// The test camera's density of the direction from z[0] to `to`, as
     /// [`crate::scene::CameraRays::direction_pdf`] has it: W H / (A cos³ θ) about the view
     /// axis +z (every test path lies in front of it), W H / A chosen so that light tracing
-    /// (counted [`LIGHT_TRACING_COUNT`] N) and the camera's techniques weigh alike on the
-    /// test paths.
+    /// and the camera's techniques weigh alike on the test paths.
     fn camera_pdf_dir(z: &[Node], to: &Node) -> f32 {
         let cos = z[0].dir(to).z;
-        100.0 * LIGHT_TRACING_COUNT / (cos * cos * cos)
+        100.0 / (cos * cos * cos)
     }
 
     /// The camera's density of z[1] per unit area.
@@ -590,12 +594,13 @@ mod tests {
                 w.push(match source {
                     Source::Area { pdf_area, pdf_nee } => {
                         let cam = camera_state(z, t, connect, counts);
+                        let cam = cam.for_hit(t as u32);
                         Some(hit_weight(&cam, pdf_nee, pdf_area, x.cos(&z[k - 1]), paths, samples_at(t - 1)))
                     }
                     Source::Point(_) => None,
                     Source::Environment { nee, disk } => {
                         let cam = camera_state_to(z, t, connect, counts, false);
-                        Some(escape_weight(&cam, nee, disk, paths, samples_at(t - 1)))
+                        Some(escape_weight(&cam.for_hit(t as u32), nee, disk, paths, samples_at(t - 1)))
                     }
                 });
                 continue;
@@ -645,6 +650,7 @@ mod tests {
                 };
                 let previous = if walk(z, t, connect).previous_connects() { count_in } else { 0.0 };
                 let n = samples_at(t);
+                let cam = cam.for_light_sample(t as u32);
                 Some(light_weight(&cam, &light, x.pdf(e, &z[t - 1]), x.cos(e), paths, previous, n))
             } else {
                 let y = &z[t + 1];
@@ -732,8 +738,8 @@ mod tests {
 
     /// On a path camera → z_1 → z_2 → emitter z_3, the connection at z_1 weighs exactly
     /// n_c P_c / (n_c P_c + P_nee + P_hit + P_lt) with the densities written out (the camera
-    /// ray's common to the first three left out, light tracing's divided by it and counted
-    /// [`LIGHT_TRACING_COUNT`] N) and n_c its count by its two ends: Lambertian and glossy
+    /// ray's common to the first three left out, light tracing's divided by it) and n_c its
+    /// count by its two ends: Lambertian and glossy
     /// vertices, counts below one of either kind.
     #[test]
     fn the_connection_weighs_its_count_against_the_emitter_techniques() {
@@ -753,9 +759,9 @@ mod tests {
             let camera_z2 = z[1].pdf(&z[0], &z[2]) * z[2].cos(&z[1]) / dist2(&z[1], &z[2]);
             let p_nee = camera_z2 * pdf_area;
             let p_hit = camera_z2 * z[2].pdf(&z[1], &z[3]) * z[3].cos(&z[2]) / dist2(&z[2], &z[3]);
-            // Light tracing: the light path to z_1, over the camera's density of z_1, counted
-            // LIGHT_TRACING_COUNT N.
-            let p_lt = LIGHT_TRACING_COUNT * counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2])
+            // Light tracing: the light path to z_1, over the camera's density of z_1 (z_1 is
+            // not lit directly: counted N).
+            let p_lt = counts.paths * p_c * z[2].pdf(&z[3], &z[1]) * z[1].cos(&z[2])
                 / dist2(&z[1], &z[2])
                 / camera_pdf_area(&z);
             let expected = n_c * p_c / (n_c * p_c + p_nee + p_hit + p_lt);

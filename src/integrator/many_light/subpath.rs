@@ -185,9 +185,11 @@ fn lambertian(b: &Bsdf) -> bool {
     matches!(b, Bsdf::Diffuse { .. })
 }
 
-/// The count of light tracing to the camera in the weights, relative to N
-/// ([`MisState::from_camera`], [`super::bidirectional::camera_weight`]): a quarter of its
-/// paths, although each of the N light paths splats once.
+/// The count of light tracing to the camera in the weights, relative to N, where the light
+/// path's vertex that it connects to the lens is lit directly (a path of two segments, the
+/// light the camera sees lit directly): a quarter of its paths, although each of the N
+/// light paths splats once ([`light_tracing_count`]). From a vertex further along a light
+/// path it counts N.
 ///
 /// **Why less than its paths.** The balance heuristic weighs techniques by their densities,
 /// as if every sample of each were independent. The camera's are not: a pixel's camera
@@ -199,13 +201,21 @@ fn lambertian(b: &Bsdf) -> bool {
 /// that the camera sees directly lit, its noise is most of the pixel's. In the diffuse
 /// corner (`scenes/stress/corner/diffuse.toml`, 64×64, light at close range) `pir-bdpt`'s
 /// error in direct light alone (`--max-depth 2`, 10 s) was 24 times `pt`'s, with no light
-/// tracing level with it, and with light tracing counted a quarter 1.9 times. Any counts give weights that sum to one, so the
-/// estimate stays unbiased and consistent whatever this factor; it only moves light from
-/// one technique to another where both make the same path. Caustics seen directly, which
-/// otherwise only the rare emitter hit through the delta chain makes, keep nearly all of
-/// light tracing's weight (`docs/results.md`, "Light tracing
-/// counts a quarter").
+/// tracing level with it, and with light tracing counted a quarter 1.9 times. Any counts
+/// give weights that sum to one, so the estimate stays unbiased and consistent whatever
+/// this factor; it only moves light from one technique to another where both make the same
+/// path. Paths of more segments keep light tracing's full count: there it competes with
+/// BSDF-sampled emitter hits, not with light samples, and a quarter everywhere gave Veach's
+/// plates (glossy caustics seen directly) fireflies and 4–21 % more error
+/// (`docs/results.md`, "Light tracing counts a quarter where it meets light samples").
 pub const LIGHT_TRACING_COUNT: f32 = 0.25;
+
+/// Light tracing's count relative to N from a light path's vertex `depth` segments from the
+/// emitter: [`LIGHT_TRACING_COUNT`] at a vertex lit directly, else 1.
+#[inline]
+pub fn light_tracing_count(depth: u32) -> f32 {
+    if depth == 1 { LIGHT_TRACING_COUNT } else { 1.0 }
+}
 
 /// The running sums of one subpath's MIS weights (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -248,11 +258,35 @@ impl MisState {
     /// A camera subpath whose first ray's direction the camera sampled with density `pdf_dir`
     /// per unit solid angle, a pixel the unit of the film's area
     /// ([`crate::scene::CameraRays::direction_pdf`]), where light tracing to the camera
-    /// competes: its N light paths each splat, so relative to N it counts
-    /// [`LIGHT_TRACING_COUNT`], and `dvcm` starts at that count over `pdf_dir` (Georgiev's
-    /// light subpath count over the camera's density, in pir's sums relative to N).
+    /// competes: its N light paths each splat, so relative to N it counts once, and `dvcm`
+    /// starts at 1 / `pdf_dir` (Georgiev's light subpath count over the camera's density,
+    /// in pir's sums relative to N). Where light tracing counts less (a path of two
+    /// segments, [`LIGHT_TRACING_COUNT`]), the two techniques that end such a path on the
+    /// camera's side scale its term as they read it ([`MisState::for_light_sample`], [`MisState::for_hit`]).
     pub fn from_camera(pdf_dir: f32) -> MisState {
-        MisState { dvcm: finite(LIGHT_TRACING_COUNT / pdf_dir), ..MisState::CAMERA }
+        MisState { dvcm: finite(1.0 / pdf_dir), ..MisState::CAMERA }
+    }
+
+    /// The camera subpath's sums as next-event estimation at the camera vertex of depth
+    /// `depth` weighs them: at the first vertex (depth 1, where `dvcm` is light tracing's term
+    /// alone and `dvc` zero) with light tracing counted [`LIGHT_TRACING_COUNT`], since the
+    /// path has two segments; elsewhere as they are.
+    #[inline]
+    pub fn for_light_sample(self, depth: u32) -> MisState {
+        if depth == 1 {
+            MisState { dvcm: self.dvcm * LIGHT_TRACING_COUNT, dvc: self.dvc * LIGHT_TRACING_COUNT, ..self }
+        } else {
+            self
+        }
+    }
+
+    /// The camera subpath's sums as an emitter hit (or an escape to a light at infinity) at
+    /// depth `depth` weighs them: at depth 2 (the ray from the first vertex, where `dvc` is
+    /// light tracing's term alone) with light tracing counted [`LIGHT_TRACING_COUNT`], since
+    /// the path has two segments; elsewhere as they are.
+    #[inline]
+    pub fn for_hit(self, depth: u32) -> MisState {
+        if depth == 2 { MisState { dvc: self.dvc * LIGHT_TRACING_COUNT, ..self } } else { self }
     }
 
     /// A light subpath of `paths` per iteration, started at an emitter point of area density
