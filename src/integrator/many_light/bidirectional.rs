@@ -44,10 +44,12 @@
 //! keeps p_c n_c / Σ_u p_u n_u. The three shares of a path still sum to one, whatever the
 //! densities. A path that no connection can make (the direct light of the first non-delta
 //! vertex: a connection needs two non-delta vertices before the emitter) is weighed as `pt`
-//! weighs it, within the share light tracing leaves it (small over most of the image: the
-//! camera's density of a point, thousands of pixels over what it sees, against a quarter of
-//! the N light paths; not near a light, where light paths crowd, which is why light tracing
-//! counts a quarter on these paths, [`super::subpath::LIGHT_TRACING_COUNT`]), which keeps
+//! weighs it, within the share light tracing leaves it where the camera ray found the vertex
+//! directly (after a delta chain light tracing cannot make the path): small over most of the
+//! image (the camera's density of a point, thousands of pixels over what it sees, against a
+//! quarter of the N light paths), not near a light, where light paths crowd, which is why
+//! light tracing counts a quarter on these paths ([`super::subpath::LIGHT_TRACING_COUNT`]);
+//! this keeps
 //! `pir-bdpt` as good as `pt` where direct light dominates
 //! (`docs/integrator-measurements.md`, "Which heuristic"; `docs/results.md`, "Light tracing
 //! counts a quarter where it meets light samples").
