@@ -92,12 +92,21 @@ impl Bidirectional<'_> {
         let u_select = sampler.next_f32();
         // (0 where the camera vertex before this one does not connect to VPLs.)
         let count_previous = if path.connecting.previous_connects() { count_in } else { 0.0 };
+        // (The sums as next-event estimation reads them, once for the vertex's samples.)
+        let nee_state = state.for_light_sample(depth);
         for u in sampler.next_2d_block(n) {
             let c = connect_emitters_at(ctx, sp, bsdf, wo, (u_select, u), counters);
             terms.sum(ctx, c, |l| {
                 let pdf_rev = if state.dvc > 0.0 { bsdf.pdf(&geometry, l.wi, wo) } else { 0.0 };
-                let state = state.for_light_sample(depth);
-                light_weight(&state, &l, pdf_rev, sp.ng.dot(l.wi).abs(), counts.paths, count_previous, count)
+                light_weight(
+                    &nee_state,
+                    &l,
+                    pdf_rev,
+                    sp.ng.dot(l.wi).abs(),
+                    counts.paths,
+                    count_previous,
+                    count,
+                )
             });
         }
         // ---- The connections to the VPLs (none at a near-specular vertex, whose count is zero).

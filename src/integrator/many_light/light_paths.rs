@@ -371,9 +371,10 @@ fn follow(
     out: &mut Traced,
 ) {
     let Start { mut ray, mut beta, mut from, mut density, at_infinity, nee, mut mis, mut chain } = start;
-    // The previous vertex's solid-angle density of the direction it scattered into (infinite
-    // after a delta vertex), without its survival probability; unused at the first vertex.
-    let mut scattered_pdf = 0.0f32;
+    // Whether a narrow lobe led the path here ([`Traced::narrow`]): the previous vertex, not
+    // near-specular, sampled the direction with a density (without its survival probability)
+    // of at least NARROW_LOBE_DENSITY; never at the first vertex.
+    let mut led_by_narrow_lobe = false;
     let beta0 = beta.max_element();
     // The BSDF of the light path's previous vertex (none at the emitter).
     let mut previous: Option<Bsdf> = None;
@@ -419,10 +420,7 @@ fn follow(
         // Nor where no connection reaches it (a near-specular vertex, [`Counts::connects_at`]).
         let reflects = depth <= depths.vpl && bsdf.reflects_from(&sp.geometry(), w_in);
         if reflects && counts.connects_at(bsdf) {
-            let narrow = scattered_pdf.is_finite() && scattered_pdf >= NARROW_LOBE_DENSITY;
-            if narrow && previous.as_ref().is_some_and(|b| !near_specular(b)) {
-                out.narrow += 1;
-            }
+            out.narrow += usize::from(led_by_narrow_lobe);
             out.vpls.push(Vpl {
                 p: sp.p,
                 ng: sp.ng,
@@ -492,7 +490,7 @@ fn follow(
         }
         from = sp.p;
         density = if s.delta { f32::INFINITY } else { survival * s.pdf };
-        scattered_pdf = if s.delta { f32::INFINITY } else { s.pdf };
+        led_by_narrow_lobe = !s.delta && s.pdf >= NARROW_LOBE_DENSITY && !near_specular(bsdf);
         ray = Ray::new(offset_origin(sp.p, sp.ng, s.wi), s.wi);
     }
 }

@@ -273,11 +273,7 @@ impl MisState {
     /// path has two segments; elsewhere as they are.
     #[inline]
     pub fn for_light_sample(self, depth: u32) -> MisState {
-        if depth == 1 {
-            MisState { dvcm: self.dvcm * LIGHT_TRACING_COUNT, dvc: self.dvc * LIGHT_TRACING_COUNT, ..self }
-        } else {
-            self
-        }
+        if depth == 1 { MisState { dvcm: self.dvcm * LIGHT_TRACING_COUNT, ..self } } else { self }
     }
 
     /// The camera subpath's sums as an emitter hit (or an escape to a light at infinity) at
@@ -333,13 +329,11 @@ impl MisState {
     /// the camera vertex after it ([`After`]; `Plain` but for `--connect glossy`).
     #[inline]
     pub fn beyond(&self, connect: Connect, rank: u32, after: After) -> f32 {
-        let next = connect.next(rank, after);
-        match (connect, next) {
-            (Connect::All, _) => self.dvc,
-            (Connect::Glossy, Next::None) => self.dvc_emitter + self.dvc_glossy,
-            (Connect::Glossy, _) => self.dvc_emitter + self.dvc_glossy + self.last(next),
-            (_, Next::None) => self.dvc_emitter,
-            _ => self.dvc_emitter + self.last(next),
+        // (`last` is zero where the next vertex does not connect.)
+        match connect {
+            Connect::All => self.dvc,
+            Connect::Glossy => self.dvc_emitter + self.dvc_glossy + self.last(connect.next(rank, after)),
+            _ => self.dvc_emitter + self.last(connect.next(rank, after)),
         }
     }
 
