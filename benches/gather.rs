@@ -72,7 +72,7 @@ fn bench(c: &mut Criterion) {
         })
         .collect();
     let clamping = Clamping::Constant { b: Clamping::default_bound(scene.bounds().diagonal()) };
-    let points = |vpls| PointLights::new(vpls, clamping, 1, &ctx);
+    let points = |vpls| PointLights::new(vpls, clamping, 1, &ctx, None);
 
     let mut build = c.benchmark_group("tree-build");
     build.sample_size(10).measurement_time(Duration::from_secs(3)).warm_up_time(Duration::from_secs(1));

@@ -303,6 +303,74 @@ pub fn connection(x: &CameraEnd, p: Vec3, vpl: &Vpl, emitting: &PreparedBsdf, bo
     (c, weight_of(x, vpl, bsdf_y, w, dist2, more, Densities { camera, camera_rev, light, light_rev }))
 }
 
+/// The connection's weight as the resampled gather's draw estimates it
+/// ([`super::lanes`]): [`connection_weight`] for a Lambertian receiver at the camera path's
+/// first vertex and a Lambertian VPL, from one number per VPL ([`draw_term`]) and two per
+/// receiver ([`DrawWeights::of`]).
+///
+/// Why: the draw picks k of the window's VPLs in proportion to p̂, their unoccluded
+/// contribution, but what a pick adds is that contribution times its weight. Near a
+/// crease (a VPL on the wall next to the floor point that gathers) G grows as 1/d² and so
+/// does the camera's BSDF density of the VPL's point, which takes the path: there the
+/// weighted contribution levels off while p̂ does not, and the draw spends its picks on
+/// VPLs whose weight is nearly zero. With the weight in p̂ it follows the weighted value.
+///
+/// The balance heuristic's weight is 1 / (1 + (w_light + w_camera) / count)
+/// ([`weight_of`]): w_light = p_x(ω) cos θ_y / d² · (one + more · light_rev), the camera
+/// subpath extended to the VPL and beyond, and w_camera = p_y(−ω) cos θ_x / d² · (dvcm ·
+/// count_in + dvc · camera_rev), the light subpath extended to x (light tracing at the
+/// first vertex). For Lambertian ends p_x = cos θ_x / π, p_y = cos θ_y / π, light_rev and
+/// camera_rev do not depend on ω, and the weight is 1 / (1 + h) with
+/// h = (cos_x^s cos_y^g · T_y · L + cos_y^s cos_x^g · C_x) / d², T_y the VPL's term, L and
+/// C_x the receiver's numbers. Elsewhere (a glossy end, a deeper vertex, a glossy receiver
+/// whose next vertex connects) the same formula only estimates the weight: any positive p̂
+/// where the contribution is not zero keeps the gather unbiased ([`super::resample`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DrawWeights {
+    /// L = 1 / (π · count), the factor of the VPL's term.
+    pub light: f32,
+    /// C_x: the receiver's own term, (dvcm · count_in + dvc · camera_rev) / (π · count).
+    pub camera: f32,
+}
+
+impl DrawWeights {
+    /// No weight (h = 0).
+    pub const NONE: DrawWeights = DrawWeights { light: 0.0, camera: 0.0 };
+
+    /// The receiver's side at the camera vertex `x`; `None` where the connection's count
+    /// is zero (no gather there) or a number is not finite.
+    pub fn of(x: &CameraEnd) -> Option<DrawWeights> {
+        // The count of a connection to a VPL of the receiver's own kind (a glossy end
+        // counts as glossy either way; a Lambertian receiver's connection to a glossy VPL
+        // counts fewer, which this leaves out).
+        let count = x.counts.at(x.bsdf, x.bsdf, x.fewer);
+        let light = FRAC_1_PI / count;
+        let camera_rev =
+            if x.state.dvc > 0.0 { x.bsdf.pdf(&x.geometry, x.geometry.frame.n, x.wo) } else { 0.0 };
+        let camera = (x.state.dvcm * x.count_in + x.state.dvc * camera_rev) * light;
+        let w = DrawWeights { light, camera };
+        (count > 0.0 && light.is_finite() && camera.is_finite() && camera >= 0.0).then_some(w)
+    }
+}
+
+/// T_y, a VPL's side of [`DrawWeights`] for `connect`, its BSDF `bsdf_y`: the camera
+/// subpath's sums beyond the VPL, one + more · light_rev, as they are at a Lambertian camera
+/// vertex of rank 1 (`one` next-event estimation at the VPL where it is lit directly, else
+/// the connection from it to the light path's previous VPL where the camera vertex after
+/// the first connects). Light_rev, the VPL's BSDF density of the way the light came, is
+/// taken from its shading normal (exact for a Lambertian VPL). Zero where not finite.
+pub fn draw_term(vpl: &Vpl, bsdf_y: &Bsdf, connect: Connect) -> f32 {
+    let more = vpl.mis.beyond(connect, 2, connect.after(bsdf_y));
+    let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), vpl.frame.n, vpl.w_in) } else { 0.0 };
+    let one = match (vpl.depth, connect.next(1, After::Plain)) {
+        (1, _) => vpl.mis.dvcm,
+        (_, Next::None) => 0.0,
+        _ => vpl.mis.dvcm * vpl.count_out,
+    };
+    let t = one + more * light_rev;
+    if t.is_finite() && t > 0.0 { t } else { 0.0 }
+}
+
 /// The solid-angle densities of a connection's ends that its weight needs: the camera
 /// vertex's BSDF sampling towards the VPL and, from there, back along the camera path; the
 /// VPL's towards the camera vertex and, from there, back the way the light came.
@@ -567,6 +635,59 @@ mod tests {
         weights_from(z, Source::Area { pdf_area, pdf_nee: pdf_area }, counts, connect, light_samples)
     }
 
+    /// Connections whose weight [`draw_weight_agrees`] compared with the draw's.
+    static DRAW_WEIGHTS_CHECKED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+    /// Where the draw's estimate of the weight is exact (two Lambertian ends, the camera's
+    /// first vertex, [`DrawWeights`]), the resampled gather's estimate with the weight is the
+    /// one without it times `weight`: [`VplLanes`]' kernel with [`draw_term`] and
+    /// [`DrawWeights::of`] against [`connection_weight`]. Elsewhere it is a weight in (0, 1].
+    fn draw_weight_agrees(
+        end: &CameraEnd,
+        x: Vec3,
+        vpl: &Vpl,
+        by: &Bsdf,
+        emitting: &PreparedBsdf,
+        connect: Connect,
+        weight: f32,
+    ) {
+        use super::super::lanes::{EstimateReceiver, VplLanes};
+        let lanes = VplLanes::new(
+            std::slice::from_ref(vpl),
+            std::slice::from_ref(emitting),
+            &[1.0],
+            &[draw_term(vpl, by, connect)],
+        );
+        let Some(weights) = DrawWeights::of(end) else { return };
+        let (g, n) = (end.geometry, vpl.depth);
+        let r = |weights| EstimateReceiver {
+            x,
+            ng: g.ng,
+            ns: g.frame.n,
+            bound: f32::INFINITY,
+            max_depth: n,
+            lobe: None,
+            transmits: false,
+            weights,
+        };
+        let (with, without) =
+            (lanes.estimates_for(0, &r(Some(weights)))[0], lanes.estimates_for(0, &r(None))[0]);
+        if without <= 0.0 {
+            return;
+        }
+        let estimated = with / without;
+        let lambertian = |b: &Bsdf| matches!(b, Bsdf::Diffuse { .. });
+        if lambertian(end.bsdf) && lambertian(by) && end.rank == 1 && !end.fewer {
+            assert!(
+                (estimated - weight).abs() <= 1e-4 * weight.max(1e-3),
+                "draw {estimated}, weight {weight}"
+            );
+            DRAW_WEIGHTS_CHECKED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        } else {
+            assert!(estimated > 0.0 && estimated <= 1.0, "draw {estimated}, weight {weight}");
+        }
+    }
+
     /// [`weights`] for light from `source`.
     fn weights_from(
         z: &[Node],
@@ -682,6 +803,7 @@ mod tests {
                     count_in: if walk(z, t, connect).previous_connects() { count_in } else { 0.0 },
                 };
                 let weight = connection_weight(&end, x.p, &vpl, &by, &emitting);
+                draw_weight_agrees(&end, x.p, &vpl, &by, &emitting, connect, weight);
                 // The pick's evaluation of both at once gives the same numbers bit for bit.
                 for bound in [f32::INFINITY, 0.5] {
                     let (c, fused) = connection(&end, x.p, &vpl, &emitting, bound);
@@ -955,6 +1077,8 @@ mod tests {
             light_tracing > checked / 10,
             "light tracing weighs over 5 % on {light_tracing} of {checked}"
         );
+        let draws = DRAW_WEIGHTS_CHECKED.load(std::sync::atomic::Ordering::Relaxed);
+        assert!(draws > 1000, "the draw's weight checked against {draws} connections only");
     }
 
     /// Makes z[j] a near-specular vertex ([`super::super::config::near_specular`]) that

@@ -182,6 +182,7 @@ fn resampled<L: Lights, W: Weigh<L>>(
     queue: &mut dyn Connections,
 ) -> bool {
     let rx = lights.receiver(v, max_vpl_depth, weighing.lobe(v));
+    let weights = weighing.draw_weights();
     let active = L::is_active(&rx);
     let x = OffsetPoint::new(v.sp.p, v.sp.ng);
     resample(
@@ -190,7 +191,7 @@ fn resampled<L: Lights, W: Weigh<L>>(
         k,
         active,
         sampler,
-        |cands, window, sampler| lights.push_estimates(cands, window, &rx, sampler),
+        |cands, window, sampler| lights.push_estimates(cands, window, &rx, weights, sampler),
         |j, factor, sampler| {
             if let Some(c) = weighing.picked(lights, j, &rx, v.sp.p, sampler) {
                 queue.push(shadow_segment(&x, lights.end(j)), c * factor);

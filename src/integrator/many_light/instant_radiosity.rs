@@ -259,7 +259,7 @@ impl Integrator for InstantRadiosity {
         let gather = self.gather;
         self.set = match self.lights {
             VirtualLights::Points(clamping) => {
-                let points = PointLights::new(vpls, clamping, iteration, ctx);
+                let points = PointLights::new(vpls, clamping, iteration, ctx, None);
                 IterationLights::Points {
                     set: LightSet::new(ctx, points, gather),
                     counts,
@@ -269,7 +269,11 @@ impl Integrator for InstantRadiosity {
             // The bound applies to the weighted connection ([`super::mis`]), not to G;
             // `pir-mis` counts every light path for every connection.
             VirtualLights::WeighedPoints(clamping) | VirtualLights::Bidirectional(clamping, _) => {
-                let points = PointLights::new(vpls, Clamping::None, iteration, ctx);
+                let weighed = match self.lights {
+                    VirtualLights::Bidirectional(_, connect) => Some(connect),
+                    _ => None,
+                };
+                let points = PointLights::new(vpls, Clamping::None, iteration, ctx, weighed);
                 let counts = match self.lights {
                     VirtualLights::WeighedPoints(_) => Counts::uniform(counts.paths),
                     _ => counts,

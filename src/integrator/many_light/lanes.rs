@@ -18,6 +18,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use multiversion::multiversion;
 
+use super::bidirectional::DrawWeights;
 use super::light_paths::Vpl;
 use super::lobe::Lobe;
 use super::resample::{Candidates, Window};
@@ -85,6 +86,9 @@ struct Chunk {
     /// 1 where the light's BSDF transmits ([`crate::material::Bsdf::transmits`]: it emits
     /// to both sides of its surface), else 0.
     transmits: Vec4,
+    /// The light's side of the connection weight in the estimates
+    /// ([`super::bidirectional::draw_term`]; zeros where the gather does not weigh).
+    weight_terms: Vec4,
 }
 
 const EMPTY_CHUNK: Chunk = Chunk {
@@ -97,6 +101,7 @@ const EMPTY_CHUNK: Chunk = Chunk {
     power: Vec4::ZERO,
     any_depth: Vec4::INFINITY,
     transmits: Vec4::ZERO,
+    weight_terms: Vec4::ZERO,
 };
 
 /// A Lambertian receiver in radiance mode, the other end of every lane.
@@ -146,6 +151,8 @@ struct PairLanes {
     transmits: [f32; 8],
     /// Whether any of its lights transmits.
     any_transmits: bool,
+    /// As [`Chunk::weight_terms`].
+    weight_terms: [f32; 8],
 }
 
 impl PairLanes {
@@ -164,6 +171,7 @@ impl PairLanes {
             any_depth: join(a.any_depth, b.any_depth),
             transmits: join(a.transmits, b.transmits),
             any_transmits: (a.transmits + b.transmits).max_element() > 0.0,
+            weight_terms: join(a.weight_terms, b.weight_terms),
         }
     }
 }
@@ -182,6 +190,9 @@ pub struct EstimateReceiver<'a> {
     /// Whether its BSDF transmits ([`crate::material::Bsdf::transmits`]): it receives from
     /// both sides of its surface.
     pub transmits: bool,
+    /// The receiver's side of the connection weight, where the estimates include it
+    /// (`pir-bdpt`, [`DrawWeights`]).
+    pub weights: Option<DrawWeights>,
 }
 
 /// `a` if it is smaller, else `b`: SSE's `minps`, which glam's `Vec4::min` is.
@@ -222,10 +233,13 @@ fn push_estimates_dispatch(lanes: &VplLanes, cands: &mut Candidates, window: Win
 
 impl VplLanes {
     /// `emitting[j]` is VPL `j`'s BSDF prepared for its incoming direction (importance mode),
-    /// `power[j]` its power for the estimates ([`Self::push_estimates`]).
-    pub fn new(vpls: &[Vpl], emitting: &[PreparedBsdf], power: &[f32]) -> Self {
+    /// `power[j]` its power for the estimates ([`Self::push_estimates`]), `weight_terms[j]`
+    /// its side of the connection weight there (empty: none,
+    /// [`super::bidirectional::draw_term`]).
+    pub fn new(vpls: &[Vpl], emitting: &[PreparedBsdf], power: &[f32], weight_terms: &[f32]) -> Self {
         assert_eq!(vpls.len(), emitting.len());
         assert_eq!(vpls.len(), power.len());
+        assert!(weight_terms.is_empty() || weight_terms.len() == vpls.len());
         let mut chunks = vec![EMPTY_CHUNK; vpls.len().div_ceil(LANES)];
         for (j, (v, e)) in vpls.iter().zip(emitting).enumerate() {
             let (c, i) = (&mut chunks[j / LANES], j % LANES);
@@ -243,6 +257,7 @@ impl VplLanes {
                 c.power[i] = power[j];
                 c.any_depth[i] = v.depth as f32;
                 c.transmits[i] = if e.bsdf().transmits() { 1.0 } else { 0.0 };
+                c.weight_terms[i] = weight_terms.get(j).copied().unwrap_or(0.0);
             }
         }
         let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
@@ -297,6 +312,11 @@ impl VplLanes {
     /// computed with one division and one square root per lane instead of three and one (the
     /// same number up to rounding): it made the gather's estimates nearly twice as costly,
     /// 13.6 % of a `pir-bdpt` render of the glossy corner against 24.4 % (`perf`).
+    ///
+    /// With the receiver's `weights` (`pir-bdpt`), the value is times the connection's weight
+    /// 1 / (1 + h) ([`DrawWeights`]), without a lobe as one quotient G / (1 + h). That costs
+    /// the estimates a division on the path to their result: 3–5 % of a render in the
+    /// diffuse corner (`docs/results.md`, "The connection's weight in the gather's draw").
     #[inline(always)]
     fn estimates8<const TRANSMITS: bool>(&self, chunk: usize, r: &EstimateReceiver) -> [f32; 8] {
         const W: usize = 2 * LANES;
@@ -304,30 +324,69 @@ impl VplLanes {
         let ([px, py, pz], [gx, gy, gz], [sx, sy, sz]) = (q.p, q.ng, q.ns);
         let (power, any_depth, transmits) = (q.power, q.any_depth, q.transmits);
         let (x, ng, ns) = (r.x, r.ng, r.ns);
+        // The connections' weights without a lobe or a bound on G (`pir-bdpt` at a Lambertian
+        // or wide glossy receiver) enter G in one quotient; with a lobe, after it.
+        let plain = r.weights.filter(|_| r.lobe.is_none() && r.bound == f32::INFINITY);
+        let (wt, weighs_plain) = (plain.or(r.weights).unwrap_or(DrawWeights::NONE), plain.is_some());
+        let terms = q.weight_terms;
         let (mut dx, mut dy, mut dz, mut dist2) = ([0.0; W], [0.0; W], [0.0; W], [0.0; W]);
         let (mut x_ng, mut x_ns, mut p_ng, mut p_ns, mut g) =
             ([0.0; W], [0.0; W], [0.0; W], [0.0; W], [0.0; W]);
-        for l in 0..W {
-            dx[l] = px[l] - x.x;
-            dy[l] = py[l] - x.y;
-            dz[l] = pz[l] - x.z;
-            dist2[l] = dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l];
-            // Cosines times |d|.
-            x_ng[l] = dx[l] * ng.x + dy[l] * ng.y + dz[l] * ng.z;
-            x_ns[l] = dx[l] * ns.x + dy[l] * ns.y + dz[l] * ns.z;
-            p_ng[l] = -(dx[l] * gx[l] + dy[l] * gy[l] + dz[l] * gz[l]);
-            p_ns[l] = -(dx[l] * sx[l] + dy[l] * sy[l] + dz[l] * sz[l]);
-            // The geometry term as the contribution clamps it, with the shading cosines; the
-            // light's shading cosine times its adjoint correction is its geometric cosine
-            // times the correction's constant factor, which `power` holds, so the clamped
-            // term is scaled by cos_g / cos_s at the light (exactly 1 where the normals
-            // agree). Where an end may transmit (`TRANSMITS`), absolute values: it sees the
-            // other end from behind (the same numbers where the cosines are positive).
-            g[l] = if TRANSMITS {
-                min((x_ns[l] * p_ns[l]).abs() / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l]).abs()
-            } else {
-                min(x_ns[l] * p_ns[l] / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l])
-            };
+        // One loop per case, each the lanes' geometry and then their G (duplicated, so
+        // that each stays one loop that LLVM vectorises eight wide).
+        if weighs_plain {
+            for l in 0..W {
+                dx[l] = px[l] - x.x;
+                dy[l] = py[l] - x.y;
+                dz[l] = pz[l] - x.z;
+                dist2[l] = dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l];
+                // Cosines times |d|.
+                x_ng[l] = dx[l] * ng.x + dy[l] * ng.y + dz[l] * ng.z;
+                x_ns[l] = dx[l] * ns.x + dy[l] * ns.y + dz[l] * ns.z;
+                p_ng[l] = -(dx[l] * gx[l] + dy[l] * gy[l] + dz[l] * gz[l]);
+                p_ns[l] = -(dx[l] * sx[l] + dy[l] * sy[l] + dz[l] * sz[l]);
+                // G / (1 + h), h the weight's ([`DrawWeights`]), = cos_x^s cos_y^g / (d⁴ +
+                // cos_x^s cos_y^g T_y L + cos_y^s cos_x^g C_x) with the cosines times |d|: one
+                // division. A light whose G overflows stays infinite (left out, as without
+                // the weights); one whose quotient is 0 or NaN while it contributes keeps the
+                // smallest positive number (`max`), so that no light that contributes is
+                // left out.
+                // (Absolute values: the same numbers where the lanes face each other, and the
+                // transmitting ends' where they face away.)
+                let d4 = dist2[l] * dist2[l];
+                let a = (x_ns[l] * p_ng[l]).abs();
+                let b = (p_ns[l] * x_ng[l]).abs();
+                // (Summed in this order so that the terms that do not wait for `a` go first:
+                // the quotient ends a shorter chain.)
+                let den = (d4 + b * wt.camera) + a * (terms[l] * wt.light);
+                let weighted = max(a / den, min(a, f32::MIN_POSITIVE));
+                g[l] = if a <= d4 * f32::MAX { weighted } else { f32::INFINITY };
+            }
+        } else {
+            for l in 0..W {
+                dx[l] = px[l] - x.x;
+                dy[l] = py[l] - x.y;
+                dz[l] = pz[l] - x.z;
+                dist2[l] = dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l];
+                // Cosines times |d|.
+                x_ng[l] = dx[l] * ng.x + dy[l] * ng.y + dz[l] * ng.z;
+                x_ns[l] = dx[l] * ns.x + dy[l] * ns.y + dz[l] * ns.z;
+                p_ng[l] = -(dx[l] * gx[l] + dy[l] * gy[l] + dz[l] * gz[l]);
+                p_ns[l] = -(dx[l] * sx[l] + dy[l] * sy[l] + dz[l] * sz[l]);
+                g[l] = if TRANSMITS {
+                    // The geometry term as the contribution clamps it, with the shading cosines;
+                    // the light's shading cosine times its adjoint correction is its geometric
+                    // cosine times the correction's constant factor, which `power` holds, so the
+                    // clamped term is scaled by cos_g / cos_s at the light (exactly 1 where the
+                    // normals agree). Where an end may transmit (`TRANSMITS`), absolute values:
+                    // it sees the other end from behind (the same numbers where the cosines are
+                    // positive).
+                    min((x_ns[l] * p_ns[l]).abs() / (dist2[l] * dist2[l]), r.bound)
+                        * (p_ng[l] / p_ns[l]).abs()
+                } else {
+                    min(x_ns[l] * p_ns[l] / (dist2[l] * dist2[l]), r.bound) * (p_ng[l] / p_ns[l])
+                };
+            }
         }
         let mut value = g;
         if let Some(lobe) = r.lobe {
@@ -351,6 +410,17 @@ impl VplLanes {
                 let cos_x = if TRANSMITS { x_ns[l].abs() } else { x_ns[l] };
                 let lobe_term = max(peak * dist2[l] * dist / (t * t * cos_x), f32::MIN_POSITIVE);
                 value[l] = diffuse * g[l] + g[l] * lobe_term;
+            }
+        }
+        if r.weights.is_some() && !weighs_plain {
+            // The weight after the lobe: 1 / (1 + h), h = (cos_x^s cos_y^g T_y L + cos_y^s
+            // cos_x^g C_x) / d², with the same care for overflow as above.
+            for l in 0..W {
+                let light = terms[l] * wt.light;
+                let h = (x_ns[l] * p_ng[l] * light + p_ns[l] * x_ng[l] * wt.camera) / (dist2[l] * dist2[l]);
+                let h = if TRANSMITS { h.abs() } else { h };
+                let weighted = max(value[l] / (1.0 + h), min(value[l], f32::MIN_POSITIVE));
+                value[l] = if value[l] < f32::INFINITY { weighted } else { value[l] };
             }
         }
         let max_depth = r.max_depth as f32;
@@ -386,8 +456,14 @@ impl VplLanes {
         max_depth: u32,
         lobe: Option<&Lobe>,
     ) -> Vec4 {
-        let r = EstimateReceiver { x, ng, ns, bound, max_depth, lobe, transmits: false };
+        let r = EstimateReceiver { x, ng, ns, bound, max_depth, lobe, transmits: false, weights: None };
         Vec4::from_slice(&self.estimates8::<false>(chunk, &r)[..LANES])
+    }
+
+    /// The estimates of chunks `chunk` and `chunk + 1` at the receiver `r`, for the tests.
+    #[cfg(test)]
+    pub fn estimates_for(&self, chunk: usize, r: &EstimateReceiver) -> [f32; 8] {
+        self.estimates8::<false>(chunk, r)
     }
 
     /// Pushes the estimates p̂ of the chunks of `window` to `cands` (the private
@@ -535,7 +611,7 @@ mod tests {
                 .iter()
                 .map(|v| PreparedBsdf::new(bsdf, v.geometry(), v.w_in, TransportMode::Importance))
                 .collect();
-            let lanes = VplLanes::new(&vpls, &emitting, &vec![1.0; vpls.len()]);
+            let lanes = VplLanes::new(&vpls, &emitting, &vec![1.0; vpls.len()], &[]);
             let (ng, frame) = normals(&mut s);
             let sp = SurfacePoint {
                 p: Vec3::ZERO,
@@ -569,7 +645,8 @@ mod tests {
     }
 
     /// The resampled gather's estimate is positive wherever the contribution is not zero, for
-    /// diffuse and glossy receivers and lights seen from either side.
+    /// diffuse and glossy receivers and lights seen from either side, with the connections'
+    /// weights in it or not (down to weights that underflow).
     #[test]
     fn estimates_cover_every_contribution() {
         let mut s = Sampler::new(11, 0, Domain::LightPath, 0);
@@ -602,7 +679,15 @@ mod tests {
                 .map(|v| PreparedBsdf::new(bsdf_p, v.geometry(), v.w_in, TransportMode::Importance))
                 .collect();
             let power: Vec<f32> = emitting.iter().map(|e| if e.is_active() { 1.0 } else { 0.0 }).collect();
-            let lanes = VplLanes::new(&vpls, &emitting, &power);
+            // Half the rounds with the connections' weights in the estimates, their terms up
+            // to sizes that make h overflow.
+            let weighed = round % 2 == 1;
+            let terms: Vec<f32> = if weighed {
+                (0..n).map(|_| s.next_f32() * 10f32.powi((s.next_f32() * 40.0) as i32)).collect()
+            } else {
+                Vec::new()
+            };
+            let lanes = VplLanes::new(&vpls, &emitting, &power, &terms);
             let (ng, frame) = normals(&mut s);
             let bsdf_x = match round % 4 {
                 0 => glossy(Vec3::splat(0.3)),
@@ -618,21 +703,27 @@ mod tests {
             let fx = PreparedBsdf::new(bsdf_x, LocalGeometry { ng, frame }, wo, TransportMode::Radiance);
             let lobe = Lobe::of(&bsdf_x, frame.n, wo);
             let bound = [f32::INFINITY, 1.0, 0.05][round % 3];
+            let r = EstimateReceiver {
+                x: Vec3::ZERO,
+                ng,
+                ns: frame.n,
+                bound,
+                max_depth: 2,
+                lobe: lobe.as_ref(),
+                transmits: false,
+                weights: weighed.then(|| DrawWeights { light: s.next_f32(), camera: s.next_f32() }),
+            };
             for c in 0..lanes.chunks() {
-                let est = lanes.estimates(c, Vec3::ZERO, ng, frame.n, bound, 2, lobe.as_ref());
-                for i in 0..LANES {
+                let est = lanes.estimates_for(c, &r);
+                for (i, &e) in est.iter().enumerate().take(LANES) {
                     let j = c * LANES + i;
                     if j >= n {
-                        assert_eq!(est[i], 0.0);
+                        assert_eq!(e, 0.0);
                         continue;
                     }
                     let want = point_contribution(Vec3::ZERO, frame.n, &fx, &vpls[j], &emitting[j], bound);
                     if want != Vec3::ZERO && vpls[j].depth <= 2 {
-                        assert!(
-                            est[i] > 0.0 && est[i].is_finite(),
-                            "round {round} light {j}: {want} but {}",
-                            est[i]
-                        );
+                        assert!(e > 0.0 && e.is_finite(), "round {round} light {j}: {want} but {e}");
                         nonzero += 1;
                     } else {
                         zero += 1;
@@ -642,22 +733,13 @@ mod tests {
             // The gather's pushes, two chunks at a time in the version the CPU runs (AVX2 on
             // CPUs that have it), give the blocks that the build's own version gives chunk by
             // chunk, bit for bit, for windows from every chunk, wrapping or not.
-            let r = EstimateReceiver {
-                x: Vec3::ZERO,
-                ng,
-                ns: frame.n,
-                bound,
-                max_depth: 2,
-                lobe: lobe.as_ref(),
-                transmits: false,
-            };
             let n = lanes.chunks();
             for (start, w) in [(round % n, n), (n - 1, 1 + round % n), (round / 2 % n, n.div_ceil(2))] {
                 let window = Window::new(start, w, n);
                 let (mut got, mut want) = (Candidates::new(), Candidates::new());
                 lanes.push_estimates(&mut got, window, &r);
                 for b in window.blocks() {
-                    want.push(b * LANES, lanes.estimates(b, r.x, ng, frame.n, bound, 2, lobe.as_ref()));
+                    want.push(b * LANES, Vec4::from_slice(&lanes.estimates_for(b, &r)[..LANES]));
                 }
                 let bits = |c: &Candidates| {
                     c.blocks().map(|(j, p)| (j, p.to_array().map(f32::to_bits))).collect::<Vec<_>>()
@@ -694,7 +776,7 @@ mod tests {
             .zip(&emitting)
             .map(|(v, e)| super::super::light_set::tree_light(v, &bsdf, e.is_active(), 0.0).intensity)
             .collect();
-        let lanes = VplLanes::new(&vpls, &emitting, &power);
+        let lanes = VplLanes::new(&vpls, &emitting, &power, &[]);
         (vpls, emitting, lanes)
     }
 

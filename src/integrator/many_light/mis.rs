@@ -58,7 +58,7 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use super::bidirectional::{CameraEnd, connection, connection_weight};
+use super::bidirectional::{CameraEnd, DrawWeights, connection, connection_weight};
 use super::config::{Next, glossy_vertex};
 use super::light_paths::Vpl;
 use super::lobe::Lobe;
@@ -228,6 +228,16 @@ impl Weigh<PointLights> for Weighing<'_> {
             return None;
         }
         Lobe::of(v.bsdf, v.sp.frame.n, v.wo)
+    }
+
+    /// The weight in the draw's estimates: `pir-bdpt`'s ([`DrawWeights`]). `pir-mis`'s
+    /// weights are left out: measured no further than `pir-bdpt`'s.
+    #[inline]
+    fn draw_weights(&self) -> Option<DrawWeights> {
+        match self.technique {
+            Technique::Bidirectional { ref end } => DrawWeights::of(end),
+            _ => None,
+        }
     }
 
     #[inline]

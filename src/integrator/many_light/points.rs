@@ -5,7 +5,8 @@
 
 use glam::Vec3;
 
-use super::config::Clamping;
+use super::bidirectional::{DrawWeights, draw_term};
+use super::config::{Clamping, Connect};
 use super::lanes::{DiffuseReceiver, EstimateReceiver, LaneKind, VplLanes};
 use super::light_paths::Vpl;
 use super::light_set::tree_light;
@@ -33,7 +34,16 @@ pub struct PointLights {
 }
 
 impl PointLights {
-    pub fn new(vpls: Vec<Vpl>, clamping: Clamping, iteration: u64, ctx: &RenderContext) -> Self {
+    /// With `weighed`, `pir-bdpt`'s rule of which camera vertices connect, the resampled
+    /// gather's estimates include the connections' weights
+    /// ([`super::bidirectional::DrawWeights`]).
+    pub fn new(
+        vpls: Vec<Vpl>,
+        clamping: Clamping,
+        iteration: u64,
+        ctx: &RenderContext,
+        weighed: Option<Connect>,
+    ) -> Self {
         let emitting: Vec<PreparedBsdf> = vpls
             .iter()
             .map(|v| {
@@ -46,7 +56,13 @@ impl PointLights {
             .zip(&emitting)
             .map(|(v, e)| tree_light(v, &v.bsdf(ctx.scene), e.is_active(), 0.0).intensity)
             .collect();
-        let lanes = VplLanes::new(&vpls, &emitting, &power);
+        let weight_terms: Vec<f32> = match weighed {
+            Some(connect) => {
+                vpls.iter().zip(&emitting).map(|(v, e)| draw_term(v, e.bsdf(), connect)).collect()
+            }
+            None => Vec::new(),
+        };
+        let lanes = VplLanes::new(&vpls, &emitting, &power, &weight_terms);
         PointLights { vpls, emitting, lanes, bound: clamping.bound(iteration) }
     }
 }
@@ -119,7 +135,14 @@ impl Lights for PointLights {
     /// The four-wide estimates; a pick's contribution is then evaluated alone (a pick is
     /// rarely in the chunk of the one before, and one light's scalar evaluation costs less
     /// than the kernel's of its chunk; the same numbers bit for bit: `lanes.rs`'s tests).
-    fn push_estimates(&self, cands: &mut Candidates, window: Window, rx: &PointReceiver, _: &mut Sampler) {
+    fn push_estimates(
+        &self,
+        cands: &mut Candidates,
+        window: Window,
+        rx: &PointReceiver,
+        weights: Option<DrawWeights>,
+        _: &mut Sampler,
+    ) {
         let sp = &rx.v.sp;
         let r = EstimateReceiver {
             x: sp.p,
@@ -129,6 +152,7 @@ impl Lights for PointLights {
             max_depth: rx.max_depth,
             lobe: rx.lobe.as_ref(),
             transmits: rx.v.bsdf.transmits(),
+            weights,
         };
         self.lanes.push_estimates(cands, window, &r);
     }

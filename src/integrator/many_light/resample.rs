@@ -23,7 +23,8 @@
 //!    with c_j ≠ 0 has p̂_j > 0. Only the picked lights' contributions c_j are evaluated.
 //!    For points p̂ is `VplLanes::push_estimates` (power × the clamped geometry term, eight
 //!    at a time, with a bound on a glossy receiver's lobe where the gather weighs by it,
-//!    [`super::lobe`]; the VPLs' BSDF shapes left out). For spheres it is `SphereLanes::estimates`, in the
+//!    [`super::lobe`], and `pir-bdpt`'s connection weight,
+//!    [`super::bidirectional::DrawWeights`]; the VPLs' BSDF shapes left out). For spheres it is `SphereLanes::estimates`, in the
 //!    contribution's units: both ends taken as Lambertian of their reflectance, each cosine
 //!    at its largest over the cone, which bounds a Lambertian pair's contribution from above
 //!    (a pick's weight is then at most T / k); where either end has a narrow glossy lobe

@@ -91,6 +91,7 @@ use glam::{Vec2, Vec3, Vec4};
 use std::cell::Cell;
 use std::f32::consts::PI;
 
+use super::bidirectional::DrawWeights;
 use super::config::Radius;
 use super::knn::KdTree;
 use super::light_paths::Vpl;
@@ -569,6 +570,7 @@ impl Lights for SphereLights {
         cands: &mut Candidates,
         window: Window,
         g: &SphereGatherer,
+        _: Option<DrawWeights>,
         sampler: &mut Sampler,
     ) {
         EXACT.with(|exact| {

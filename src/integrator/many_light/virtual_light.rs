@@ -10,6 +10,7 @@
 
 use glam::Vec3;
 
+use super::bidirectional::DrawWeights;
 use super::light_tree::TreeLight;
 use super::lobe::Lobe;
 use super::resample::{Candidates, LANES, Window};
@@ -61,12 +62,15 @@ pub trait Lights: Send + Sync {
     /// Light `j`'s contribution (a drawn light: the tree respects the depth).
     fn contribution(&self, j: usize, rx: &Self::Receiver<'_>, sampler: &mut Sampler) -> Vec3;
 
-    /// The resampled gather's candidates: the estimates of the window's blocks, in its order.
+    /// The resampled gather's candidates: the estimates of the window's blocks, in its order,
+    /// with the connections' weights where `weights` gives the receiver's side (point
+    /// lights; [`Weigh::draw_weights`]).
     fn push_estimates(
         &self,
         cands: &mut Candidates,
         window: Window,
         rx: &Self::Receiver<'_>,
+        weights: Option<DrawWeights>,
         sampler: &mut Sampler,
     );
 
@@ -87,6 +91,13 @@ pub trait Weigh<L: Lights> {
     /// The receiver's lobe for the sampled gathers' estimates, where the weighted value
     /// follows it.
     fn lobe(&self, v: &Vertex) -> Option<Lobe>;
+
+    /// The receiver's side of the connection weight for the resampled gather's estimates
+    /// ([`DrawWeights`]), where the weight is the balance heuristic's of `pir-bdpt`.
+    #[inline]
+    fn draw_weights(&self) -> Option<DrawWeights> {
+        None
+    }
 
     /// The weighted contribution `c` of light `j` at the receiver `x`.
     fn weigh(&self, lights: &L, j: usize, x: Vec3, c: Vec3) -> Vec3;
