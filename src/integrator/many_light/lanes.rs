@@ -195,6 +195,10 @@ pub struct EstimateReceiver<'a> {
     pub weights: Option<DrawWeights>,
 }
 
+/// The smallest connection weight the resampled gather's estimates take
+/// ([`DrawWeights`]): 2⁻²⁰.
+pub const MIN_DRAW_WEIGHT: f32 = 1.0 / 1_048_576.0;
+
 /// `a` if it is smaller, else `b`: SSE's `minps`, which glam's `Vec4::min` is.
 #[inline(always)]
 fn min(a: f32, b: f32) -> f32 {
@@ -314,8 +318,9 @@ impl VplLanes {
     /// 13.6 % of a `pir-bdpt` render of the glossy corner against 24.4 % (`perf`).
     ///
     /// With the receiver's `weights` (`pir-bdpt`), the value is times the connection's weight
-    /// 1 / (1 + h) ([`DrawWeights`]), without a lobe as one quotient G / (1 + h). That costs
-    /// the estimates a division on the path to their result: 3–5 % of a render in the
+    /// 1 / (1 + h) ([`DrawWeights`]), at least [`MIN_DRAW_WEIGHT`], without a lobe as one
+    /// quotient G / (1 + h). That costs
+    /// the estimates a division on the path to their result: 3–4 % of a render in the
     /// diffuse corner (`docs/results.md`, "The connection's weight in the gather's draw").
     #[inline(always)]
     fn estimates8<const TRANSMITS: bool>(&self, chunk: usize, r: &EstimateReceiver) -> [f32; 8] {
@@ -347,10 +352,12 @@ impl VplLanes {
                 p_ns[l] = -(dx[l] * sx[l] + dy[l] * sy[l] + dz[l] * sz[l]);
                 // G / (1 + h), h the weight's ([`DrawWeights`]), = cos_x^s cos_y^g / (d⁴ +
                 // cos_x^s cos_y^g T_y L + cos_y^s cos_x^g C_x) with the cosines times |d|: one
-                // division. A light whose G overflows stays infinite (left out, as without
-                // the weights); one whose quotient is 0 or NaN while it contributes keeps the
-                // smallest positive number (`max`), so that no light that contributes is
-                // left out.
+                // division. The weight is taken at least [`MIN_DRAW_WEIGHT`] (the denominator
+                // at most d⁴ / it; a NaN one becomes that too), so that a light that
+                // contributes keeps at least that share of its estimate without the weight,
+                // which an estimated weight may miss by far (a glossy end); a quotient that
+                // underflows keeps the smallest positive number (`max`). A light whose G
+                // overflows stays infinite (left out, as without the weights).
                 // (Absolute values: the same numbers where the lanes face each other, and the
                 // transmitting ends' where they face away.)
                 let d4 = dist2[l] * dist2[l];
@@ -358,7 +365,7 @@ impl VplLanes {
                 let b = (p_ns[l] * x_ng[l]).abs();
                 // (Summed in this order so that the terms that do not wait for `a` go first:
                 // the quotient ends a shorter chain.)
-                let den = (d4 + b * wt.camera) + a * (terms[l] * wt.light);
+                let den = min((d4 + b * wt.camera) + a * (terms[l] * wt.light), d4 * (1.0 / MIN_DRAW_WEIGHT));
                 let weighted = max(a / den, min(a, f32::MIN_POSITIVE));
                 g[l] = if a <= d4 * f32::MAX { weighted } else { f32::INFINITY };
             }
@@ -414,11 +421,12 @@ impl VplLanes {
         }
         if r.weights.is_some() && !weighs_plain {
             // The weight after the lobe: 1 / (1 + h), h = (cos_x^s cos_y^g T_y L + cos_y^s
-            // cos_x^g C_x) / d², with the same care for overflow as above.
+            // cos_x^g C_x) / d⁴ (the cosines times |d|), with the same bound and care for
+            // overflow as above.
             for l in 0..W {
                 let light = terms[l] * wt.light;
                 let h = (x_ns[l] * p_ng[l] * light + p_ns[l] * x_ng[l] * wt.camera) / (dist2[l] * dist2[l]);
-                let h = if TRANSMITS { h.abs() } else { h };
+                let h = min(if TRANSMITS { h.abs() } else { h }, 1.0 / MIN_DRAW_WEIGHT);
                 let weighted = max(value[l] / (1.0 + h), min(value[l], f32::MIN_POSITIVE));
                 value[l] = if value[l] < f32::INFINITY { weighted } else { value[l] };
             }
