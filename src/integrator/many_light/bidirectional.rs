@@ -334,9 +334,6 @@ pub struct DrawWeights {
 }
 
 impl DrawWeights {
-    /// No weight (h = 0).
-    pub const NONE: DrawWeights = DrawWeights { light: 0.0, camera: 0.0 };
-
     /// The receiver's side at the camera vertex `x`; `None` where the connection's count
     /// is zero (no gather there) or a number is not finite.
     pub fn of(x: &CameraEnd) -> Option<DrawWeights> {
@@ -362,13 +359,23 @@ impl DrawWeights {
 pub fn draw_term(vpl: &Vpl, bsdf_y: &Bsdf, connect: Connect) -> f32 {
     let more = vpl.mis.beyond(connect, 2, connect.after(bsdf_y));
     let light_rev = if more > 0.0 { bsdf_y.pdf(&vpl.geometry(), vpl.frame.n, vpl.w_in) } else { 0.0 };
-    let one = match (vpl.depth, connect.next(1, After::Plain)) {
-        (1, _) => vpl.mis.dvcm,
-        (_, Next::None) => 0.0,
-        _ => vpl.mis.dvcm * vpl.count_out,
-    };
-    let t = one + more * light_rev;
+    let t = one_beyond(vpl, connect.next(1, After::Plain)) + more * light_rev;
     if t.is_finite() && t > 0.0 { t } else { 0.0 }
+}
+
+/// The camera subpath extended one vertex past the VPL, relative to the connection to it:
+/// next-event estimation at the VPL where it is lit directly, else the connection from the
+/// VPL to the light path's previous VPL, as the camera vertex after the receiver makes it
+/// (`next`).
+#[inline]
+fn one_beyond(vpl: &Vpl, next: Next) -> f32 {
+    match (vpl.depth, next) {
+        (1, _) => vpl.mis.dvcm,
+        (_, Next::Full) => vpl.mis.dvcm * vpl.count_out,
+        // (The camera vertex at the VPL draws fewer where this one is coated.)
+        (_, Next::Fewer) => vpl.mis.dvcm * vpl.count_out_fewer,
+        (_, Next::None) => 0.0,
+    }
 }
 
 /// The solid-angle densities of a connection's ends that its weight needs: the camera
@@ -397,16 +404,9 @@ fn weight_of(x: &CameraEnd, vpl: &Vpl, bsdf_y: &Bsdf, w: Vec3, dist2: f32, more:
     } else {
         0.0
     };
-    // One vertex further: next-event estimation at the VPL (lit directly) or a connection
-    // from it; two or more: the emitter techniques, and connections if every vertex connects.
-    let one = match (vpl.depth, x.connect.next(x.rank, x.after)) {
-        (1, _) => vpl.mis.dvcm,
-        (_, Next::Full) => vpl.mis.dvcm * vpl.count_out,
-        // (The camera vertex at the VPL draws fewer where this one is coated.)
-        (_, Next::Fewer) => vpl.mis.dvcm * vpl.count_out_fewer,
-        (_, Next::None) => 0.0,
-    };
-    let w_light = camera_pdf * (one + more * light_rev);
+    // Two or more vertices further: the emitter techniques, and connections if every vertex
+    // connects.
+    let w_light = camera_pdf * (one_beyond(vpl, x.connect.next(x.rank, x.after)) + more * light_rev);
     // All of them relative to this connection's count.
     weight((w_light + w_camera) / x.counts.at(x.bsdf, bsdf_y, x.fewer))
 }

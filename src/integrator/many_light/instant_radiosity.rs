@@ -269,8 +269,9 @@ impl Integrator for InstantRadiosity {
             // The bound applies to the weighted connection ([`super::mis`]), not to G;
             // `pir-mis` counts every light path for every connection.
             VirtualLights::WeighedPoints(clamping) | VirtualLights::Bidirectional(clamping, _) => {
-                let weighed = match self.lights {
-                    VirtualLights::Bidirectional(_, connect) => Some(connect),
+                // (Only the resampled gather's estimates read the weights' terms.)
+                let weighed = match (self.lights, gather) {
+                    (VirtualLights::Bidirectional(_, connect), Gather::Resampled { .. }) => Some(connect),
                     _ => None,
                 };
                 let points = PointLights::new(vpls, Clamping::None, iteration, ctx, weighed);

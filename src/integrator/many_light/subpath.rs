@@ -273,7 +273,7 @@ impl MisState {
     /// path has two segments; elsewhere as they are.
     #[inline]
     pub fn for_light_sample(self, depth: u32) -> MisState {
-        if depth == 1 { MisState { dvcm: self.dvcm * LIGHT_TRACING_COUNT, ..self } } else { self }
+        MisState { dvcm: self.dvcm * light_tracing_count(depth), ..self }
     }
 
     /// The camera subpath's sums as an emitter hit (or an escape to a light at infinity) at
@@ -282,7 +282,7 @@ impl MisState {
     /// the path has two segments; elsewhere as they are.
     #[inline]
     pub fn for_hit(self, depth: u32) -> MisState {
-        if depth == 2 { MisState { dvc: self.dvc * LIGHT_TRACING_COUNT, ..self } } else { self }
+        MisState { dvc: self.dvc * light_tracing_count(depth.saturating_sub(1)), ..self }
     }
 
     /// A light subpath of `paths` per iteration, started at an emitter point of area density
