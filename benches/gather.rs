@@ -26,7 +26,7 @@ use pir::integrator::many_light::points::PointLights;
 use pir::integrator::many_light::subpath::Counts;
 use pir::integrator::many_light::tree_gather::{Kernel, Lobe, Pick, Receiver, stratified};
 use pir::integrator::many_light::virtual_light::{Lights, Plain};
-use pir::integrator::many_light::{Vpl, trace_vpls};
+use pir::integrator::many_light::{LightPaths, Vpl, trace_vpls};
 use pir::integrator::walker::Vertex;
 use pir::integrator::{Clamping, Counters, Gather, RenderContext};
 use pir::light::Emitters;
@@ -98,7 +98,7 @@ fn bench(c: &mut Criterion) {
             cases.push(("all", Gather::All));
         }
         for (name, gather) in cases {
-            let set = LightSet::new(&ctx, points(vpls.clone()), gather);
+            let set = LightSet::new(&ctx, points(vpls.clone()), gather, LightPaths::one_each(n));
             group.bench_with_input(BenchmarkId::new(name, n), &set, |b, set| {
                 b.iter(|| {
                     let mut counters = Counters::default();

@@ -37,9 +37,10 @@ fn paired_z(a: &Rendered, b: &Rendered) -> [f64; 3] {
     })
 }
 
-/// The sampled gathers under test: k = 4 tree samples, and k = 4 picks among windows of 16
-/// candidates (a fifth of the about 75 VPLs of 32 light paths, so that the window's choice is
-/// tested too).
+/// The sampled gathers under test: k = 4 tree samples, and k = 4 picks among windows of about
+/// 16 candidates (runs of 4 of the 32 light paths, about 9 of their 75 VPLs, most runs
+/// starting and ending within a chunk of the lanes, so that the window's choice and its edges
+/// are tested too).
 fn sampled() -> [(&'static str, Gather); 2] {
     [("tree", Gather::Tree { samples: 4 }), ("resample", Gather::Resampled { candidates: 16, samples: 4 })]
 }

@@ -25,6 +25,7 @@ use super::lobe::Lobe;
 use super::resample::{LANES, resample};
 use super::tree_gather::{Kernel, Pick, Receiver};
 use super::virtual_light::{Lights, Weigh};
+use super::window::LightPaths;
 use crate::geometry::OffsetPoint;
 use crate::integrator::deferred::{Connections, Immediate, Terms};
 use crate::integrator::direct::shadow_segment;
@@ -104,9 +105,9 @@ impl<L: Lights> LightSet<L> {
                 let k = count(samples, k_here);
                 drawn(lights, tree, k, v, max_vpl_depth, weighing, sampler, queue)
             }
-            Selection::Resampled { candidates, samples } => {
+            Selection::Resampled { candidates, samples, ref paths } => {
                 let (m, k) = (count(candidates, m_here), count(samples, k_here));
-                resampled(lights, m, k, v, max_vpl_depth, weighing, sampler, queue)
+                resampled(lights, paths, m, k, v, max_vpl_depth, weighing, sampler, queue)
             }
         }
     }
@@ -168,11 +169,13 @@ fn drawn<L: Lights, W: Weigh<L>>(
 }
 
 /// Queues the weighted contributions of k lights picked from a window of about m candidates
-/// by their estimated unoccluded light ([`super::resample`]); `false` when the receiver
-/// reflects nothing towards `v.wo`. Draws two numbers before the candidates' own, always.
+/// among the lights of `paths` by their estimated unoccluded light ([`super::resample`]);
+/// `false` when the receiver reflects nothing towards `v.wo`. Draws two numbers before the
+/// candidates' own, always.
 #[allow(clippy::too_many_arguments)]
 fn resampled<L: Lights, W: Weigh<L>>(
     lights: &L,
+    paths: &LightPaths,
     m: usize,
     k: usize,
     v: &Vertex,
@@ -186,7 +189,7 @@ fn resampled<L: Lights, W: Weigh<L>>(
     let active = L::is_active(&rx);
     let x = OffsetPoint::new(v.sp.p, v.sp.ng);
     resample(
-        lights.chunks(),
+        paths,
         m,
         k,
         active,

@@ -20,6 +20,7 @@ use super::spheres::SphereLights;
 use super::subpath::Counts;
 use super::to_camera::ToCamera;
 use super::view_pilot;
+use super::window::LightPaths;
 use crate::geometry::Ray;
 use crate::integrator::walker::{Estimator, walk};
 use crate::integrator::wavefront::walk_batch;
@@ -247,6 +248,7 @@ impl Integrator for InstantRadiosity {
             self.acceptance.as_ref(),
         );
         let (vpls, rays) = (traced.vpls, traced.rays);
+        let paths = LightPaths::new(traced.path_ends);
         self.splats = traced.splats;
         self.merging = merge.map(|(pixels, alpha)| {
             counters.photons += traced.photons.len() as u64;
@@ -261,7 +263,7 @@ impl Integrator for InstantRadiosity {
             VirtualLights::Points(clamping) => {
                 let points = PointLights::new(vpls, clamping, iteration, ctx, None);
                 IterationLights::Points {
-                    set: LightSet::new(ctx, points, gather),
+                    set: LightSet::new(ctx, points, gather, paths),
                     counts,
                     bound: f32::INFINITY,
                 }
@@ -280,13 +282,13 @@ impl Integrator for InstantRadiosity {
                     _ => counts,
                 };
                 let bound = clamping.bound(iteration);
-                IterationLights::Points { set: LightSet::new(ctx, points, gather), counts, bound }
+                IterationLights::Points { set: LightSet::new(ctx, points, gather, paths), counts, bound }
             }
             VirtualLights::Spheres { radius, alpha } => {
                 let diagonal = ctx.scene.bounds().diagonal();
                 let bsdf = |v: &Vpl| v.bsdf(ctx.scene);
                 let spheres = SphereLights::new(vpls, bsdf, radius, alpha, iteration, diagonal);
-                IterationLights::Spheres(LightSet::new(ctx, spheres, gather))
+                IterationLights::Spheres(LightSet::new(ctx, spheres, gather, paths))
             }
         };
     }

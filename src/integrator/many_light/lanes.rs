@@ -21,7 +21,8 @@ use multiversion::multiversion;
 use super::bidirectional::DrawWeights;
 use super::light_paths::Vpl;
 use super::lobe::Lobe;
-use super::resample::{Candidates, Window};
+use super::resample::Candidates;
+use super::window::Window;
 use crate::geometry::OffsetPoint;
 use crate::material::{PreparedBsdf, PreparedDiffuse, TransportMode, shading_correction};
 use crate::scene::SurfacePoint;
@@ -217,20 +218,28 @@ fn max(a: f32, b: f32) -> f32 {
 /// SSE operations in the other, the same IEEE operations either way (no fused multiply-add:
 /// Rust never contracts), so both give the same estimates bit for bit.
 #[multiversion(targets("x86_64+avx2+fma"))]
-fn push_estimates_dispatch(lanes: &VplLanes, cands: &mut Candidates, window: Window, r: &EstimateReceiver) {
-    for (first, count) in window.runs() {
-        let end = first + count;
-        for b in (first..end).step_by(2) {
-            // Ends that transmit are rare: the kernel for them only where there are some.
-            let p = if r.transmits || lanes.pairs[b].any_transmits {
-                lanes.estimates8::<true>(b, r)
-            } else {
-                lanes.estimates8::<false>(b, r)
-            };
-            cands.push(b * LANES, Vec4::from_slice(&p[..LANES]));
-            if b + 1 < end {
-                cands.push((b + 1) * LANES, Vec4::from_slice(&p[LANES..]));
+fn push_estimates_dispatch(lanes: &VplLanes, cands: &mut Candidates, window: &Window, r: &EstimateReceiver) {
+    let (lo, hi) = (window.lights.start, window.lights.end);
+    let end = hi.div_ceil(LANES);
+    for b in (lo / LANES..end).step_by(2) {
+        // Ends that transmit are rare: the kernel for them only where there are some.
+        let mut p = if r.transmits || lanes.pairs[b].any_transmits {
+            lanes.estimates8::<true>(b, r)
+        } else {
+            lanes.estimates8::<false>(b, r)
+        };
+        // The window's first and last pair may hold lights of other windows: left out.
+        let first = b * LANES;
+        if first < lo || first + 2 * LANES > hi {
+            for (l, p) in p.iter_mut().enumerate() {
+                if !(lo..hi).contains(&(first + l)) {
+                    *p = 0.0;
+                }
             }
+        }
+        cands.push(first, Vec4::from_slice(&p[..LANES]));
+        if b + 1 < end {
+            cands.push(first + LANES, Vec4::from_slice(&p[LANES..]));
         }
     }
 }
@@ -472,7 +481,7 @@ impl VplLanes {
 
     /// Pushes the estimates p̂ of the chunks of `window` to `cands` (the private
     /// `estimates8` says what they are), in the window's order, two chunks at a time.
-    pub fn push_estimates(&self, cands: &mut Candidates, window: Window, r: &EstimateReceiver) {
+    pub fn push_estimates(&self, cands: &mut Candidates, window: &Window, r: &EstimateReceiver) {
         push_estimates_dispatch(self, cands, window, r);
     }
 
@@ -565,6 +574,7 @@ mod tests {
     use crate::integrator::many_light::points::point_contribution;
     use crate::material::{Bsdf, LocalGeometry};
     use crate::sampling::{Domain, Sampler};
+    use glam::BVec4A;
     use std::f32::consts::PI;
 
     fn unit(s: &mut Sampler) -> Vec3 {
@@ -736,14 +746,16 @@ mod tests {
             }
             // The gather's pushes, two chunks at a time in the version the CPU runs (AVX2 on
             // CPUs that have it), give the blocks that the build's own version gives chunk by
-            // chunk, bit for bit, for windows from every chunk, wrapping or not.
-            let n = lanes.chunks();
-            for (start, w) in [(round % n, n), (n - 1, 1 + round % n), (round / 2 % n, n.div_ceil(2))] {
-                let window = Window::new(start, w, n);
+            // chunk, bit for bit, for windows of every light to every other, the lanes of other
+            // windows left out.
+            let lo = round % n;
+            for (lo, hi) in [(0, n), (lo, n), (lo / 2, n - (n - lo) / 2), (lo, (lo + 1 + round % 7).min(n))] {
+                let window = Window { lights: lo..hi, scale: 1.0 };
                 let (mut got, mut want) = (Candidates::new(), Candidates::new());
-                lanes.push_estimates(&mut got, window, &r);
-                for b in window.blocks() {
-                    want.push(b * LANES, Vec4::from_slice(&lanes.estimates_for(b, &r)[..LANES]));
+                lanes.push_estimates(&mut got, &window, &r);
+                for (b, inside) in window.chunks::<LANES>() {
+                    let p = Vec4::from_slice(&lanes.estimates_for(b, &r)[..LANES]);
+                    want.push(b * LANES, Vec4::select(BVec4A::from_array(inside), p, Vec4::ZERO));
                 }
                 let bits = |c: &Candidates| {
                     c.blocks().map(|(j, p)| (j, p.to_array().map(f32::to_bits))).collect::<Vec<_>>()

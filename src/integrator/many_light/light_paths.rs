@@ -164,11 +164,13 @@ pub fn trace_pilot_vpls(
     (traced.vpls, traced.rays, traced.narrow)
 }
 
-/// What an iteration's light paths leave: VPLs and splats on the film, in path order, and
-/// the queries they made.
+/// What an iteration's light paths leave: VPLs and splats on the film, in path order, where
+/// each path's VPLs end, and the queries they made.
 #[derive(Default)]
 pub struct Traced {
     pub vpls: Vec<Vpl>,
+    /// The end of each path's VPLs (one past its last; [`super::window::LightPaths`]), path by path.
+    pub path_ends: Vec<u32>,
     pub splats: Vec<FilmSplat>,
     /// With `photons`: the non-delta vertices that a delta vertex led a light path of the
     /// class from an area emitter to ([`super::merging`]), within the VPLs' depth.
@@ -214,12 +216,15 @@ pub fn trace_light_paths(
                     acceptance.keep(ctx, iteration, k, paths, &mut out.vpls, first, &mut queries);
                     out.shadow_rays += queries.shadow_rays;
                 }
+                out.path_ends.push(out.vpls.len() as u32);
             }
             out
         })
         .collect();
     let mut traced = Traced::default();
     for c in chunks {
+        let base = traced.vpls.len() as u32;
+        traced.path_ends.extend(c.path_ends.iter().map(|e| base + e));
         traced.vpls.extend(c.vpls);
         traced.splats.extend(c.splats);
         traced.photons.extend(c.photons);

@@ -10,6 +10,7 @@ use super::config::Gather;
 use super::light_paths::Vpl;
 use super::light_tree::{LightTree, TreeLight};
 use super::virtual_light::Lights;
+use super::window::LightPaths;
 use crate::integrator::RenderContext;
 use crate::material::Bsdf;
 
@@ -26,20 +27,23 @@ pub enum Selection {
     All,
     /// `samples` lights drawn from the tree.
     Tree { tree: LightTree, samples: usize },
-    /// `samples` lights picked from a window of `candidates` ([`super::resample`]).
-    Resampled { candidates: usize, samples: usize },
+    /// `samples` lights picked from a window of about `candidates` of the lights of `paths`
+    /// ([`super::resample`]).
+    Resampled { candidates: usize, samples: usize, paths: LightPaths },
 }
 
 impl<L: Lights> LightSet<L> {
-    /// The set of `lights`, with the light tree when `gather` samples from one.
-    pub fn new(ctx: &RenderContext, lights: L, gather: Gather) -> Self {
+    /// The set of `lights`, left by the light paths `paths`, with the light tree when
+    /// `gather` samples from one.
+    pub fn new(ctx: &RenderContext, lights: L, gather: Gather, paths: LightPaths) -> Self {
+        assert_eq!(paths.lights(), lights.count(), "the light paths' lights are the set's");
         let selection = match gather {
             Gather::All => Selection::All,
             Gather::Tree { samples } => {
                 Selection::Tree { tree: LightTree::new(&lights.tree_lights(ctx)), samples: samples.max(1) }
             }
             Gather::Resampled { candidates, samples } => {
-                Selection::Resampled { candidates: candidates.max(1), samples: samples.max(1) }
+                Selection::Resampled { candidates: candidates.max(1), samples: samples.max(1), paths }
             }
         };
         LightSet { lights, selection }

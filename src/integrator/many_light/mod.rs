@@ -37,7 +37,8 @@
 //!   [`sphere_lanes`] and [`knn`] for the radii);
 //! - the gather, written once for every kind ([`gather`]): every light, k drawn from a light
 //!   tree ([`light_tree`], [`tree_gather`], [`lobe`]), or k resampled from a window of
-//!   candidates ([`resample`]); shadow rays in batches ([`shadow_batch`]);
+//!   candidates ([`resample`], whose window is a run of light paths: [`window`]); shadow
+//!   rays in batches ([`shadow_batch`]);
 //! - the camera paths, estimators of the walker: [`gathering`] (the thesis' methods and
 //!   `pir-mis`, whose weights are [`mis`]) and [`bdpt_path`] (`pir-bdpt`, whose weights are
 //!   [`bidirectional`]);
@@ -72,9 +73,11 @@ pub mod to_camera;
 pub mod tree_gather;
 pub mod view_pilot;
 pub mod virtual_light;
+pub mod window;
 
 pub use config::{Clamping, Connect, DEFAULT_PATHS, Gather, Radius, VirtualLights};
 pub use instant_radiosity::InstantRadiosity;
 pub use light_paths::{Vpl, trace_vpls};
 pub use light_set::LightSet;
 pub use path_count::{AutoPaths, Pilot, Pilots};
+pub use window::LightPaths;

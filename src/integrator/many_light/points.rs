@@ -12,9 +12,10 @@ use super::light_paths::Vpl;
 use super::light_set::tree_light;
 use super::light_tree::TreeLight;
 use super::lobe::Lobe;
-use super::resample::{Candidates, LANES, Window};
+use super::resample::{Candidates, LANES};
 use super::tree_gather::Kernel;
 use super::virtual_light::Lights;
+use super::window::Window;
 use crate::geometry::OffsetPoint;
 use crate::integrator::RenderContext;
 use crate::integrator::walker::Vertex;
@@ -99,6 +100,11 @@ impl Lights for PointLights {
     }
 
     #[inline]
+    fn count(&self) -> usize {
+        self.vpls.len()
+    }
+
+    #[inline]
     fn chunks(&self) -> usize {
         self.lanes.chunks()
     }
@@ -138,7 +144,7 @@ impl Lights for PointLights {
     fn push_estimates(
         &self,
         cands: &mut Candidates,
-        window: Window,
+        window: &Window,
         rx: &PointReceiver,
         weights: Option<DrawWeights>,
         _: &mut Sampler,

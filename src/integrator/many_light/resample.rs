@@ -6,16 +6,13 @@
 //! iteration's full gather Σ_j c_j V_j (c_j the unoccluded contribution of light j with the
 //! iteration's bound or radius, V_j its visibility):
 //!
-//! 1. **The window.** The lights are in `n` blocks (chunks of the lanes, or single spheres);
-//!    the window is `w` consecutive blocks, cyclically, from a uniform start. Every block lies
-//!    in exactly `w` of the `n` windows, so Σ_{j ∈ window} c_j V_j · n / w is unbiased for the
-//!    full sum (Horvitz–Thompson with inclusion probability w / n). The VPLs are stored path
-//!    by path, and the light paths of an iteration are independent, so a window is a random
-//!    handful of whole light paths: per receiver, a different one. A window of half the
-//!    blocks or more is widened to all of them ([`window_blocks`]): that costs at most twice
-//!    its candidates, and the blocks it would leave out only add the variance of the factor
-//!    n / w (on the Cornell box with 32 light paths, 19 blocks against a window of 16:
-//!    `pir-bdpt`'s relative MSE 6.5 % lower at the same time, `docs/measurements.md`).
+//! 1. **The window.** The lights are stored path by path; the window is an aligned run of g
+//!    consecutive light paths (g a power of two), one of the W runs of the iteration,
+//!    uniformly ([`super::window`]). Every light lies in exactly one run, so
+//!    W Σ_{j ∈ window} c_j V_j is unbiased for the full sum (Horvitz–Thompson with inclusion
+//!    probability 1 / W). With Sobol points such a run's paths are a net, as evenly spread as
+//!    an iteration of g paths. Where the iteration has two runs or fewer, the window is all the
+//!    lights.
 //! 2. **The picks.** Within the window, with p̂_j an estimate of light j's unoccluded
 //!    contribution and T = Σ p̂_j, k picks by systematic sampling of the cumulative sums at
 //!    (u + i) T / k: light j is picked n_j times with E\[n_j\] = k p̂_j / T, and
@@ -46,94 +43,42 @@
 
 use glam::Vec4;
 
+use super::window::{LightPaths, Window};
 use crate::sampling::Sampler;
 
 /// Most candidates per receiver (`--gather-candidates`).
 pub const MAX_CANDIDATES: usize = 1024;
 
-/// A uniform index below `n` (0 when `n` is 0), from one number of `sampler`: Lemire's
-/// multiply-shift, uniform up to 2^-64, far below the noise.
-fn uniform_index(n: usize, sampler: &mut Sampler) -> usize {
-    ((sampler.next_u64() as u128 * n as u128) >> 64) as usize
-}
-
 /// Lights per chunk (a block of candidates, a chunk of the lanes of [`super::lanes`]): the
 /// width of `Vec4`.
 pub const LANES: usize = 4;
 
-/// The resampled gather over `blocks` blocks of [`LANES`] lights with `m` candidates and `k`
-/// picks: draws the window's start and the picks' number (two numbers of `sampler`, always,
-/// before any the candidates draw), lets `candidate` push the window's blocks in its order
-/// ([`Window::blocks`]), then
-/// calls `emit(j, factor, sampler)` for every light picked, with the window's scale n / w in
-/// the factor ([`Candidates::pick`]); `emit` may draw numbers of its own (a picked sphere's
-/// cone integral). With `active` false (a receiver that reflects nothing) only the
-/// numbers are drawn.
+/// The resampled gather over the lights of `paths` with about `m` candidates and `k` picks:
+/// draws the window ([`LightPaths::draw`]) and the picks' number (two numbers of `sampler`,
+/// always, before any the candidates draw), lets `candidate` push the window's chunks in
+/// light order ([`Window::chunks`]), then calls `emit(j, factor, sampler)` for every light
+/// picked, with the window's scale W in the factor ([`Candidates::pick`]); `emit` may draw
+/// numbers of its own (a picked sphere's cone integral). With `active` false (a receiver
+/// that reflects nothing) only the numbers are drawn.
 pub fn resample(
-    blocks: usize,
+    paths: &LightPaths,
     m: usize,
     k: usize,
     active: bool,
     sampler: &mut Sampler,
-    mut candidate: impl FnMut(&mut Candidates, Window, &mut Sampler),
+    mut candidate: impl FnMut(&mut Candidates, &Window, &mut Sampler),
     mut emit: impl FnMut(usize, f32, &mut Sampler),
 ) {
-    let w = window_blocks(blocks, m);
-    let window = Window::draw(blocks, w, sampler);
+    let window = paths.draw(paths.window_paths(m), sampler);
     let u = sampler.next_f32();
-    if !active || blocks == 0 {
+    if !active || window.lights.is_empty() {
         return;
     }
+    let scale = window.scale;
     with_candidates(|cands| {
-        candidate(cands, window, sampler);
-        cands.pick(k, u, blocks as f32 / w as f32, |j, factor| emit(j, factor, sampler));
+        candidate(cands, &window, sampler);
+        cands.pick(k, u, scale, |j, factor| emit(j, factor, sampler));
     });
-}
-
-/// The blocks of a window for `m` candidates among `blocks`: ⌈m / [`LANES`]⌉, or all of them
-/// when that is half of them or more (see the module docs); at least one.
-pub fn window_blocks(blocks: usize, m: usize) -> usize {
-    let w = m.div_ceil(LANES).max(1);
-    if blocks <= 2 * w { blocks.max(1) } else { w }
-}
-
-/// A window of `w` consecutive blocks of `n`, cyclically, from `start`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Window {
-    start: usize,
-    w: usize,
-    n: usize,
-}
-
-impl Window {
-    /// The window of `w` blocks of `n` (at most `n`) from `start`.
-    #[cfg(test)]
-    pub fn new(start: usize, w: usize, n: usize) -> Window {
-        assert!(start < n);
-        Window { start, w: w.min(n), n }
-    }
-
-    /// A window of `w` blocks of `n` (at most `n`) from a uniform start, one number of
-    /// `sampler`.
-    fn draw(n: usize, w: usize, sampler: &mut Sampler) -> Window {
-        Window { start: uniform_index(n, sampler), w: w.min(n), n }
-    }
-
-    /// The blocks in the window's order.
-    pub fn blocks(self) -> impl Iterator<Item = usize> {
-        (0..self.w).map(move |t| {
-            let b = self.start + t;
-            if b >= self.n { b - self.n } else { b }
-        })
-    }
-
-    /// The same blocks as at most two runs of consecutive ones, `(first, count)`, in the
-    /// window's order: from the start to the last block, then from block 0 (an empty second
-    /// run when the window does not wrap).
-    pub fn runs(self) -> [(usize, usize); 2] {
-        let first = self.w.min(self.n - self.start);
-        [(self.start, first), (0, self.w - first)]
-    }
 }
 
 /// The candidates of one receiver in blocks of [`LANES`] lights (a chunk of the lanes of
@@ -216,7 +161,7 @@ impl Candidates {
 
     /// The k picks for the number `u` in [0, 1), by systematic sampling of the cumulative p̂
     /// at (u + i) T / k: `emit(j, factor)` once per distinct light picked, with
-    /// factor = n_j T / (k p̂_j) · `scale` (the window's n / w), so that c_j · factor is the
+    /// factor = n_j T / (k p̂_j) · `scale` (the window's W), so that c_j · factor is the
     /// light's share of the estimate. The cumulative sums are
     /// formed here in block order; their rounding differs from T's by ulps, and the last light
     /// takes any pick that rounding leaves over, so k picks are always made.
@@ -268,48 +213,7 @@ impl Candidates {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::Domain;
     use glam::Vec3;
-
-    #[test]
-    fn windows_cover_every_block_equally() {
-        let (n, w) = (7, 3);
-        let mut hits = [0usize; 7];
-        let mut s = Sampler::new(1, 0, Domain::LightPath, 0);
-        let draws = 70_000;
-        for _ in 0..draws {
-            let window = Window::draw(n, w, &mut s);
-            let runs: Vec<usize> = window.runs().iter().flat_map(|&(b, c)| b..b + c).collect();
-            assert_eq!(runs, window.blocks().collect::<Vec<_>>());
-            for b in window.blocks() {
-                hits[b] += 1;
-            }
-        }
-        for h in hits {
-            let expect = draws as f64 * w as f64 / n as f64;
-            assert!((h as f64 - expect).abs() < 5.0 * expect.sqrt(), "{hits:?}");
-        }
-        // A window at least as wide as the blocks is all of them, once each.
-        let all: Vec<usize> = Window::draw(4, 9, &mut s).blocks().collect();
-        let mut sorted = all.clone();
-        sorted.sort();
-        assert_eq!(sorted, vec![0, 1, 2, 3]);
-    }
-
-    /// m candidates make a window of ⌈m / 4⌉ blocks, widened to all of them when that is at
-    /// least half.
-    #[test]
-    fn wide_windows_take_every_block() {
-        assert_eq!(window_blocks(100, 64), 16);
-        assert_eq!(window_blocks(33, 64), 16);
-        assert_eq!(window_blocks(32, 64), 32);
-        assert_eq!(window_blocks(19, 64), 19);
-        assert_eq!(window_blocks(3, 64), 3);
-        assert_eq!(window_blocks(0, 64), 1);
-        assert_eq!(window_blocks(3, 1), 1);
-        assert_eq!(window_blocks(2, 1), 2);
-        assert_eq!(window_blocks(2, 4), 2);
-    }
 
     /// The picks' weights add up, in expectation over u, to the candidates' sum, for every
     /// candidate separately, whatever the estimates p̂ (positive wherever the contribution is

@@ -98,11 +98,12 @@ use super::light_paths::Vpl;
 use super::light_set::tree_light;
 use super::light_tree::TreeLight;
 use super::lobe::Lobe;
-use super::resample::{Candidates, LANES, Window};
+use super::resample::{Candidates, LANES};
 use super::schedule::radius;
 use super::sphere_lanes::{ReceiverEnd, SphereLanes};
 use super::tree_gather::Kernel;
 use super::virtual_light::Lights;
+use super::window::Window;
 use crate::geometry::{Frame, OffsetPoint, offset_epsilon};
 use crate::integrator::RenderContext;
 use crate::integrator::walker::Vertex;
@@ -533,6 +534,11 @@ impl Lights for SphereLights {
     }
 
     #[inline]
+    fn count(&self) -> usize {
+        self.vpls.len()
+    }
+
+    #[inline]
     fn chunks(&self) -> usize {
         self.lanes.chunks()
     }
@@ -568,16 +574,22 @@ impl Lights for SphereLights {
     fn push_estimates(
         &self,
         cands: &mut Candidates,
-        window: Window,
+        window: &Window,
         g: &SphereGatherer,
         _: Option<DrawWeights>,
         sampler: &mut Sampler,
     ) {
         EXACT.with(|exact| {
             exact.borrow_mut().clear();
-            for block in window.blocks() {
+            for (block, inside) in window.chunks::<LANES>() {
                 let (mut p, narrow) = self.lanes.estimates(block, &g.rx.end, g.max_depth);
-                for i in (0..LANES).filter(|i| narrow >> i & 1 == 1) {
+                // (The first and last chunk may hold spheres of other windows: left out.)
+                for (i, &inside) in inside.iter().enumerate() {
+                    if !inside {
+                        p[i] = 0.0;
+                    }
+                }
+                for i in (0..LANES).filter(|&i| narrow >> i & 1 == 1 && inside[i]) {
                     let j = block * LANES + i;
                     let c = SphereLights::contribution(self, j, &g.rx, sampler);
                     p[i] = c.element_sum();

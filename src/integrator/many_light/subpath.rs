@@ -15,9 +15,9 @@ use crate::material::Bsdf;
 /// Why 4 rather than the 2 of a glossy end: the picks' VPLs are shared by the pixels whose
 /// windows hold them, and a larger count makes their shared error (blotches) a larger part
 /// of the image's; since an iteration traces at least 256 light paths and a window holds
-/// 128 of its 600-odd VPLs (the Cornell box), neighbouring pixels share far fewer of them
-/// than with 64 paths, where the window was every VPL (`docs/integrator-measurements.md`,
-/// "Lambertian connections count 4k").
+/// a few dozen of them (the Cornell box: 32 of 256 paths, about 80 of their 650 VPLs),
+/// neighbouring pixels share far fewer of them than with 64 paths, where the window was
+/// every VPL (`docs/integrator-measurements.md`, "Lambertian connections count 4k").
 pub const LAMBERTIAN_PICK_COUNT: f32 = 4.0;
 
 /// How many samples the weights count for a connection technique: a function of the

@@ -13,8 +13,9 @@ use glam::Vec3;
 use super::bidirectional::DrawWeights;
 use super::light_tree::TreeLight;
 use super::lobe::Lobe;
-use super::resample::{Candidates, LANES, Window};
+use super::resample::{Candidates, LANES};
 use super::tree_gather::Kernel;
+use super::window::Window;
 use crate::geometry::OffsetPoint;
 use crate::integrator::RenderContext;
 use crate::integrator::walker::Vertex;
@@ -43,6 +44,9 @@ pub trait Lights: Send + Sync {
     /// Whether the receiver reflects anything towards its `wo` (else every contribution is 0).
     fn is_active(rx: &Self::Receiver<'_>) -> bool;
 
+    /// The lights.
+    fn count(&self) -> usize;
+
     /// Chunks of [`LANES`] lights (the last one may be partly empty).
     fn chunks(&self) -> usize;
 
@@ -62,13 +66,13 @@ pub trait Lights: Send + Sync {
     /// Light `j`'s contribution (a drawn light: the tree respects the depth).
     fn contribution(&self, j: usize, rx: &Self::Receiver<'_>, sampler: &mut Sampler) -> Vec3;
 
-    /// The resampled gather's candidates: the estimates of the window's blocks, in its order,
+    /// The resampled gather's candidates: the estimates of the window's lights, in light order,
     /// with the connections' weights where `weights` gives the receiver's side (point
     /// lights; [`Weigh::draw_weights`]).
     fn push_estimates(
         &self,
         cands: &mut Candidates,
-        window: Window,
+        window: &Window,
         rx: &Self::Receiver<'_>,
         weights: Option<DrawWeights>,
         sampler: &mut Sampler,

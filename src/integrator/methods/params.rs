@@ -45,7 +45,7 @@ pub struct MethodParams {
     /// VPL methods: how a camera vertex gathers from the iteration's VPLs: all (every VPL, one
     /// shadow ray each), tree (--gather-samples VPLs drawn from a light tree in proportion
     /// to a bound on their contribution, weighted by 1/probability) or resample (the
-    /// unoccluded light of --gather-candidates VPLs, a random window of the light paths, is
+    /// unoccluded light of about --gather-candidates VPLs, a random window of the light paths, is
     /// estimated without rays, and --gather-samples of them, picked in proportion to it, get
     /// shadow rays). The sampled gathers are unbiased for the same sum, so they afford many
     /// more VPLs per iteration [default: resample for pir-mis and pir-bdpt, all for the thesis' methods].
@@ -60,9 +60,10 @@ pub struct MethodParams {
     #[arg(long, value_name = "K")]
     #[serde(default)]
     pub gather_samples: Option<usize>,
-    /// --gather resample: candidate VPLs per camera vertex (m), a random window of the
-    /// iteration's light paths whose unoccluded contributions choose the k that get shadow
-    /// rays (every VPL when the iteration has at most 2m); 1 to 1024 [default: 64 for
+    /// --gather resample: candidate VPLs per camera vertex (m), at most, on average: a window
+    /// of the iteration's light paths (an aligned run of a power of two of them, drawn at
+    /// random), whose unoccluded contributions choose the k that get shadow rays (every VPL
+    /// when the iteration has at most two such runs); 1 to 1024 [default: 64 for
     /// pir-mis, 128 otherwise; pir-bdpt: at most 32 where it draws one VPL, see
     /// --gather-samples].
     #[arg(long, value_name = "M")]
