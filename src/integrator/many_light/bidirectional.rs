@@ -639,6 +639,10 @@ mod tests {
         /// Connections whose weight [`draw_weight_agrees`] compared with the draw's, on this
         /// test's thread.
         static DRAW_WEIGHTS_CHECKED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+        /// At glossy receivers of the camera's first vertex and Lambertian VPLs: the
+        /// connections compared, and the sums of |ln(estimate / weight)| of the draw's
+        /// estimate with the lobe's sampling density and with a Lambertian receiver's.
+        static LOBE_DRAWS: std::cell::Cell<(usize, f64, f64)> = const { std::cell::Cell::new((0, 0.0, 0.0)) };
     }
 
     /// Where the draw's estimate of the weight is exact (two Lambertian ends, the camera's
@@ -646,7 +650,9 @@ mod tests {
     /// one without it times `weight`: [`VplLanes`]' kernel with [`draw_term`] and
     /// [`DrawWeights::of`] against [`connection_weight`], to a relative 10⁻⁴ down to the
     /// smallest weight the draw takes ([`MIN_DRAW_WEIGHT`], below which it is that). Elsewhere
-    /// it is a weight in [`MIN_DRAW_WEIGHT`], 1].
+    /// it is a weight in [`MIN_DRAW_WEIGHT`], 1]; at a glossy receiver of the first vertex with
+    /// its lobe ([`Lobe`]), its error is recorded in `LOBE_DRAWS`, with that of the same
+    /// estimate without the lobe's density.
     fn draw_weight_agrees(
         end: &CameraEnd,
         x: Vec3,
@@ -657,6 +663,7 @@ mod tests {
         weight: f32,
     ) {
         use super::super::lanes::{EstimateReceiver, MIN_DRAW_WEIGHT, VplLanes};
+        use super::super::lobe::Lobe;
         let lanes = VplLanes::new(
             std::slice::from_ref(vpl),
             std::slice::from_ref(emitting),
@@ -690,6 +697,23 @@ mod tests {
             let (lo, hi) = (MIN_DRAW_WEIGHT * (1.0 - 1e-4), 1.0 + 1e-6);
             assert!((lo..=hi).contains(&estimated), "draw {estimated}, weight {weight}");
         }
+        // A glossy receiver's draw with its lobe: the weight's estimate is the ratio of the
+        // estimates with and without the weights, both with the lobe.
+        let Some(lobe) = Lobe::of(end.bsdf, g.frame.n, end.wo) else { return };
+        if !(lambertian(by) && end.rank == 1 && !end.fewer && weight > MIN_DRAW_WEIGHT) {
+            return;
+        }
+        let lobed = |weights| EstimateReceiver { lobe: Some(&lobe), ..r(weights) };
+        let (with, without) =
+            (lanes.estimates_for(0, &lobed(Some(weights)))[0], lanes.estimates_for(0, &lobed(None))[0]);
+        if without <= 0.0 || with <= MIN_DRAW_WEIGHT * without {
+            return;
+        }
+        let error = |e: f32| (e as f64 / weight as f64).ln().abs();
+        LOBE_DRAWS.with(|c| {
+            let (n, lobe, plain) = c.get();
+            c.set((n + 1, lobe + error(with / without), plain + error(estimated)))
+        });
     }
 
     /// [`weights`] for light from `source`.
@@ -1083,6 +1107,16 @@ mod tests {
         );
         let draws = DRAW_WEIGHTS_CHECKED.with(|c| c.get());
         assert!(draws > 1000, "the draw's weight checked against {draws} connections only");
+        // At glossy receivers the lobe's sampling density brings the draw's weight closer to
+        // the connection's: BSDF sampling takes the paths in the lobe, and a Lambertian
+        // receiver's density misses that by the lobe's peak.
+        let (n, lobe, plain) = LOBE_DRAWS.with(|c| c.get());
+        let (lobe, plain) = (lobe / n as f64, plain / n as f64);
+        eprintln!(
+            "glossy receivers: {n} draws, mean |ln(estimate / weight)| {lobe:.3} with the lobe, {plain:.3} without"
+        );
+        assert!(n > 200, "only {n} glossy receivers' draws compared");
+        assert!(lobe < 0.5 * plain, "mean |ln(estimate / weight)| {lobe} with the lobe, {plain} without");
     }
 
     /// Makes z[j] a near-specular vertex ([`super::super::config::near_specular`]) that

@@ -401,6 +401,9 @@ impl VplLanes {
             }
         }
         let mut value = g;
+        // The receiver's sampling density towards each light over a Lambertian one's (1
+        // without a lobe), for the weights below.
+        let mut sampling = [1.0; W];
         if let Some(lobe) = r.lobe {
             let m = lobe.mirror();
             let diffuse = lobe.diffuse();
@@ -422,14 +425,16 @@ impl VplLanes {
                 let cos_x = if TRANSMITS { x_ns[l].abs() } else { x_ns[l] };
                 let lobe_term = max(peak * dist2[l] * dist / (t * t * cos_x), f32::MIN_POSITIVE);
                 value[l] = diffuse * g[l] + g[l] * lobe_term;
+                sampling[l] = lobe.sampling(lobe_term);
             }
         }
         if let Some(wt) = r.weights.filter(|_| plain.is_none()) {
             // The weight after the lobe: 1 / (1 + h), h = (cos_x^s cos_y^g T_y L + cos_y^s
             // cos_x^g C_x) / d⁴ (the cosines times |d|), with the same bound and care for
-            // overflow as above.
+            // overflow as above; at a glossy receiver the first term times its sampling
+            // density over a Lambertian one's (BSDF sampling takes the paths in its lobe).
             for l in 0..W {
-                let light = terms[l] * wt.light;
+                let light = terms[l] * wt.light * sampling[l];
                 let h = (x_ns[l] * p_ng[l] * light + p_ns[l] * x_ng[l] * wt.camera) / (dist2[l] * dist2[l]);
                 let h = min(if TRANSMITS { h.abs() } else { h }, 1.0 / MIN_DRAW_WEIGHT);
                 let weighted = max(value[l] / (1.0 + h), min(value[l], f32::MIN_POSITIVE));

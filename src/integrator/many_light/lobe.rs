@@ -50,6 +50,10 @@ pub struct Lobe {
     scale: f32,
     /// ρ_d / π, the Lambertian part of f.
     diffuse: f32,
+    /// 1 − p_s and π p_s / ρ_s, p_s the chance that BSDF sampling takes the lobe: the
+    /// receiver's sampling density towards a light is about cos θ_i / π · (the first + the
+    /// second · the lobe's f), ([`Lobe::sampling`]).
+    sampling: (f32, f32),
 }
 
 impl Lobe {
@@ -75,12 +79,29 @@ impl Lobe {
         // shapes the draw: G1(ω_o) takes the lobe to zero there.)
         let scale = rho_s / (PI * cos_o.max(COS_O_FLOOR));
         let diffuse = albedo.max(Vec3::ZERO).element_sum() / (3.0 * PI);
+        // (The glossy BSDF's choice of lobe, [`crate::material::glossy`]; a metal has only
+        // the lobe.)
+        let p_s = rho_s / (rho_s + diffuse * PI);
+        let sampling = (1.0 - p_s, PI * p_s / rho_s);
         (scale.is_finite() && diffuse.is_finite()).then(|| Lobe {
             mirror: (2.0 * cos_o * ns - wo).normalize_or(ns),
             alpha: Ggx::new(roughness).alpha(),
             scale,
             diffuse,
+            sampling,
         })
+    }
+
+    /// The receiver's BSDF sampling density towards a light whose lobe's f (the specular part,
+    /// bounded as [`Lobe::bound`] over cos θ_i) is `f_lobe`, over that of a Lambertian
+    /// receiver, cos θ_i / π: 1 − p_s + π p_s f_lobe / ρ_s. The lobe is sampled with
+    /// probability p_s and density G1(ω_o) D / (4 cos θ_o) ≤ f_lobe cos θ_i / ρ_s, so this is
+    /// about the density where ω_i is near the lobe's peak (G1 ≈ 1) and bounds it elsewhere:
+    /// an estimate for the draw's weights ([`super::bidirectional::DrawWeights`]), which only
+    /// shapes the draw.
+    #[inline(always)]
+    pub fn sampling(&self, f_lobe: f32) -> f32 {
+        self.sampling.0 + self.sampling.1 * f_lobe
     }
 
     /// The unit mirror direction r.
