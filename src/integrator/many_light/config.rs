@@ -82,7 +82,8 @@ pub enum Gather {
     /// sum ([`light_tree`](super::light_tree), [`tree_gather`](super::tree_gather)).
     Tree { samples: usize },
     /// From `samples` lights picked per receiver, in proportion to their unoccluded
-    /// contributions, among a random window of `candidates` lights; unbiased for the same sum
+    /// contributions, among a random window of at most about `candidates` lights (a run of
+    /// light paths, [`window`](super::window)); unbiased for the same sum
     /// ([`resample`](super::resample)).
     Resampled { candidates: usize, samples: usize },
 }
@@ -127,7 +128,8 @@ pub fn glossy_vertex(b: &Bsdf) -> bool {
 
 /// What a sampled gather draws at one receiver where that is fewer than its own counts
 /// (`--gather-samples`, `--gather-candidates`): `samples` lights (k), for `--gather resample`
-/// picked among a window of `candidates` (m); each at least one and at most the gather's own.
+/// picked among a window of about `candidates` (m); each at least one and at most the gather's
+/// own.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Draws {
     pub samples: usize,

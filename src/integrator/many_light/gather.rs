@@ -14,7 +14,8 @@
 //! drawn per receiver ([`super::tree_gather`]): each drawn light's contribution (the same
 //! function as above) divided by k and by its probability, one shadow ray each. With the
 //! resampled gather ([`super::Gather::Resampled`]) it is estimated from k lights picked among a
-//! window of m candidates by a cheap estimate of their unoccluded light ([`super::resample`]).
+//! window of about m candidates by a cheap estimate of their unoccluded light
+//! ([`super::resample`]).
 
 use glam::Vec3;
 

@@ -82,7 +82,8 @@ impl Lobe {
         // (The glossy BSDF's choice of lobe, [`crate::material::glossy`]; a metal has only
         // the lobe.)
         let p_s = rho_s / (rho_s + diffuse * PI);
-        let sampling = (1.0 - p_s, PI * p_s / rho_s);
+        // (π p_s / ρ_s, without dividing by a ρ_s that may be subnormal.)
+        let sampling = (1.0 - p_s, PI / (rho_s + diffuse * PI));
         (scale.is_finite() && diffuse.is_finite()).then(|| Lobe {
             mirror: (2.0 * cos_o * ns - wo).normalize_or(ns),
             alpha: Ggx::new(roughness).alpha(),

@@ -1,5 +1,5 @@
 //! The resampled gather: a receiver estimates the unoccluded contribution of a random window
-//! of m candidate lights (cheap: an eight-wide kernel, no ray), then evaluates and traces
+//! of about m candidate lights (cheap: an eight-wide kernel, no ray), then evaluates and traces
 //! shadow rays to only k of them, drawn in proportion to those estimates.
 //!
 //! Two stages, each unbiased given the one before, so the estimate is unbiased for the

@@ -12,10 +12,10 @@
 //! **Why runs of light paths, aligned and of a power of two.** With Sobol points an
 //! iteration's light paths are the points of one scrambled sequence, path k its point k
 //! ([`crate::sampling::Streams::light_paths`]), and every aligned block of 2^j points is a
-//! net ([`crate::sampling::sobol`]): its paths leave the emitters as evenly as an
+//! net (`src/sampling/sobol.rs`): its paths leave the emitters as evenly as an
 //! iteration of 2^j paths does. Any other subset is less even: before this rule a window was
 //! about m candidates from a uniform start, and in the diffuse corner (64×64, 512 iterations,
-//! seeds 1–3) a window of 36 candidates among 256 paths' 282 VPLs gave 1.39–1.59e-5 in
+//! seeds 1–3) a window of 36 candidates among 256 paths' 282 VPLs gave 1.21–1.59e-5 in
 //! relative MSE where every VPL of 32 paths gave 0.73–0.99e-5 for the same cost; with
 //! independent numbers the two were level (4.9e-5 and 5.0e-5), so the difference is the
 //! stratification alone (`docs/results.md`, "Windows of aligned light paths"). Aligned runs
@@ -83,19 +83,19 @@ impl LightPaths {
             return n.max(1);
         }
         // m / y paths, y = lights / n; the largest power of two at most that, at least 1.
-        let fit = (m.max(1) as f64 * n as f64 / lights as f64).max(1.0);
-        1 << fit.log2().floor() as u32
+        let fit = (m.max(1) as u128 * n as u128 / lights as u128).max(1);
+        1 << fit.ilog2().min(usize::BITS - 2)
     }
 
     /// A window of runs of `g` paths (a power of two): one of the W = ⌈N / g⌉ aligned runs,
     /// uniformly, or all the lights where W ≤ 2; one number of `sampler`, always.
     pub fn draw(&self, g: usize, sampler: &mut Sampler) -> Window {
-        let runs = self.paths().div_ceil(g.max(1));
+        let g = g.max(1);
+        let runs = self.paths().div_ceil(g);
         let run = uniform_index(runs, sampler);
         if runs <= 2 {
             return Window::all(self.lights());
         }
-        let g = g.max(1);
         let (first, last) = (run * g, ((run + 1) * g).min(self.paths()));
         Window { lights: self.start(first)..self.start(last), scale: runs as f32 }
     }
@@ -117,12 +117,17 @@ impl Window {
         Window { lights: 0..lights, scale: 1.0 }
     }
 
-    /// The chunks of `lanes` lights that hold the window's lights, each with the lanes that
+    /// The chunks of `LANES` lights that hold the window's lights, each with the lanes that
     /// are in the window: the first and last chunk may hold lights of other windows.
     pub fn chunks<const LANES: usize>(&self) -> impl Iterator<Item = (usize, [bool; LANES])> + '_ {
         let (lo, hi) = (self.lights.start, self.lights.end);
-        (lo / LANES..hi.div_ceil(LANES))
-            .map(move |c| (c, std::array::from_fn(|l| (lo..hi).contains(&(c * LANES + l)))))
+        (lo / LANES..hi.div_ceil(LANES)).map(move |c| (c, self.inside(c * LANES)))
+    }
+
+    /// Which of the `N` lights from `first` on are in the window.
+    #[inline]
+    pub fn inside<const N: usize>(&self, first: usize) -> [bool; N] {
+        std::array::from_fn(|l| self.lights.contains(&(first + l)))
     }
 }
 
@@ -151,7 +156,7 @@ mod tests {
         let lp = paths(100);
         let lights = lp.lights();
         assert!(lights > 100);
-        for g in [1, 4, 16, 32] {
+        for g in [1, 4, 16, 32, 64, 128] {
             let runs = 100usize.div_ceil(g);
             let mut hits = vec![0usize; lights];
             let mut drawn = std::collections::BTreeMap::new();
