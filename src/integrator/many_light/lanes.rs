@@ -90,53 +90,9 @@ struct Chunk {
     /// The light's side of the connection weight in the estimates
     /// ([`super::bidirectional::draw_term`]; zeros where the gather does not weigh).
     weight_terms: Vec4,
-    /// A glossy light's lobe for the estimates ([`VplLobes`]).
-    lobes: VplLobes,
 }
 
-/// The lobes of glossy lights ([`Lobe`] of their BSDF for their incoming direction, by
-/// reciprocity the lobe they reflect into), for the resampled gather's estimates: a light's
-/// power there takes the BSDF's reflectance ρ̄ (channel mean) for π f, which a lobe's
-/// f misses by far both ways; with its lobe, π f ≈ ρ_d + π f_lobe, f_lobe its bound towards
-/// the receiver ([`Lobe::bound`] over the light's cosine), so the power is scaled by
-/// (ρ_d / π + f_lobe) π / ρ̄. Lanes without a lobe scale by exactly 1.
-#[derive(Clone, Copy)]
-struct VplLobes {
-    /// 1 where the light has a lobe, else 0.
-    glossy: Vec4,
-    mirror: [Vec4; 3],
-    inv_alpha2: Vec4,
-    /// The lobe's peak ([`Lobe::peak`]) times π / ρ̄.
-    peak: Vec4,
-    /// ρ_d / π times π / ρ̄.
-    diffuse: Vec4,
-}
-
-impl VplLobes {
-    const NONE: VplLobes = VplLobes {
-        glossy: Vec4::ZERO,
-        mirror: [Vec4::ZERO; 3],
-        inv_alpha2: Vec4::ONE,
-        peak: Vec4::ZERO,
-        diffuse: Vec4::ONE,
-    };
-
-    /// Lane `i` from the lobe `lobe` of a light of mean reflectance `rho` (none: no lobe).
-    fn set(&mut self, i: usize, lobe: Option<&Lobe>, rho: f32) {
-        let Some(lobe) = lobe.filter(|_| rho > 0.0 && rho.is_finite()) else { return };
-        let scale = std::f32::consts::PI / rho;
-        let m = lobe.mirror();
-        for k in 0..3 {
-            self.mirror[k][i] = m[k];
-        }
-        self.glossy[i] = 1.0;
-        self.inv_alpha2[i] = lobe.inv_alpha2();
-        self.peak[i] = lobe.peak() * scale;
-        self.diffuse[i] = lobe.diffuse() * scale;
-    }
-}
-
-/// The range of the scale of a glossy light's estimate by its lobe ([`VplLobes`]): at least
+/// The range of the scale of a glossy light's estimate by its lobe ([`PairLobes`]): at least
 /// 2⁻²⁰, so that a light that contributes keeps a positive estimate, and at most 2²⁰, so
 /// that it stays finite (a non-finite estimate is left out).
 const LOBE_SCALE: (f32, f32) = (1.0 / 1_048_576.0, 1_048_576.0);
@@ -152,7 +108,6 @@ const EMPTY_CHUNK: Chunk = Chunk {
     any_depth: Vec4::INFINITY,
     transmits: Vec4::ZERO,
     weight_terms: Vec4::ZERO,
-    lobes: VplLobes::NONE,
 };
 
 /// A Lambertian receiver in radiance mode, the other end of every lane.
@@ -210,15 +165,43 @@ struct PairLanes {
     any_lobe: bool,
 }
 
-/// [`VplLobes`] of two consecutive chunks, as [`PairLanes`] (kept apart from them: read only
-/// where a pair has a glossy light).
+/// The lobes of the glossy lights of two consecutive chunks, lane by lane as [`PairLanes`]
+/// (kept apart from them: read only where a pair has a glossy light), for the resampled
+/// gather's estimates. A light's power there takes the BSDF's reflectance ρ̄ (channel mean)
+/// for π f, which a lobe's f misses by far both ways; with its lobe ([`Lobe`] of its BSDF for
+/// its incoming direction, by reciprocity the lobe it reflects into), π f ≈ ρ_d + π f_lobe,
+/// f_lobe its bound towards the receiver ([`Lobe::bound`] over the light's cosine), so the
+/// power is scaled by (ρ_d / π + f_lobe) π / ρ̄. Lanes without a lobe scale by exactly 1.
 #[derive(Clone, Copy)]
 struct PairLobes {
+    /// 1 where the light has a lobe, else 0.
     glossy: [f32; 8],
     mirror: [[f32; 8]; 3],
     inv_alpha2: [f32; 8],
+    /// The lobe's peak ([`Lobe::peak`]) times π / ρ̄.
     peak: [f32; 8],
+    /// ρ_d / π times π / ρ̄.
     diffuse: [f32; 8],
+}
+
+impl PairLobes {
+    /// The lanes of chunks `c` and `c + 1`, lights 4c to 4c + 7, from each light's lobe and
+    /// mean reflectance ρ̄ (none past the last light or where it has no lobe).
+    fn new(lobes: &[Option<(Lobe, f32)>], c: usize) -> Self {
+        let lane = |l: usize| lobes.get(c * LANES + l).copied().flatten();
+        let scaled = |l: usize, f: fn(&Lobe) -> f32, none: f32| {
+            lane(l).map_or(none, |(lobe, rho)| f(&lobe) * (std::f32::consts::PI / rho))
+        };
+        PairLobes {
+            glossy: std::array::from_fn(|l| if lane(l).is_some() { 1.0 } else { 0.0 }),
+            mirror: std::array::from_fn(|k| {
+                std::array::from_fn(|l| lane(l).map_or(0.0, |(o, _)| o.mirror()[k]))
+            }),
+            inv_alpha2: std::array::from_fn(|l| lane(l).map_or(1.0, |(o, _)| o.inv_alpha2())),
+            peak: std::array::from_fn(|l| scaled(l, Lobe::peak, 0.0)),
+            diffuse: std::array::from_fn(|l| scaled(l, Lobe::diffuse, 1.0)),
+        }
+    }
 }
 
 /// Lanes `x` then `y`, eight wide.
@@ -227,23 +210,10 @@ fn join(x: Vec4, y: Vec4) -> [f32; 8] {
     std::array::from_fn(|l| if l < LANES { x[l] } else { y[l - LANES] })
 }
 
-impl PairLobes {
-    /// The pair of chunks `c` and `c + 1` of `chunks` (an empty chunk past the last).
-    fn new(chunks: &[Chunk], c: usize) -> Self {
-        let (a, b) = (&chunks[c].lobes, &chunks.get(c + 1).unwrap_or(&EMPTY_CHUNK).lobes);
-        PairLobes {
-            glossy: join(a.glossy, b.glossy),
-            mirror: std::array::from_fn(|k| join(a.mirror[k], b.mirror[k])),
-            inv_alpha2: join(a.inv_alpha2, b.inv_alpha2),
-            peak: join(a.peak, b.peak),
-            diffuse: join(a.diffuse, b.diffuse),
-        }
-    }
-}
-
 impl PairLanes {
-    /// The pair of chunks `c` and `c + 1` of `chunks` (an empty chunk past the last).
-    fn new(chunks: &[Chunk], c: usize) -> Self {
+    /// The pair of chunks `c` and `c + 1` of `chunks` (an empty chunk past the last), with a
+    /// glossy light among them where `any_lobe`.
+    fn new(chunks: &[Chunk], c: usize, any_lobe: bool) -> Self {
         let (a, b) = (&chunks[c], chunks.get(c + 1).unwrap_or(&EMPTY_CHUNK));
         PairLanes {
             p: std::array::from_fn(|k| join(a.vpl.p[k], b.vpl.p[k])),
@@ -254,7 +224,7 @@ impl PairLanes {
             transmits: join(a.transmits, b.transmits),
             any_transmits: (a.transmits + b.transmits).max_element() > 0.0,
             weight_terms: join(a.weight_terms, b.weight_terms),
-            any_lobe: (a.lobes.glossy + b.lobes.glossy).max_element() > 0.0,
+            any_lobe,
         }
     }
 }
@@ -336,6 +306,8 @@ impl VplLanes {
         assert_eq!(vpls.len(), power.len());
         assert!(weight_terms.is_empty() || weight_terms.len() == vpls.len());
         let mut chunks = vec![EMPTY_CHUNK; vpls.len().div_ceil(LANES)];
+        // Each light's lobe with its BSDF's mean reflectance, where it has one ([`PairLobes`]).
+        let mut lobes: Vec<Option<(Lobe, f32)>> = vec![None; vpls.len()];
         for (j, (v, e)) in vpls.iter().zip(emitting).enumerate() {
             let (c, i) = (&mut chunks[j / LANES], j % LANES);
             c.vpl.set(i, v);
@@ -351,20 +323,24 @@ impl VplLanes {
             if c.kind[i] != LaneKind::Empty {
                 c.power[i] = power[j];
                 c.any_depth[i] = v.depth as f32;
-                c.transmits[i] = if e.bsdf().transmits() { 1.0 } else { 0.0 };
-                c.weight_terms[i] = weight_terms.get(j).copied().unwrap_or(0.0);
                 let bsdf = e.bsdf();
+                c.transmits[i] = if bsdf.transmits() { 1.0 } else { 0.0 };
+                c.weight_terms[i] = weight_terms.get(j).copied().unwrap_or(0.0);
                 let rho = bsdf.reflectance().max(Vec3::ZERO).element_sum() / 3.0;
-                c.lobes.set(i, Lobe::of(bsdf, v.frame.n, v.w_in).as_ref(), rho);
+                lobes[j] = Lobe::of(bsdf, v.frame.n, v.w_in)
+                    .filter(|_| rho > 0.0 && rho.is_finite())
+                    .map(|o| (o, rho));
             }
         }
         let ends = vpls.iter().map(|v| OffsetPoint::new(v.p, v.ng)).collect();
-        let pairs: Vec<PairLanes> = (0..chunks.len()).map(|c| PairLanes::new(&chunks, c)).collect();
-        let pair_lobes = if pairs.iter().any(|p| p.any_lobe) {
-            (0..chunks.len()).map(|c| PairLobes::new(&chunks, c)).collect()
+        let pair_lobes: Vec<PairLobes> = if lobes.iter().any(Option::is_some) {
+            (0..chunks.len()).map(|c| PairLobes::new(&lobes, c)).collect()
         } else {
             Vec::new()
         };
+        let pairs = (0..chunks.len())
+            .map(|c| PairLanes::new(&chunks, c, pair_lobes.get(c).is_some_and(|o| o.glossy.contains(&1.0))))
+            .collect();
         VplLanes { chunks, ends, pairs, pair_lobes }
     }
 
@@ -532,7 +508,7 @@ impl VplLanes {
             }
         }
         if q.any_lobe {
-            // Glossy lights by their lobes ([`VplLobes`]): the power times (ρ_d / π + f_lobe)
+            // Glossy lights by their lobes ([`PairLobes`]): the power times (ρ_d / π + f_lobe)
             // π / ρ̄, f_lobe = peak / (t² cos_y) as the receiver's lobe above (t |d| here,
             // from the light's mirror direction and the way to the receiver, −d).
             let o = &self.pair_lobes[chunk];
@@ -907,7 +883,7 @@ mod tests {
         (vpls, emitting, lanes)
     }
 
-    /// A glossy light's estimate follows its lobe ([`VplLobes`]): at white Lambertian
+    /// A glossy light's estimate follows its lobe ([`PairLobes`]): at white Lambertian
     /// receivers, over glossy lights of α 0.05 to 0.5 with the tree's power (light arriving
     /// near grazing, where the bound is loosest), the log of the estimate over the
     /// contribution (channel sum) spreads at most 0.7 times as much as it did with the light

@@ -83,7 +83,8 @@ impl LightPaths {
             return n.max(1);
         }
         // m / y paths, y = lights / n; the largest power of two at most that, at least 1.
-        let fit = (m.max(1) as u128 * n as u128 / lights as u128).max(1);
+        // (In 64 bits: this runs per receiver, and a 128-bit division is a library call.)
+        let fit = ((m.max(1) as u64).saturating_mul(n as u64) / lights as u64).max(1);
         1 << fit.ilog2().min(usize::BITS - 2)
     }
 
