@@ -68,6 +68,7 @@ fn check(scene_path: &std::path::Path, reference_path: &std::path::Path, spp: u6
         snapshot_at: vec![quarter],
         // Independent iterations: the standard errors below come from their spread.
         sampler: SamplerKind::Independent,
+        ..Job::default()
     };
     let r = job.run(&scene, &mut PathTracer);
     assert_eq!(r.stats.dropped, 0, "{scene_rel}: NaN/Inf samples");

@@ -69,6 +69,7 @@ fn run(c: &Case, method: &str, integrator: &mut dyn Integrator, iterations: u64)
         snapshot_at: vec![iterations / 4],
         // Independent iterations: the standard errors below come from their spread.
         sampler: SamplerKind::Independent,
+        ..Job::default()
     };
     let r = job.run(&c.scene, integrator);
     assert_eq!(r.stats.dropped, 0, "{}: NaN/Inf samples", c.name);

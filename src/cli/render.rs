@@ -216,6 +216,12 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &
         );
     }
     eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
+    if renderer.emitters().is_spatial() {
+        eprintln!(
+            "pir: next-event estimation picks among the {} emitting triangles by their importance at the receiver (--emitter-choice)",
+            renderer.emitters().len()
+        );
+    }
     eprintln!("pir: accelerator {}, {} walker", renderer.accel_description(), renderer.walker());
     eprintln!("pir: estimated peak memory {memory} (see --max-memory)");
     if !Backend::Embree.is_available() {

@@ -178,7 +178,7 @@ impl Lanes {
         sampler: &mut Sampler,
     ) {
         let (u_select, u) = emitter_numbers(sampler);
-        let es = ctx.emitters.sample(ctx.scene, u_select, u);
+        let es = ctx.emitters.sample_from(ctx.scene, sp.p, u_select, u);
         let (_, u) = bsdf_numbers(sampler);
         self.push(slot, sp, wo, albedo, beta, &es, u);
     }
@@ -476,17 +476,22 @@ mod tests {
                     1 => Vec3::new(-0.0, -0.0, -1.0),
                     _ => unit(&mut rng),
                 };
+                let radiance = match k % 23 {
+                    0 => Vec3::new(f32::INFINITY, 1.0, 1.0),
+                    _ => Vec3::new(1.0 + rng.next_f32(), 2.0, 3.0 * rng.next_f32()),
+                };
+                let pdf_area = match k % 29 {
+                    0 => 0.0,
+                    1 => f32::INFINITY,
+                    _ => 0.1 + rng.next_f32(),
+                };
                 let es = EmitterSample {
                     point: EmitterPoint { p: q, ng: nq, prim: 0 },
-                    radiance: match k % 23 {
-                        0 => Vec3::new(f32::INFINITY, 1.0, 1.0),
-                        _ => Vec3::new(1.0 + rng.next_f32(), 2.0, 3.0 * rng.next_f32()),
-                    },
-                    pdf_area: match k % 29 {
-                        0 => 0.0,
-                        1 => f32::INFINITY,
-                        _ => 0.1 + rng.next_f32(),
-                    },
+                    radiance,
+                    pdf_area,
+                    // (Next-event estimation's density differs from the light paths' where
+                    // it picks by importance; the lanes take the former, as the scalar code.)
+                    pdf_start: if k % 3 == 0 { 2.0 * pdf_area } else { pdf_area },
                 };
                 let u =
                     if k % 17 == 0 { Vec2::splat(0.5) } else { Vec2::new(rng.next_f32(), rng.next_f32()) };

@@ -169,7 +169,7 @@ pub fn connect_emitters_at(
     counters: &mut Counters,
 ) -> Option<Connection> {
     let es = if ctx.emitters.is_plain() {
-        ctx.emitters.sample(ctx.scene, u_select, u)
+        ctx.emitters.sample_from(ctx.scene, sp.p, u_select, u)
     } else {
         match ctx.emitters.choose_from(ctx.scene, sp.p, u_select, u) {
             NeeChoice::Choice(Choice::Area(es)) => es,
@@ -210,7 +210,14 @@ pub fn connect_point(sp: &SurfacePoint, bsdf: &Bsdf, wo: Vec3, es: &EmitterSampl
     let pdf_light = es.pdf_area * dist2 / cos_light;
     Some(Connection {
         shadow: Some(shadow_ray(sp.p, sp.ng, es.point.p, es.point.ng)),
-        sample: LightSample { pdf_light, pdf_bsdf, cos_light, dist2, wi, emission: None },
+        sample: LightSample {
+            pdf_light,
+            pdf_bsdf,
+            cos_light,
+            dist2,
+            wi,
+            emission: (es.pdf_area != es.pdf_start).then(|| cone_emission(es.pdf_start, pdf_light)),
+        },
         scale: f * es.radiance,
         over: pdf_light,
     })
@@ -220,7 +227,7 @@ pub fn connect_point(sp: &SurfacePoint, bsdf: &Bsdf, wo: Vec3, es: &EmitterSampl
 /// it counts where its first hit is one of the sphere's triangles, seen from the front, and is
 /// wasted (`None`) where it misses them or hits anything else first (another emitter's light
 /// is its own technique's). Its density is the cone's for every direction that reaches the
-/// triangles, as [`Emitters::cone_pdf`](crate::light::Emitters::cone_pdf) gives it to the
+/// triangles, as [`Emitters::nee_pdf`](crate::light::Emitters::nee_pdf) gives it to the
 /// emission that BSDF sampling finds there. The closest-hit query settles its visibility here.
 #[inline(never)]
 fn connect_cone(
@@ -403,7 +410,7 @@ pub fn emission_weighted(
         return Vec3::ZERO;
     }
     let dist2 = (sp.p - how.from).length_squared();
-    let (pdf_light, emission) = match ctx.emitters.cone_pdf(sp.prim, how.from) {
+    let (pdf_light, emission) = match ctx.emitters.nee_pdf(sp.prim, how.from, dist2, cos_light) {
         None => (ctx.emitters.pdf_area(sp.prim) * dist2 / cos_light, None),
         Some(pdf) => (pdf, Some(cone_emission(ctx.emitters.pdf_area(sp.prim), pdf))),
     };

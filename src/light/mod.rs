@@ -13,7 +13,7 @@
 //! power its primitives' (one analytic sphere, or the triangles of a tessellated one, among
 //! which a table of its own picks by power, as the scene's table would). Next-event estimation from outside it samples the cone of the exact sphere instead
 //! of a point ([`Emitters::choose_from`], [`sphere`]); every MIS weight that uses the density
-//! of next-event estimation asks [`Emitters::cone_pdf`] for it. Light paths start on its
+//! of next-event estimation asks [`Emitters::nee_pdf`] for it. Light paths start on its
 //! triangles by area, as from any others. A scene without spheres builds the table it always
 //! did.
 //!
@@ -25,10 +25,12 @@ pub mod directional;
 pub mod envmap;
 pub mod kind;
 pub mod point;
+pub mod spatial;
 pub mod sphere;
 pub mod spot;
 
 pub use kind::{Emission, Light, LightSample};
+pub use spatial::{EmitterChoice, Spatial};
 pub use sphere::SphereLight;
 
 use glam::{Vec2, Vec3};
@@ -52,6 +54,9 @@ pub struct Emitters {
     light_pmf: Vec<f32>,
     /// The indices (into `lights`) of the environments, which escaping rays see.
     environments: Vec<usize>,
+    /// Next-event estimation's choice by importance at the receiver, where the emitters are
+    /// a few triangles ([`spatial`]); `None`: by power, as the light paths start.
+    spatial: Option<Spatial>,
 }
 
 /// An emitting sphere's entry of the table.
@@ -109,6 +114,10 @@ pub struct EmitterSample {
     pub radiance: Vec3,
     /// Probability density per unit area of having sampled this point.
     pub pdf_area: f32,
+    /// The light paths' density per unit area of the point ([`Emitters::pdf_area`]): the
+    /// same as `pdf_area` but where next-event estimation picked it by its importance
+    /// ([`Emitters::sample_from`]).
+    pub pdf_start: f32,
 }
 
 impl Emitters {
@@ -174,7 +183,16 @@ impl Emitters {
         let first_light = prims.len() + groups.len();
         let light_pmf = (0..lights.len()).map(|k| dist.pmf(first_light + k)).collect();
         let environments = (0..lights.len()).filter(|&k| lights[k].is_environment()).collect();
-        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments })
+        let spatial = if lights.is_empty() && groups.is_empty() {
+            Spatial::new(prims.iter().enumerate().map(|(i, &prim)| {
+                let corner = |uv: Vec2| scene.point_at(prim, uv);
+                let (a, ng) = corner(Vec2::ZERO);
+                ([a, corner(Vec2::X).0, corner(Vec2::Y).0], ng, dist.pmf(i))
+            }))
+        } else {
+            None
+        };
+        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, spatial })
     }
 
     /// The lights other than triangles.
@@ -217,13 +235,35 @@ impl Emitters {
         self.groups[group].sphere.prims.contains(&prim)
     }
 
-    /// The solid-angle density with which next-event estimation from `from` draws the
-    /// direction towards a point of triangle `prim`, where it samples a sphere's cone (the
-    /// triangle is a sphere's and `from` is outside it); `None` where it picks points by
-    /// area ([`Emitters::pdf_area`]). Every MIS weight that needs the density of next-event
-    /// estimation asks here first.
+    /// Whether next-event estimation picks among the triangles by their importance at the
+    /// receiver ([`spatial`], [`Emitters::sample_from`]).
     #[inline]
-    pub fn cone_pdf(&self, prim: u32, from: Vec3) -> Option<f32> {
+    pub fn is_spatial(&self) -> bool {
+        self.spatial.is_some()
+    }
+
+    /// The emitters with next-event estimation's choice as `choice` says: by power alone
+    /// ([`EmitterChoice::Power`]) drops the choice by importance.
+    pub fn with_choice(mut self, choice: EmitterChoice) -> Self {
+        if choice == EmitterChoice::Power {
+            self.spatial = None;
+        }
+        self
+    }
+
+    /// The solid-angle density with which next-event estimation from `from` draws the
+    /// direction towards a point of triangle `prim` at squared distance `dist2` whose cosine
+    /// towards `from` is `cos_e`, where it differs from the light paths' area density
+    /// ([`Emitters::pdf_area`], times `dist2 / cos_e`): where it samples a sphere's cone (the
+    /// triangle is a sphere's and `from` is outside it), or picks the triangle by its
+    /// importance at `from` ([`spatial`]); `None` where it picks points as the light paths
+    /// do. Every MIS weight that needs the density of next-event estimation asks here first.
+    #[inline]
+    pub fn nee_pdf(&self, prim: u32, from: Vec3, dist2: f32, cos_e: f32) -> Option<f32> {
+        if let Some(s) = &self.spatial {
+            let i = self.prims.binary_search(&prim).ok()?;
+            return Some(self.spatial_pdf_area(i, s.pmf(from, i)) * dist2 / cos_e);
+        }
         if self.groups.is_empty() {
             return None;
         }
@@ -252,6 +292,27 @@ impl Emitters {
         self.area_sample(scene, self.prims[i], rest, u.y)
     }
 
+    /// [`Emitters::sample`] for next-event estimation at `x`: where the emitters are a few
+    /// triangles, the triangle is picked by its importance at `x` ([`spatial`]) from the same
+    /// numbers, reused the same way, and `pdf_area` is that choice's.
+    ///
+    /// Plain emitters only ([`Emitters::is_plain`]): otherwise use [`Emitters::choose_from`].
+    #[inline(always)]
+    pub fn sample_from(&self, scene: &Scene, x: Vec3, u_select: f32, u: Vec2) -> EmitterSample {
+        let Some(s) = &self.spatial else { return self.sample(scene, u_select, u) };
+        let (i, pmf, rest) = s.pick(x, refined(u.x, u_select));
+        let mut es = self.area_sample(scene, self.prims[i], rest, u.y);
+        es.pdf_area = self.spatial_pdf_area(i, pmf);
+        es
+    }
+
+    /// The area density of a point of triangle `i` of the power table picked with
+    /// probability `pmf` (its power table's density rescaled: one area for both).
+    #[inline(always)]
+    fn spatial_pdf_area(&self, i: usize, pmf: f32) -> f32 {
+        self.pdf_area[self.prims[i] as usize] * (pmf / self.dist.pmf(i))
+    }
+
     /// A uniform point on emitter `prim` (a triangle or an analytic sphere,
     /// [`Scene::uniform_point`]) from what is left of the first number,
     /// `rest`, and the second, `v`.
@@ -259,10 +320,12 @@ impl Emitters {
     fn area_sample(&self, scene: &Scene, prim: u32, rest: f64, v: f32) -> EmitterSample {
         let b = scene.uniform_point(prim, Vec2::new(to_unit_f32(rest), v));
         let (p, ng) = scene.point_at(prim, b);
+        let pdf_area = self.pdf_area[prim as usize];
         EmitterSample {
             point: EmitterPoint { p, ng, prim },
             radiance: scene.emission_at(prim, b),
-            pdf_area: self.pdf_area[prim as usize],
+            pdf_area,
+            pdf_start: pdf_area,
         }
     }
 }
@@ -329,6 +392,11 @@ mod tests {
     /// Two square lights in the plane z = 0, facing +z: the unit square (two triangles) at
     /// radiance 1, and a square of side 2 beside it at radiance 0.5 (twice the power).
     fn two_lights() -> Scene {
+        lights(false)
+    }
+
+    /// [`two_lights`], and with `third` a unit square at x = 10 of radiance 1.
+    fn lights(third: bool) -> Scene {
         let square = |x0: f32, s: f32| {
             [
                 Vec3::new(x0, 0.0, 0.0),
@@ -337,13 +405,20 @@ mod tests {
                 Vec3::new(x0, s, 0.0),
             ]
         };
-        let positions = [square(0.0, 1.0), square(2.0, 2.0)].concat();
+        let mut positions = [square(0.0, 1.0), square(2.0, 2.0)].concat();
+        let mut indices = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+        let mut tri_material = vec![0, 0, 1, 1];
+        if third {
+            positions.extend(square(10.0, 1.0));
+            indices.extend([[8, 9, 10], [8, 10, 11]]);
+            tri_material.extend([0, 0]);
+        }
         let geometry = Geometry {
             normals: vec![Vec3::ZERO; positions.len()],
             uvs: vec![],
             positions,
-            indices: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]],
-            tri_material: vec![0, 0, 1, 1],
+            indices,
+            tri_material,
             degenerate_dropped: 0,
         };
         let light = |e: f32| Material {
@@ -356,6 +431,38 @@ mod tests {
         let camera = Camera::pinhole(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, 4, 4);
         Scene::new("t.toml".into(), camera, RenderDefaults::default(), geometry, vec![light(1.0), light(0.5)])
             .unwrap()
+    }
+
+    /// Next-event estimation's choice by importance: the density that a sample reports is
+    /// the one that every MIS weight asks [`Emitters::nee_pdf`] for, and points of the same
+    /// light are picked more often from near it; by power it is the light paths' density.
+    #[test]
+    fn the_choice_by_importance_reports_the_density_that_the_weights_use() {
+        let scene = lights(true);
+        let emitters = Emitters::new(&scene).unwrap();
+        assert!(emitters.is_spatial());
+        // A Weyl sequence for the numbers.
+        let mut k = 0u32;
+        let mut next = || {
+            k += 1;
+            (k as f32 * 0.618_034).fract()
+        };
+        for x in [Vec3::new(0.5, 0.5, 0.3), Vec3::new(3.0, 1.0, 2.0), Vec3::new(-20.0, 4.0, 1.0)] {
+            for _ in 0..200 {
+                let u = Vec2::new(next(), next());
+                let s = emitters.sample_from(&scene, x, next(), u);
+                let d = s.point.p - x;
+                let (dist2, cos_e) = (d.length_squared(), s.point.ng.dot(-d.normalize()).abs());
+                let nee = emitters.nee_pdf(s.point.prim, x, dist2, cos_e).unwrap() * cos_e / dist2;
+                assert!((nee - s.pdf_area).abs() <= 1e-5 * s.pdf_area, "{x}: {nee} against {}", s.pdf_area);
+                assert_eq!(s.pdf_start, emitters.pdf_area(s.point.prim));
+            }
+        }
+        // Above the unit square, its points are denser than the light paths'.
+        let s = emitters.sample_from(&scene, Vec3::new(0.5, 0.5, 0.2), 0.0, Vec2::new(0.1, 0.5));
+        assert!(s.point.p.x < 1.0 && s.pdf_area > 2.0 * s.pdf_start, "{s:?}");
+        let by_power = Emitters::new(&scene).unwrap().with_choice(EmitterChoice::Power);
+        assert!(by_power.nee_pdf(0, Vec3::Z, 1.0, 1.0).is_none());
     }
 
     /// Points are uniform over each light with the lights' powers as weights, and the

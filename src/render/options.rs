@@ -7,6 +7,7 @@ use clap::Args;
 
 use crate::accel::Backend;
 use crate::integrator::Walker;
+use crate::light::EmitterChoice;
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
@@ -52,6 +53,12 @@ pub struct SceneOptions {
     /// batched].
     #[arg(long, value_name = "WALKER")]
     pub walker: Option<Walker>,
+    /// How next-event estimation picks an emitting triangle: importance (by a bound on the
+    /// light it can send to the receiver, mixed with its power, where the scene's emitters
+    /// are 3 to 64 triangles; otherwise by power) or power (by power alone, as the light
+    /// paths start) [default: importance].
+    #[arg(long, value_name = "CHOICE")]
+    pub emitter_choice: Option<EmitterChoice>,
 }
 
 /// `NAME=VALUE` of `-D`.
@@ -119,6 +126,10 @@ impl SceneOptions {
 
     pub fn walker(&self) -> Walker {
         self.walker.unwrap_or_default()
+    }
+
+    pub fn emitter_choice(&self) -> EmitterChoice {
+        self.emitter_choice.unwrap_or_default()
     }
 
     pub fn backend(&self) -> Backend {

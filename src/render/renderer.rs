@@ -60,9 +60,11 @@ impl<'s> Renderer<'s> {
     /// accelerator. The resolution, seed and path length are the options', else the scene's.
     pub fn new(scene: &'s Scene, options: &SceneOptions) -> Result<Renderer<'s>> {
         options.check()?;
-        let emitters = Emitters::new(scene).with_context(|| {
-            format!("{}: the scene has no emitter with positive power", scene.path().display())
-        })?;
+        let emitters = Emitters::new(scene)
+            .with_context(|| {
+                format!("{}: the scene has no emitter with positive power", scene.path().display())
+            })?
+            .with_choice(options.emitter_choice());
         let (width, height) = options.resolution(scene);
         check_resolution(width, height)?;
         let pool = worker_pool(options.threads)?;

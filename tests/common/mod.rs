@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use pir::accel::{Accelerator, Backend};
 use pir::image::RgbImage;
 use pir::integrator::{Integrator, RenderContext};
-use pir::light::Emitters;
+use pir::light::{EmitterChoice, Emitters};
 use pir::material::{Bsdf, Material};
 use pir::render::{Budget, Control, Film, RenderSettings, RenderStats, render};
 use pir::sampling::SamplerKind;
@@ -147,6 +147,8 @@ pub struct Job {
     /// the iterations, which needs independent iterations (a Sobol sampler's are not; its
     /// tests replicate over seeds instead).
     pub sampler: SamplerKind,
+    /// How next-event estimation picks an emitting triangle (`--emitter-choice`).
+    pub emitter_choice: EmitterChoice,
 }
 
 impl Default for Job {
@@ -160,6 +162,7 @@ impl Default for Job {
             threads: 2,
             snapshot_at: Vec::new(),
             sampler: SamplerKind::Independent,
+            emitter_choice: EmitterChoice::default(),
         }
     }
 }
@@ -185,7 +188,7 @@ impl Job {
         accel: &dyn Accelerator,
         f: impl FnOnce(&RenderContext) -> R,
     ) -> R {
-        let emitters = Emitters::new(scene).expect("scene has emitters");
+        let emitters = Emitters::new(scene).expect("scene has emitters").with_choice(self.emitter_choice);
         f(&RenderContext {
             scene,
             accel,

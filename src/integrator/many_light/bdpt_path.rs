@@ -203,8 +203,9 @@ impl Estimator for Bidirectional<'_> {
         let le = sp.emitted(at.material.emission_at(sp.uv), at.wo);
         if le != Vec3::ZERO {
             let pdf_area = ctx.emitters.pdf_area(sp.prim);
-            // Next-event estimation's density of the point: a sphere's cone's, per unit area.
-            let pdf_nee = match ctx.emitters.cone_pdf(sp.prim, path.from) {
+            // Next-event estimation's density of the point, per unit area: a sphere's cone's, or
+            // its choice by importance at `path.from`.
+            let pdf_nee = match ctx.emitters.nee_pdf(sp.prim, path.from, dist2, cos_in) {
                 Some(pdf) => pdf * cos_in / dist2,
                 None => pdf_area,
             };

@@ -69,7 +69,7 @@ pub struct Vpl {
     /// infinite after a delta vertex. For a vertex lit directly by a sphere that next-event
     /// estimation from it samples by its cone: N p_A / (π pdf_cone), light tracing's density
     /// N p_A cos θ_e / (π d²) relative to the cone's pdf_cone cos θ_e / d² of the same point
-    /// ([`crate::light::Emitters::cone_pdf`]). For a vertex lit directly by a light that is not a
+    /// ([`crate::light::Emitters::nee_pdf`]). For a vertex lit directly by a light that is not a
     /// triangle: N · [`crate::light::Emission::density`] (divided by d² for a point or spot
     /// light), likewise relative to next-event estimation. What the multiple importance
     /// sampling of [`super::mis`] weighs a connection with.
@@ -393,13 +393,14 @@ fn follow(
         let dist2 = (sp.p - from).length_squared();
         // (The first segment from a light at infinity: its density is per unit area already.)
         mis.arrive(if depth == 1 && at_infinity { 1.0 } else { dist2 }, sp.ng.dot(w_in).abs());
-        // Lit directly by a sphere that next-event estimation from here samples by its cone:
-        // next-event estimation's density of the emitter point is the cone's (per unit area,
-        // pdf_cone cos θ_e / d²), not the area density the light path started with, in what
+        // Lit directly by a sphere that next-event estimation from here samples by its cone,
+        // or by a triangle that it picks by its importance here: next-event estimation's
+        // density of the emitter point is its own (per unit area, pdf cos θ_e / d² of its
+        // solid-angle density), not the area density the light path started with, in what
         // the VPL and the running sums weigh against it.
         let cone = match nee {
             NeeAt::Area { prim, pdf_area, cos_e, .. } if depth == 1 => {
-                ctx.emitters.cone_pdf(prim, sp.p).map(|pdf| (pdf, pdf_area, cos_e))
+                ctx.emitters.nee_pdf(prim, sp.p, dist2, cos_e).map(|pdf| (pdf, pdf_area, cos_e))
             }
             _ => None,
         };

@@ -1,0 +1,143 @@
+//! Next-event estimation's choice of an emitting triangle by its importance at the receiver
+//! (`src/light/spatial.rs`, `--emitter-choice importance`, the default where the emitters are
+//! a few triangles) against the choice by power: the same image in expectation for `pt` and
+//! for `pir-bdpt`, whose weights take next-event estimation's density from the receiver, and
+//! less noise where the lights are apart.
+
+mod common;
+
+use common::{Job, Rendered, closed_cube_of, diffuse};
+use glam::Vec3;
+use pir::integrator::{Clamping, InstantRadiosity, PathTracer, VirtualLights};
+use pir::light::{EmitterChoice, Emitters};
+use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
+
+const Z: f64 = 4.5;
+
+/// The cube with three emitting walls of radiance 1, 2 and 4 (−x, +x, +y: six triangles)
+/// and grey walls elsewhere; the camera looks at the −z wall, which each light reaches at a
+/// grazing angle from its own side.
+fn three_lights() -> Scene {
+    let materials = vec![diffuse(0.5, 0.0), diffuse(0.5, 1.0), diffuse(0.5, 2.0), diffuse(0.5, 4.0)];
+    closed_cube_of(materials, |face| match face {
+        0 => 1,
+        1 => 2,
+        3 => 3,
+        _ => 0,
+    })
+}
+
+/// A grey floor 12 wide under three small square lamps (0.3 wide, radiance 40, 80 and 160)
+/// one unit above it, 4 apart, facing down; the camera looks down at the floor from above.
+fn three_lamps() -> Scene {
+    let mut positions = vec![
+        Vec3::new(-6.0, 0.0, -6.0),
+        Vec3::new(6.0, 0.0, -6.0),
+        Vec3::new(6.0, 0.0, 6.0),
+        Vec3::new(-6.0, 0.0, 6.0),
+    ];
+    // The floor faces up: wound counter-clockwise seen from above.
+    let mut indices = vec![[0, 2, 1], [0, 3, 2]];
+    let mut tri_material = vec![0, 0];
+    for (k, x) in [-4.0f32, 0.0, 4.0].into_iter().enumerate() {
+        let base = positions.len() as u32;
+        let h = 0.15;
+        positions.extend([
+            Vec3::new(x - h, 1.0, -h),
+            Vec3::new(x + h, 1.0, -h),
+            Vec3::new(x + h, 1.0, h),
+            Vec3::new(x - h, 1.0, h),
+        ]);
+        // Facing down.
+        indices.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+        tri_material.extend([k as u32 + 1; 2]);
+    }
+    let geometry = Geometry {
+        normals: vec![Vec3::ZERO; positions.len()],
+        uvs: vec![],
+        positions,
+        indices,
+        tri_material,
+        degenerate_dropped: 0,
+    };
+    let materials = vec![diffuse(0.5, 0.0), diffuse(0.0, 40.0), diffuse(0.0, 80.0), diffuse(0.0, 160.0)];
+    let camera = Camera::pinhole(Vec3::new(0.0, 6.0, 0.01), Vec3::ZERO, Vec3::Y, 90.0, 32, 32);
+    Scene::new("three-lamps".into(), camera, RenderDefaults::default(), geometry, materials).unwrap()
+}
+
+/// z of the difference of two renders' means (independent seeds), per channel, the largest.
+fn z_between(a: &Rendered, b: &Rendered) -> f64 {
+    let ((ma, sa), (mb, sb)) = (a.mean_and_stderr(), b.mean_and_stderr());
+    (0..3)
+        .map(|c| ((ma[c] - mb[c]) / (sa[c] * sa[c] + sb[c] * sb[c]).sqrt().max(1e-12)).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The mean squared difference of two images per pixel: twice their per-pixel variance when
+/// they are independent renders of the same expectation.
+fn spread(a: &Rendered, b: &Rendered) -> f64 {
+    let (a, b) = (a.image(), b.image());
+    let d: f64 = a.pixels.iter().zip(&b.pixels).map(|(x, y)| (*x - *y).length_squared() as f64).sum();
+    d / a.pixels.len() as f64
+}
+
+#[test]
+fn the_scene_picks_by_importance_by_default_and_by_power_on_request() {
+    let scene = three_lights();
+    assert!(Emitters::new(&scene).unwrap().is_spatial());
+    assert!(!Emitters::new(&scene).unwrap().with_choice(EmitterChoice::Power).is_spatial());
+    assert_eq!("power".parse::<EmitterChoice>(), Ok(EmitterChoice::Power));
+    assert!("nearest".parse::<EmitterChoice>().is_err());
+}
+
+/// `pt` by importance and by power render the same image in expectation: direct light
+/// alone, where the MIS weights of the emitter hits decide it, and with bounces.
+#[test]
+fn pt_by_importance_matches_pt_by_power() {
+    for (name, scene) in [("cube", three_lights()), ("lamps", three_lamps())] {
+        for depth in [2u32, 4] {
+            let job = Job { iterations: 256, max_depth: depth, width: 32, height: 32, ..Job::default() };
+            let by = |choice, seed| {
+                Job { emitter_choice: choice, seed, ..job.clone() }.run(&scene, &mut PathTracer)
+            };
+            let z = z_between(&by(EmitterChoice::Importance, 1), &by(EmitterChoice::Power, 2));
+            eprintln!("pt, {name}, max_depth {depth}: z {z:.2} between the choices");
+            assert!(z < Z, "{name}, max_depth {depth}: z = {z:.2}");
+        }
+    }
+}
+
+/// Where the lamps are small and apart, the choice by importance leaves a fraction of the
+/// noise per pixel that the choice by power leaves.
+#[test]
+fn pt_by_importance_is_less_noisy_where_the_lamps_are_apart() {
+    let scene = three_lamps();
+    let job = Job { iterations: 16, max_depth: 3, width: 32, height: 32, ..Job::default() };
+    let by = |choice, seed| Job { emitter_choice: choice, seed, ..job.clone() }.run(&scene, &mut PathTracer);
+    let si = spread(&by(EmitterChoice::Importance, 1), &by(EmitterChoice::Importance, 2));
+    let sp = spread(&by(EmitterChoice::Power, 3), &by(EmitterChoice::Power, 4));
+    eprintln!("spread by importance {si:.4e}, by power {sp:.4e}");
+    assert!(si < 0.5 * sp, "by importance {si:.4e} against by power {sp:.4e}");
+}
+
+/// `pir-bdpt`'s weights (without the bound, so that the estimate is unbiased per iteration)
+/// with the choice by importance: the path tracer's image, whose samples pick by power.
+#[test]
+fn bidirectional_weights_take_the_choice_by_importance() {
+    for (name, scene, depth) in [
+        ("cube", three_lights(), 2u32),
+        ("cube", three_lights(), 5),
+        ("lamps", three_lamps(), 2),
+        ("lamps", three_lamps(), 4),
+    ] {
+        let job = Job { iterations: 64, max_depth: depth, ..Job::default() };
+        let pt = Job { iterations: 256, seed: 7, emitter_choice: EmitterChoice::Power, ..job.clone() }
+            .run(&scene, &mut PathTracer);
+        let bdpt =
+            InstantRadiosity::new(VirtualLights::Bidirectional(Clamping::None, Default::default()), 64);
+        let r = job.run(&scene, &mut { bdpt });
+        let z = z_between(&r, &pt);
+        eprintln!("pir-bdpt, {name}, max_depth {depth}: z {z:.2}");
+        assert!(z < Z, "{name}, max_depth {depth}: z = {z:.2}");
+    }
+}
