@@ -48,7 +48,8 @@ pub fn occluded(ctx: &RenderContext, p: Vec3, ng: Vec3, q: Vec3, nq: Vec3, count
     ctx.accel.occluded(&shadow_ray(p, ng, q, nq))
 }
 
-/// One light sample at `sp`: picks a point on an emitter by power, and returns its
+/// One light sample at `sp`: picks a point on an emitter (by power, or by importance at
+/// `sp` where the emitters are a few triangles: [`crate::light::spatial`]), and returns its
 /// contribution f · Le · G · V / pdf, MIS-weighted against BSDF sampling. Always draws three
 /// numbers from `sampler`.
 pub fn sample_emitters(
@@ -79,9 +80,11 @@ pub struct LightSample {
     /// For a light that is not a triangle ([`crate::light::Light::emission_density`]): the
     /// density with which a light path leaving it reaches the receiver, per unit area there
     /// and without its cosine, beyond what next-event estimation picks of the same light;
-    /// `None` for a triangle sampled by area, whose is N-free cos θ_e / π / dist2. For a
-    /// sphere's triangle sampled by its cone, the same density relative to next-event
-    /// estimation's of the point: p_A / (π pdf_light).
+    /// `None` for a triangle that next-event estimation picks as the light paths do, whose is
+    /// N-free cos θ_e / π / dist2. For a sphere's triangle sampled by its cone, or a triangle
+    /// picked by its importance at the receiver ([`crate::light::spatial`]), the same density
+    /// relative to next-event estimation's of the point: p_A / (π pdf_light), p_A the light
+    /// paths' area density.
     pub emission: Option<f32>,
 }
 
@@ -268,7 +271,8 @@ fn connect_cone(
 }
 
 /// [`LightSample::emission`] of a point of area density `pdf_area` (where light paths start)
-/// that next-event estimation draws by a cone of solid-angle density `pdf_light`: the density
+/// that next-event estimation draws with another solid-angle density `pdf_light` (by a cone,
+/// or by its triangle's importance at the receiver): the density
 /// of a light path leaving it towards the receiver, per unit area there without its cosine,
 /// p_A cos θ_e / (π d²), relative to next-event estimation's density of the point,
 /// pdf_light cos θ_e / d² (for a point sampled by area, the same p_A, this is cos θ_e / π d²).

@@ -1,7 +1,8 @@
 //! `--method pt`: a unidirectional path tracer, pir's ground truth.
 //!
 //! The walker of [`super::walker`] with next-event estimation on the area emitters (triangle
-//! by power, uniform point) combined with BSDF sampling by multiple importance sampling (power
+//! by power, or by importance at the vertex where they are a few: [`crate::light::spatial`];
+//! uniform point) combined with BSDF sampling by multiple importance sampling (power
 //! heuristic), delta bounces carrying emission at full weight, unbiased Russian roulette. No
 //! parameters besides `max_depth` (`--max-depth`).
 

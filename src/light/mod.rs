@@ -6,8 +6,11 @@
 //! triangle: mean emitted radiance over the channels × area × π; for the others
 //! [`Light::power`], infinite lights' from the scene's bounding sphere), in constant time from
 //! one alias table, and a uniform point on the triangle or a sample of the light. The same
-//! distribution serves next-event estimation, MIS weights of BSDF-sampled hits, and the start
-//! of light paths. A scene without other lights builds exactly the table it always did.
+//! distribution serves the start of light paths, and next-event estimation and the MIS
+//! weights of BSDF-sampled hits but where the emitters are a few triangles: there next-event
+//! estimation picks a triangle by its importance at the receiver ([`spatial`],
+//! [`Emitters::sample_from`], [`Emitters::nee_pdf`]). A scene without other lights builds
+//! exactly the table it always did.
 //!
 //! An emitting sphere of a Mitsuba scene ([`SphereLight`]) is one entry of the table, its
 //! power its primitives' (one analytic sphere, or the triangles of a tessellated one, among
@@ -57,6 +60,8 @@ pub struct Emitters {
     /// Next-event estimation's choice by importance at the receiver, where the emitters are
     /// a few triangles ([`spatial`]); `None`: by power, as the light paths start.
     spatial: Option<Spatial>,
+    /// The area of each triangle of `prims` (where `spatial` is).
+    areas: Vec<f32>,
 }
 
 /// An emitting sphere's entry of the table.
@@ -183,7 +188,12 @@ impl Emitters {
         let first_light = prims.len() + groups.len();
         let light_pmf = (0..lights.len()).map(|k| dist.pmf(first_light + k)).collect();
         let environments = (0..lights.len()).filter(|&k| lights[k].is_environment()).collect();
-        let spatial = if lights.is_empty() && groups.is_empty() {
+        // (Triangles only: an analytic sphere that is not a sphere light, seen from inside,
+        // has no corners to bound.)
+        let spatial = if lights.is_empty()
+            && groups.is_empty()
+            && prims.iter().all(|&p| scene.sphere_of(p).is_none())
+        {
             Spatial::new(prims.iter().enumerate().map(|(i, &prim)| {
                 let corner = |uv: Vec2| scene.point_at(prim, uv);
                 let (a, ng) = corner(Vec2::ZERO);
@@ -192,7 +202,9 @@ impl Emitters {
         } else {
             None
         };
-        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, spatial })
+        let areas =
+            if spatial.is_some() { prims.iter().map(|&p| scene.area(p)).collect() } else { Vec::new() };
+        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, spatial, areas })
     }
 
     /// The lights other than triangles.
@@ -202,7 +214,8 @@ impl Emitters {
     }
 
     /// Whether the emitters are triangles outside spheres only: then [`Emitters::sample`]
-    /// serves, else [`Emitters::choose`] (and [`Emitters::choose_from`]) sample.
+    /// (and [`Emitters::sample_from`]) serve, else [`Emitters::choose`] (and
+    /// [`Emitters::choose_from`]) sample.
     #[inline]
     pub fn is_plain(&self) -> bool {
         self.lights.is_empty() && self.groups.is_empty()
@@ -307,10 +320,10 @@ impl Emitters {
     }
 
     /// The area density of a point of triangle `i` of the power table picked with
-    /// probability `pmf` (its power table's density rescaled: one area for both).
+    /// probability `pmf`.
     #[inline(always)]
     fn spatial_pdf_area(&self, i: usize, pmf: f32) -> f32 {
-        self.pdf_area[self.prims[i] as usize] * (pmf / self.dist.pmf(i))
+        pmf / self.areas[i]
     }
 
     /// A uniform point on emitter `prim` (a triangle or an analytic sphere,
@@ -456,6 +469,31 @@ mod tests {
                 let nee = emitters.nee_pdf(s.point.prim, x, dist2, cos_e).unwrap() * cos_e / dist2;
                 assert!((nee - s.pdf_area).abs() <= 1e-5 * s.pdf_area, "{x}: {nee} against {}", s.pdf_area);
                 assert_eq!(s.pdf_start, emitters.pdf_area(s.point.prim));
+            }
+        }
+        // Unbiased from every receiver: over stratified numbers, the mean of 1 / pdf_area over
+        // the points of a light is the light's area (1, 4, 1).
+        for x in [Vec3::new(0.5, 0.5, 0.3), Vec3::new(11.0, 0.2, 0.5)] {
+            // (Fine in the number that picks the light, where a far light has a small share.)
+            let (n, m) = (16384, 16);
+            let mut area = [0.0f64; 3];
+            for i in 0..n {
+                for j in 0..m {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / m as f32);
+                    let s = emitters.sample_from(&scene, x, 0.5, u);
+                    let light = if s.point.p.x < 1.5 {
+                        0
+                    } else if s.point.p.x < 5.0 {
+                        1
+                    } else {
+                        2
+                    };
+                    area[light] += 1.0 / s.pdf_area as f64;
+                }
+            }
+            for (k, want) in [1.0, 4.0, 1.0].into_iter().enumerate() {
+                let got = area[k] / (n * m) as f64;
+                assert!((got - want).abs() < 0.01 * want, "{x}, light {k}: {got} against {want}");
             }
         }
         // Above the unit square, its points are denser than the light paths'.

@@ -41,7 +41,8 @@ pub const MAX_SPATIAL: usize = 64;
 pub const DEFENSIVE: f32 = 0.1;
 
 /// How next-event estimation picks an emitting triangle (`--emitter-choice`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum EmitterChoice {
     /// By its importance at the receiver where the scene's emitters are [`MIN_SPATIAL`] to
     /// [`MAX_SPATIAL`] triangles, else by power.
@@ -168,9 +169,8 @@ impl Spatial {
             out.copy_from_slice(&self.power);
             return;
         }
-        let scale = (1.0 - DEFENSIVE) / total;
         for (o, &p) in out.iter_mut().zip(&self.power) {
-            *o = *o * scale + DEFENSIVE * p;
+            *o = (1.0 - DEFENSIVE) * (*o / total) + DEFENSIVE * p;
         }
     }
 

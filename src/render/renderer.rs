@@ -164,6 +164,7 @@ impl<'s> Renderer<'s> {
     pub fn job(&self, config: &MethodConfig) -> Job {
         let (w, h) = (self.width as usize, self.height as usize);
         Job::new(self.scene, config, self.max_depth, self.seed, self.sampler, w, h)
+            .with_emitters(&self.emitters)
     }
 
     /// Renders `config` from an empty film until the budget is spent or `on_iteration` (called

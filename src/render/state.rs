@@ -27,6 +27,7 @@ use std::str::FromStr;
 use super::Film;
 use crate::image::{RgbImage, read_exr_with_channels, write_exr_with_channels};
 use crate::integrator::MethodConfig;
+use crate::light::{EmitterChoice, Emitters};
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
@@ -100,6 +101,10 @@ pub struct Job {
     pub sampler: SamplerKind,
     pub width: usize,
     pub height: usize,
+    /// Next-event estimation's choice of an emitting triangle as it rendered: by importance
+    /// only where the scene's emitters allow it ([`crate::light::Emitters::is_spatial`]).
+    #[serde(default)]
+    pub emitter_choice: EmitterChoice,
 }
 
 const LAYOUT_KEY: &str = "pir.job.layout";
@@ -159,7 +164,15 @@ impl Job {
             sampler,
             width,
             height,
+            emitter_choice: EmitterChoice::Power,
         }
+    }
+
+    /// The job with next-event estimation's choice of `emitters`.
+    pub fn with_emitters(self, emitters: &Emitters) -> Job {
+        let emitter_choice =
+            if emitters.is_spatial() { EmitterChoice::Importance } else { EmitterChoice::Power };
+        Job { emitter_choice, ..self }
     }
 
     /// What differs between two jobs, for a message ("method: pt here, ir in the file"). The
@@ -182,6 +195,7 @@ impl Job {
         cmp("max_depth", self.max_depth.to_string(), other.max_depth.to_string());
         cmp("seed", self.seed.to_string(), other.seed.to_string());
         cmp("sampler", self.sampler.name().to_string(), other.sampler.name().to_string());
+        cmp("emitter choice", self.emitter_choice.to_string(), other.emitter_choice.to_string());
         cmp(
             "resolution",
             format!("{}×{}", self.width, self.height),
@@ -369,6 +383,7 @@ mod tests {
             sampler: SamplerKind::Sobol,
             width: 3,
             height: 2,
+            emitter_choice: EmitterChoice::Importance,
         };
         let shard = Shard { index: 1, count: 4 };
         write_state(&path, &film.image(), &[], &job, shard, &film).unwrap();
@@ -392,6 +407,8 @@ mod tests {
         assert_eq!(d, ["alpha: 0.25 here, 0.6 in the file"]);
         let d = Job { sampler: SamplerKind::Independent, ..job.clone() }.differences(&job);
         assert_eq!(d, ["sampler: independent here, sobol in the file"]);
+        let d = Job { emitter_choice: EmitterChoice::Power, ..job.clone() }.differences(&job);
+        assert_eq!(d, ["emitter choice: power here, importance in the file"]);
         // A plain EXR is not resumable, with a message that says so.
         let plain = dir.path().join("p.exr");
         crate::image::write_exr(&plain, &film.image(), &[]).unwrap();

@@ -65,10 +65,11 @@ pub struct Vpl {
     /// the cosine at the point: q · p(ω) / d² from the previous vertex (its survival
     /// probability q, its BSDF's solid-angle density p of the direction, the distance d);
     /// for a vertex lit directly, N · (cos θ_e / π) / d² relative to next-event estimation
-    /// (which picks the emitter point exactly as light tracing does, but once, not N times);
-    /// infinite after a delta vertex. For a vertex lit directly by a sphere that next-event
-    /// estimation from it samples by its cone: N p_A / (π pdf_cone), light tracing's density
-    /// N p_A cos θ_e / (π d²) relative to the cone's pdf_cone cos θ_e / d² of the same point
+    /// (where it picks the emitter point exactly as light tracing does, but once, not N
+    /// times); infinite after a delta vertex. For a vertex lit directly by a sphere that
+    /// next-event estimation from it samples by its cone, or by a triangle that it picks by
+    /// its importance here: N p_A / (π pdf), light tracing's density N p_A cos θ_e / (π d²)
+    /// relative to next-event estimation's pdf cos θ_e / d² of the same point
     /// ([`crate::light::Emitters::nee_pdf`]). For a vertex lit directly by a light that is not a
     /// triangle: N · [`crate::light::Emission::density`] (divided by d² for a point or spot
     /// light), likewise relative to next-event estimation. What the multiple importance

@@ -201,7 +201,7 @@ pub fn emitter_in_view(
             }
         }
     } else {
-        ctx.emitters.sample(ctx.scene, u_select, u)
+        ctx.emitters.sample_from(ctx.scene, p, u_select, u)
     };
     let d = es.point.p - p;
     if es.point.ng.dot(d) >= 0.0 || ng.dot(d) <= 0.0 {

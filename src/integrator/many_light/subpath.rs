@@ -286,7 +286,8 @@ impl MisState {
     }
 
     /// A light subpath of `paths` per iteration, started at an emitter point of area density
-    /// `pdf_area` (as next-event estimation picks it too) in a cosine-distributed direction of
+    /// `pdf_area` (as next-event estimation picks it, but where it picks by importance, which
+    /// the light path's first vertex corrects) in a cosine-distributed direction of
     /// cosine `cos_e`: the emitter techniques (next-event estimation, `dvcm`, and an
     /// emitter hit, `dvc`) count once against the connections' N.
     pub fn light(pdf_area: f32, cos_e: f32, paths: f32) -> MisState {
