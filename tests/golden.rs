@@ -43,7 +43,8 @@ const GLOSSY: &str = "scenes/cornell-box/glossy.toml";
 /// and light samples, a pilot that chooses more light paths and samples (the slit room),
 /// vertex merging and none (the mirror-and-glass caustic), VPLs kept by their share of the
 /// image (the near-mirror floor), no connections at near-specular vertices, explicit counts,
-/// independent numbers and a short path.
+/// independent numbers and a short path; next-event estimation by importance among a few
+/// emitting triangles, and by power there (the glowing box).
 const EXTRA: &[&str] = &[
     "pt --sampler independent",
     "pt --max-depth 3",
@@ -67,6 +68,9 @@ const EXTRA: &[&str] = &[
     "pir-bdpt --merge-radius 0 --scene scenes/stress/caustic/scene.toml",
     "pir-bdpt --scene scenes/stress/glossy/scene.toml",
     "pir-bdpt --scene tests/data/near-specular.toml",
+    "pt --scene tests/data/glowing-box.toml",
+    "pt --emitter-choice power --scene tests/data/glowing-box.toml",
+    "pir-bdpt --scene tests/data/glowing-box.toml",
 ];
 
 /// What is rendered, as `pir render` flags (and `--scene`): every method at its defaults on
