@@ -1,6 +1,6 @@
 //! Next-event estimation's choice of an emitting triangle by its importance at the receiver
-//! (`src/light/spatial.rs`, `--emitter-choice importance`, the default where the emitters are
-//! a few triangles) against the choice by power: the same image in expectation for `pt` and
+//! (`src/light/spatial.rs`, `--emitter-choice importance`, experimental, where the emitters
+//! are a few triangles) against the choice by power: the same image in expectation for `pt` and
 //! for `pir-bdpt`, whose weights take next-event estimation's density from the receiver, and
 //! less noise where the lights are apart.
 
@@ -84,7 +84,8 @@ fn spread(a: &Rendered, b: &Rendered) -> f64 {
 #[test]
 fn the_scene_picks_by_importance_by_default_and_by_power_on_request() {
     let scene = three_lights();
-    assert!(Emitters::new(&scene).unwrap().is_spatial());
+    assert_eq!(EmitterChoice::default(), EmitterChoice::Power);
+    assert!(Emitters::new(&scene).unwrap().with_choice(EmitterChoice::Importance).is_spatial());
     assert!(!Emitters::new(&scene).unwrap().with_choice(EmitterChoice::Power).is_spatial());
     assert_eq!("power".parse::<EmitterChoice>(), Ok(EmitterChoice::Power));
     assert!("nearest".parse::<EmitterChoice>().is_err());
@@ -130,7 +131,12 @@ fn bidirectional_weights_take_the_choice_by_importance() {
         ("lamps", three_lamps(), 2),
         ("lamps", three_lamps(), 4),
     ] {
-        let job = Job { iterations: 64, max_depth: depth, ..Job::default() };
+        let job = Job {
+            iterations: 64,
+            max_depth: depth,
+            emitter_choice: EmitterChoice::Importance,
+            ..Job::default()
+        };
         let pt = Job { iterations: 256, seed: 7, emitter_choice: EmitterChoice::Power, ..job.clone() }
             .run(&scene, &mut PathTracer);
         let bdpt =

@@ -69,8 +69,8 @@ const EXTRA: &[&str] = &[
     "pir-bdpt --scene scenes/stress/glossy/scene.toml",
     "pir-bdpt --scene tests/data/near-specular.toml",
     "pt --scene tests/data/glowing-box.toml",
-    "pt --emitter-choice power --scene tests/data/glowing-box.toml",
-    "pir-bdpt --scene tests/data/glowing-box.toml",
+    "pt --emitter-choice importance --scene tests/data/glowing-box.toml",
+    "pir-bdpt --emitter-choice importance --scene tests/data/glowing-box.toml",
 ];
 
 /// What is rendered, as `pir render` flags (and `--scene`): every method at its defaults on

@@ -218,7 +218,7 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &
     eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
     if renderer.emitters().is_spatial() {
         eprintln!(
-            "pir: next-event estimation picks among the {} emitting triangles by their importance at the receiver (--emitter-choice)",
+            "pir: next-event estimation picks among the {} emitting triangles by their importance at the receiver (--emitter-choice importance, experimental: see docs/cli.md)",
             renderer.emitters().len()
         );
     }
