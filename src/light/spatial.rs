@@ -45,11 +45,12 @@ pub const DEFENSIVE: f32 = 0.1;
 #[serde(rename_all = "lowercase")]
 pub enum EmitterChoice {
     /// By its importance at the receiver where the scene's emitters are [`MIN_SPATIAL`] to
-    /// [`MAX_SPATIAL`] triangles, else by power. Not the default: it gives next-event
-    /// estimation more weight near emitters, where pir's light samples overcount the light
-    /// of an emitter that touches other surfaces (the glowing box of `tests/data/`, about
-    /// 4 % too bright by light samples alone against Mitsuba 3), so the image is further off
-    /// there than by power.
+    /// [`MAX_SPATIAL`] triangles, else by power. Not the default yet: it gives next-event
+    /// estimation more weight near emitters, and where a mesh lists an emitting face twice
+    /// (McGuire's Cornell boxes list one face of each box twice, which the glowing box of
+    /// `tests/data/` makes emit) light samples count that face twice and emitter hits once,
+    /// so its image is further from Mitsuba 3's there than by power. It waits for a clean
+    /// many-light scene measured against Mitsuba.
     Importance,
     /// By power alone, as the light paths start.
     #[default]
