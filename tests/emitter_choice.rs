@@ -52,14 +52,7 @@ fn three_lamps() -> Scene {
         indices.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
         tri_material.extend([k as u32 + 1; 2]);
     }
-    let geometry = Geometry {
-        normals: vec![Vec3::ZERO; positions.len()],
-        uvs: vec![],
-        positions,
-        indices,
-        tri_material,
-        degenerate_dropped: 0,
-    };
+    let geometry = Geometry::flat(positions, indices, tri_material);
     let materials = vec![diffuse(0.5, 0.0), diffuse(0.0, 40.0), diffuse(0.0, 80.0), diffuse(0.0, 160.0)];
     let camera = Camera::pinhole(Vec3::new(0.0, 6.0, 0.01), Vec3::ZERO, Vec3::Y, 90.0, 32, 32);
     Scene::new("three-lamps".into(), camera, RenderDefaults::default(), geometry, materials).unwrap()

@@ -60,8 +60,6 @@ pub struct Emitters {
     /// Next-event estimation's choice by importance at the receiver, where the emitters are
     /// a few triangles ([`spatial`]); `None`: by power, as the light paths start.
     spatial: Option<Spatial>,
-    /// The area of each triangle of `prims` (where `spatial` is).
-    areas: Vec<f32>,
 }
 
 /// An emitting sphere's entry of the table.
@@ -195,16 +193,13 @@ impl Emitters {
             && prims.iter().all(|&p| scene.sphere_of(p).is_none())
         {
             Spatial::new(prims.iter().enumerate().map(|(i, &prim)| {
-                let corner = |uv: Vec2| scene.point_at(prim, uv);
-                let (a, ng) = corner(Vec2::ZERO);
-                ([a, corner(Vec2::X).0, corner(Vec2::Y).0], ng, dist.pmf(i))
+                let ng = scene.point_at(prim, Vec2::ZERO).1;
+                (scene.triangle(prim), ng, dist.pmf(i), scene.area(prim))
             }))
         } else {
             None
         };
-        let areas =
-            if spatial.is_some() { prims.iter().map(|&p| scene.area(p)).collect() } else { Vec::new() };
-        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, spatial, areas })
+        Some(Emitters { prims, groups, dist, pdf_area, lights, light_pmf, environments, spatial })
     }
 
     /// The lights other than triangles.
@@ -275,7 +270,7 @@ impl Emitters {
     pub fn nee_pdf(&self, prim: u32, from: Vec3, dist2: f32, cos_e: f32) -> Option<f32> {
         if let Some(s) = &self.spatial {
             let i = self.prims.binary_search(&prim).ok()?;
-            return Some(self.spatial_pdf_area(i, s.pmf(from, i)) * dist2 / cos_e);
+            return Some(s.pdf_area(i, s.pmf(from, i)) * dist2 / cos_e);
         }
         if self.groups.is_empty() {
             return None;
@@ -315,15 +310,8 @@ impl Emitters {
         let Some(s) = &self.spatial else { return self.sample(scene, u_select, u) };
         let (i, pmf, rest) = s.pick(x, refined(u.x, u_select));
         let mut es = self.area_sample(scene, self.prims[i], rest, u.y);
-        es.pdf_area = self.spatial_pdf_area(i, pmf);
+        es.pdf_area = s.pdf_area(i, pmf);
         es
-    }
-
-    /// The area density of a point of triangle `i` of the power table picked with
-    /// probability `pmf`.
-    #[inline(always)]
-    fn spatial_pdf_area(&self, i: usize, pmf: f32) -> f32 {
-        pmf / self.areas[i]
     }
 
     /// A uniform point on emitter `prim` (a triangle or an analytic sphere,
@@ -426,14 +414,7 @@ mod tests {
             indices.extend([[8, 9, 10], [8, 10, 11]]);
             tri_material.extend([0, 0]);
         }
-        let geometry = Geometry {
-            normals: vec![Vec3::ZERO; positions.len()],
-            uvs: vec![],
-            positions,
-            indices,
-            tri_material,
-            degenerate_dropped: 0,
-        };
+        let geometry = Geometry::flat(positions, indices, tri_material);
         let light = |e: f32| Material {
             name: "light".into(),
             bsdf: Bsdf::Diffuse { albedo: Vec3::ZERO },

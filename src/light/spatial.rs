@@ -85,8 +85,8 @@ const LANES: usize = 16;
 /// structure of arrays padded to a multiple of [`LANES`] (padding: power zero).
 #[derive(Clone, Debug)]
 pub struct Spatial {
-    /// The triangles.
-    len: usize,
+    /// Each triangle's area, not padded: their number is its length.
+    area: Vec<f32>,
     /// The centre of each triangle's bounding sphere (the centroid), by coordinate.
     centre: [Vec<f32>; 3],
     /// Its unit geometric normal, by coordinate: it emits on this side.
@@ -98,10 +98,10 @@ pub struct Spatial {
 }
 
 impl Spatial {
-    /// The bounds of triangles given by their corners, unit normals and probabilities in the
-    /// power table; `None` where there are fewer than [`MIN_SPATIAL`] or more than
+    /// The bounds of triangles given by their corners, unit normals, probabilities in the
+    /// power table and areas; `None` where there are fewer than [`MIN_SPATIAL`] or more than
     /// [`MAX_SPATIAL`].
-    pub fn new(triangles: impl ExactSizeIterator<Item = ([Vec3; 3], Vec3, f32)>) -> Option<Spatial> {
+    pub fn new(triangles: impl ExactSizeIterator<Item = ([Vec3; 3], Vec3, f32, f32)>) -> Option<Spatial> {
         let len = triangles.len();
         if !(MIN_SPATIAL..=MAX_SPATIAL).contains(&len) {
             return None;
@@ -109,13 +109,13 @@ impl Spatial {
         let padded = len.div_ceil(LANES) * LANES;
         let lanes = |v: f32| vec![v; padded];
         let mut s = Spatial {
-            len,
+            area: vec![0.0; len],
             centre: [lanes(0.0), lanes(0.0), lanes(0.0)],
             normal: [lanes(0.0), lanes(0.0), lanes(1.0)],
             radius: lanes(1.0),
             power: lanes(0.0),
         };
-        for (i, ([a, b, c], n, pmf)) in triangles.enumerate() {
+        for (i, ([a, b, c], n, pmf, area)) in triangles.enumerate() {
             let centre = (a + b + c) / 3.0;
             let r = [a, b, c].iter().map(|&v| (v - centre).length()).fold(0.0f32, f32::max);
             for k in 0..3 {
@@ -124,16 +124,15 @@ impl Spatial {
             }
             s.radius[i] = r.max(f32::MIN_POSITIVE.sqrt());
             s.power[i] = pmf;
+            s.area[i] = area;
         }
         Some(s)
     }
 
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
+    /// The area density of a point of triangle `i` picked with probability `pmf`.
+    #[inline(always)]
+    pub fn pdf_area(&self, i: usize, pmf: f32) -> f32 {
+        pmf / self.area[i]
     }
 
     /// Every triangle's importance at `x`, up to a common factor, into `out` (padding
@@ -197,7 +196,7 @@ impl Spatial {
     pub fn pick(&self, x: Vec3, u: f64) -> (usize, f32, f64) {
         let mut pmfs = [0.0f32; MAX_SPATIAL];
         self.pmfs(x, &mut pmfs);
-        let n = self.len();
+        let n = self.area.len();
         let last = (0..n).rev().find(|&i| pmfs[i] > 0.0).unwrap_or(n - 1);
         let mut lo = 0.0f64;
         for (i, &p) in pmfs[..n].iter().enumerate() {
@@ -227,7 +226,7 @@ mod tests {
         };
         let t = [tri(0.0, Vec3::Z), tri(5.0, Vec3::Z), tri(10.0, Vec3::Z), tri(15.0, -Vec3::Z)];
         let power = [1.0 / 6.0, 1.0 / 6.0, 3.0 / 6.0, 1.0 / 6.0];
-        Spatial::new(t.into_iter().zip(power).map(|((c, n), p)| (c, n, p))).unwrap()
+        Spatial::new(t.into_iter().zip(power).map(|((c, n), p)| (c, n, p, 0.5))).unwrap()
     }
 
     #[test]
@@ -277,7 +276,7 @@ mod tests {
 
     #[test]
     fn a_quad_or_too_many_triangles_keep_the_power_table() {
-        let tri = ([Vec3::ZERO, Vec3::X, Vec3::Y], Vec3::Z, 0.5);
+        let tri = ([Vec3::ZERO, Vec3::X, Vec3::Y], Vec3::Z, 0.5, 0.5);
         assert!(Spatial::new([tri, tri].into_iter()).is_none());
         assert!(Spatial::new(std::iter::repeat_n(tri, MAX_SPATIAL + 1)).is_none());
         assert!(Spatial::new(std::iter::repeat_n(tri, MAX_SPATIAL)).is_some());

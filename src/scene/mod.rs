@@ -130,6 +130,14 @@ pub struct Geometry {
     pub degenerate_dropped: usize,
 }
 
+impl Geometry {
+    /// Flat-shaded triangles without texture coordinates (scenes built in code).
+    pub fn flat(positions: Vec<Vec3>, indices: Vec<[u32; 3]>, tri_material: Vec<u32>) -> Geometry {
+        let normals = vec![Vec3::ZERO; positions.len()];
+        Geometry { positions, normals, uvs: Vec::new(), indices, tri_material, degenerate_dropped: 0 }
+    }
+}
+
 impl Scene {
     /// A scene read from `path` (the name its errors carry), checking its invariants.
     pub fn new(
@@ -525,14 +533,7 @@ mod tests {
 
     /// One triangle of an emitting white material.
     pub(super) fn parts() -> (Geometry, Vec<Material>) {
-        let geometry = Geometry {
-            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-            normals: vec![Vec3::ZERO; 3],
-            uvs: vec![],
-            indices: vec![[0, 1, 2]],
-            tri_material: vec![0],
-            degenerate_dropped: 0,
-        };
+        let geometry = Geometry::flat(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]], vec![0]);
         let m = Material {
             name: "m".into(),
             bsdf: Bsdf::Diffuse { albedo: Vec3::ONE },

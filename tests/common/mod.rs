@@ -81,14 +81,7 @@ pub fn closed_cube_facing(
         }
     }
     let camera = Camera::pinhole(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), Vec3::Y, 60.0, 16, 16);
-    let geometry = Geometry {
-        normals: vec![Vec3::ZERO; positions.len()],
-        uvs: vec![],
-        positions,
-        indices,
-        tri_material,
-        degenerate_dropped: 0,
-    };
+    let geometry = Geometry::flat(positions, indices, tri_material);
     Scene::new(PathBuf::from("closed-cube"), camera, RenderDefaults::default(), geometry, materials)
         .expect("the closed cube is a valid scene")
 }
