@@ -36,10 +36,8 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 /// [`load`] with the Mitsuba parameters of `options` (`-D name=value`), returning the
 /// warnings.
 pub fn load_with(path: &Path, options: &super::mitsuba::Options) -> Result<(Scene, Vec<String>), SceneError> {
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
-        return super::mitsuba::load(path, options);
-    }
-    if !options.defines.is_empty() {
+    let xml = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
+    if !xml && !options.defines.is_empty() {
         return Err(SceneError::Value {
             path: path.to_path_buf(),
             line: None,
@@ -47,8 +45,14 @@ pub fn load_with(path: &Path, options: &super::mitsuba::Options) -> Result<(Scen
             problem: "parameters (-D name=value) are for Mitsuba scene files (.xml)".into(),
         });
     }
-    let scene = load_toml(path)?;
-    let warnings = energy_warnings(path, &scene);
+    let (scene, mut warnings) = if xml {
+        super::mitsuba::load(path, options)?
+    } else {
+        let scene = load_toml(path)?;
+        let warnings = energy_warnings(path, &scene);
+        (scene, warnings)
+    };
+    warnings.extend(super::repeated::repeated_emitter_warning(path, &scene));
     Ok((scene, warnings))
 }
 

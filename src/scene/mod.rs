@@ -13,6 +13,7 @@ pub mod mitsuba;
 mod mtl;
 mod obj;
 pub mod ply;
+mod repeated;
 pub mod serialized;
 mod spheres;
 mod transform;
