@@ -58,6 +58,45 @@ fn three_lamps() -> Scene {
     Scene::new("three-lamps".into(), camera, RenderDefaults::default(), geometry, materials).unwrap()
 }
 
+/// The floor of [`three_lamps`] under twenty bulbs on a 5 × 4 grid, 2.5 apart, one unit
+/// above it, each the lower half of an octahedron of half-width 0.1 (4 triangles facing out
+/// and down: 80 emitting triangles, more than the choice takes one by one, so it picks among
+/// clusters of them), of radiance 20 to 80; the camera looks down at the floor from above
+/// (and sees the bulbs' dark backs).
+fn bulbs() -> Scene {
+    let mut positions = vec![
+        Vec3::new(-6.0, 0.0, -6.0),
+        Vec3::new(6.0, 0.0, -6.0),
+        Vec3::new(6.0, 0.0, 6.0),
+        Vec3::new(-6.0, 0.0, 6.0),
+    ];
+    let mut indices = vec![[0, 2, 1], [0, 3, 2]];
+    let mut tri_material = vec![0, 0];
+    for i in 0..5 {
+        for j in 0..4 {
+            let c = Vec3::new(2.5 * i as f32 - 5.0, 1.0, 2.5 * j as f32 - 3.75);
+            let base = positions.len() as u32;
+            let h = 0.1;
+            positions.extend([Vec3::X, -Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::Z].map(|d| c + d * h));
+            // Around the lowest corner (2), each face's normal points out and down.
+            for (x, y, z) in [(0, 3, 2), (3, 1, 2), (1, 4, 2), (4, 0, 2)] {
+                indices.push([base + x, base + y, base + z]);
+            }
+            tri_material.extend([1 + (i + j) as u32 % 4; 4]);
+        }
+    }
+    let geometry = Geometry::flat(positions, indices, tri_material);
+    let materials = vec![
+        diffuse(0.5, 0.0),
+        diffuse(0.0, 20.0),
+        diffuse(0.0, 40.0),
+        diffuse(0.0, 60.0),
+        diffuse(0.0, 80.0),
+    ];
+    let camera = Camera::pinhole(Vec3::new(0.0, 6.0, 0.01), Vec3::ZERO, Vec3::Y, 90.0, 32, 32);
+    Scene::new("bulbs".into(), camera, RenderDefaults::default(), geometry, materials).unwrap()
+}
+
 /// z of the difference of two renders' means (independent seeds), per channel, the largest.
 fn z_between(a: &Rendered, b: &Rendered) -> f64 {
     let ((ma, sa), (mb, sb)) = (a.mean_and_stderr(), b.mean_and_stderr());
@@ -88,7 +127,7 @@ fn the_scene_picks_by_importance_by_default_and_by_power_on_request() {
 /// alone, where the MIS weights of the emitter hits decide it, and with bounces.
 #[test]
 fn pt_by_importance_matches_pt_by_power() {
-    for (name, scene) in [("cube", three_lights()), ("lamps", three_lamps())] {
+    for (name, scene) in [("cube", three_lights()), ("lamps", three_lamps()), ("bulbs", bulbs())] {
         for depth in [2u32, 4] {
             let job = Job { iterations: 256, max_depth: depth, width: 32, height: 32, ..Job::default() };
             let by = |choice, seed| {
@@ -114,6 +153,19 @@ fn pt_by_importance_is_less_noisy_where_the_lamps_are_apart() {
     assert!(si < 0.5 * sp, "by importance {si:.4e} against by power {sp:.4e}");
 }
 
+/// So does the choice among clusters of the bulbs' triangles.
+#[test]
+fn pt_by_importance_among_clusters_is_less_noisy_where_the_bulbs_are_apart() {
+    let scene = bulbs();
+    assert!(Emitters::new(&scene).unwrap().is_spatial());
+    let job = Job { iterations: 16, max_depth: 3, width: 32, height: 32, ..Job::default() };
+    let by = |choice, seed| Job { emitter_choice: choice, seed, ..job.clone() }.run(&scene, &mut PathTracer);
+    let si = spread(&by(EmitterChoice::Importance, 1), &by(EmitterChoice::Importance, 2));
+    let sp = spread(&by(EmitterChoice::Power, 3), &by(EmitterChoice::Power, 4));
+    eprintln!("bulbs: spread by importance {si:.4e}, by power {sp:.4e}");
+    assert!(si < 0.5 * sp, "by importance {si:.4e} against by power {sp:.4e}");
+}
+
 /// `pir-bdpt`'s weights (without the bound, so that the estimate is unbiased per iteration)
 /// with the choice by importance: the path tracer's image, whose samples pick by power.
 #[test]
@@ -123,6 +175,7 @@ fn bidirectional_weights_take_the_choice_by_importance() {
         ("cube", three_lights(), 5),
         ("lamps", three_lamps(), 2),
         ("lamps", three_lamps(), 4),
+        ("bulbs", bulbs(), 3),
     ] {
         let job = Job {
             iterations: 64,

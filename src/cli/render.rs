@@ -216,10 +216,11 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &
         );
     }
     eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
-    if renderer.emitters().is_spatial() {
+    if let Some(entries) = renderer.emitters().spatial_entries() {
+        let triangles = renderer.emitters().len();
+        let clusters = if entries < triangles { format!(" (in {entries} clusters)") } else { String::new() };
         eprintln!(
-            "pir: next-event estimation picks among the {} emitting triangles by their importance at the receiver (--emitter-choice importance, experimental: see docs/cli.md)",
-            renderer.emitters().len()
+            "pir: next-event estimation picks among the {triangles} emitting triangles{clusters} by their importance at the receiver (--emitter-choice importance, experimental: see docs/cli.md)"
         );
     }
     eprintln!("pir: accelerator {}, {} walker", renderer.accel_description(), renderer.walker());

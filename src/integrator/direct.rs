@@ -49,7 +49,7 @@ pub fn occluded(ctx: &RenderContext, p: Vec3, ng: Vec3, q: Vec3, nq: Vec3, count
 }
 
 /// One light sample at `sp`: picks a point on an emitter (by power, or by importance at
-/// `sp` where the emitters are a few triangles: [`crate::light::spatial`]), and returns its
+/// `sp` where the emitters are triangles: [`crate::light::spatial`]), and returns its
 /// contribution f · Le · G · V / pdf, MIS-weighted against BSDF sampling. Always draws three
 /// numbers from `sampler`.
 pub fn sample_emitters(

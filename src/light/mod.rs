@@ -7,7 +7,7 @@
 //! [`Light::power`], infinite lights' from the scene's bounding sphere), in constant time from
 //! one alias table, and a uniform point on the triangle or a sample of the light. The same
 //! distribution serves the start of light paths, and next-event estimation and the MIS
-//! weights of BSDF-sampled hits but where the emitters are a few triangles: there next-event
+//! weights of BSDF-sampled hits but where the emitters are three triangles or more: there next-event
 //! estimation picks a triangle by its importance at the receiver ([`spatial`],
 //! [`Emitters::sample_from`], [`Emitters::nee_pdf`]). A scene without other lights builds
 //! exactly the table it always did.
@@ -58,7 +58,7 @@ pub struct Emitters {
     /// The indices (into `lights`) of the environments, which escaping rays see.
     environments: Vec<usize>,
     /// Next-event estimation's choice by importance at the receiver, where the emitters are
-    /// a few triangles ([`spatial`]); `None`: by power, as the light paths start.
+    /// three triangles or more ([`spatial`]); `None`: by power, as the light paths start.
     spatial: Option<Spatial>,
 }
 
@@ -248,6 +248,13 @@ impl Emitters {
     #[inline]
     pub fn is_spatial(&self) -> bool {
         self.spatial.is_some()
+    }
+
+    /// How many entries the choice by importance picks among ([`Spatial::entries`]): the
+    /// triangles, or clusters of them; `None` where it picks by power.
+    #[inline]
+    pub fn spatial_entries(&self) -> Option<usize> {
+        self.spatial.as_ref().map(Spatial::entries)
     }
 
     /// The emitters with next-event estimation's choice as `choice` says: by power alone
