@@ -8,8 +8,10 @@ mod common;
 
 use common::{Job, Rendered, closed_cube_of, diffuse};
 use glam::Vec3;
+use pir::integrator::MethodConfig;
 use pir::integrator::{Clamping, InstantRadiosity, PathTracer, VirtualLights};
 use pir::light::{EmitterChoice, Emitters};
+use pir::render::{Renderer, SceneOptions};
 use pir::scene::{Camera, Geometry, RenderDefaults, Scene};
 
 const Z: f64 = 4.5;
@@ -30,6 +32,11 @@ fn three_lights() -> Scene {
 /// A grey floor 12 wide under three small square lamps (0.3 wide, radiance 40, 80 and 160)
 /// one unit above it, 4 apart, facing down; the camera looks down at the floor from above.
 fn three_lamps() -> Scene {
+    lamps_at([-4.0, 0.0, 4.0])
+}
+
+/// [`three_lamps`] with the lamps' centres at `xs`.
+fn lamps_at(xs: [f32; 3]) -> Scene {
     let mut positions = vec![
         Vec3::new(-6.0, 0.0, -6.0),
         Vec3::new(6.0, 0.0, -6.0),
@@ -39,7 +46,7 @@ fn three_lamps() -> Scene {
     // The floor faces up: wound counter-clockwise seen from above.
     let mut indices = vec![[0, 2, 1], [0, 3, 2]];
     let mut tri_material = vec![0, 0];
-    for (k, x) in [-4.0f32, 0.0, 4.0].into_iter().enumerate() {
+    for (k, x) in xs.into_iter().enumerate() {
         let base = positions.len() as u32;
         let h = 0.15;
         positions.extend([
@@ -114,13 +121,50 @@ fn spread(a: &Rendered, b: &Rendered) -> f64 {
 }
 
 #[test]
-fn the_scene_picks_by_importance_by_default_and_by_power_on_request() {
+fn the_scene_picks_by_importance_or_by_power_on_request() {
     let scene = three_lights();
-    assert_eq!(EmitterChoice::default(), EmitterChoice::Power);
+    assert_eq!(EmitterChoice::default(), EmitterChoice::Auto);
     assert!(Emitters::new(&scene).unwrap().with_choice(EmitterChoice::Importance).is_spatial());
     assert!(!Emitters::new(&scene).unwrap().with_choice(EmitterChoice::Power).is_spatial());
     assert_eq!("power".parse::<EmitterChoice>(), Ok(EmitterChoice::Power));
+    assert_eq!("auto".parse::<EmitterChoice>(), Ok(EmitterChoice::Auto));
     assert!("nearest".parse::<EmitterChoice>().is_err());
+}
+
+/// `--emitter-choice auto` (the default): the renderer's pilot takes the choice by
+/// importance where the lamps are apart and in the conference room (six panels apart: 2.3x
+/// less variance at equal time, `docs/results.md`), gains less where the lamps sit side by
+/// side, and keeps the power table in the glowing box (whose repeated face light samples
+/// count twice); an explicit choice is not second-guessed. The job records the choice made.
+#[test]
+fn the_pilot_takes_importance_where_it_pays() {
+    let options = |choice| SceneOptions { emitter_choice: choice, ..Default::default() };
+    let verdict = |scene: &Scene, choice| {
+        let r = Renderer::new(scene, &options(choice)).unwrap();
+        let job = r.job(&MethodConfig::new("pt".parse().unwrap()));
+        (r.emitter_verdict(), r.emitters().is_spatial(), job.emitter_choice)
+    };
+    let (v, spatial, recorded) = verdict(&three_lamps(), None);
+    eprintln!("lamps apart: {v:?}");
+    assert!(v.unwrap().gain > 2.0 && spatial && recorded == EmitterChoice::Importance, "{v:?}");
+    let (apart, _, _) = verdict(&three_lamps(), None);
+    let (v, _, _) = verdict(&lamps_at([-0.3, 0.0, 0.3]), None);
+    eprintln!("lamps side by side: {v:?}");
+    assert!(v.unwrap().gain < 0.5 * apart.unwrap().gain, "{v:?}");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let conference = pir::scene::load(&root.join("scenes/conference-room/scene.toml")).unwrap();
+    let (v, spatial, recorded) = verdict(&conference, None);
+    eprintln!("conference room: {v:?}");
+    assert!(v.unwrap().importance_pays() && spatial && recorded == EmitterChoice::Importance, "{v:?}");
+    let glowing = pir::scene::load(&root.join("tests/data/glowing-box.toml")).unwrap();
+    let (v, spatial, recorded) = verdict(&glowing, None);
+    eprintln!("glowing box: {v:?}");
+    assert!(!v.unwrap().importance_pays() && !spatial && recorded == EmitterChoice::Power, "{v:?}");
+    // Asked for, each choice is taken without a pilot.
+    for (choice, want) in [(EmitterChoice::Importance, true), (EmitterChoice::Power, false)] {
+        let (v, spatial, _) = verdict(&lamps_at([-0.3, 0.0, 0.3]), Some(choice));
+        assert!(v.is_none() && spatial == want);
+    }
 }
 
 /// `pt` by importance and by power render the same image in expectation: direct light

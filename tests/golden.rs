@@ -43,8 +43,8 @@ const GLOSSY: &str = "scenes/cornell-box/glossy.toml";
 /// and light samples, a pilot that chooses more light paths and samples (the slit room),
 /// vertex merging and none (the mirror-and-glass caustic), VPLs kept by their share of the
 /// image (the near-mirror floor), no connections at near-specular vertices, explicit counts,
-/// independent numbers and a short path; next-event estimation by importance among a few
-/// emitting triangles, and by power there (the glowing box).
+/// independent numbers and a short path; next-event estimation among a few emitting
+/// triangles by importance, and by power where the default's pilot keeps it (the glowing box).
 const EXTRA: &[&str] = &[
     "pt --sampler independent",
     "pt --max-depth 3",

@@ -216,11 +216,19 @@ fn print_header(a: &RenderArgs, renderer: &Renderer, loaded: Duration, memory: &
         );
     }
     eprintln!("pir: scene read in {:.2} s", loaded.as_secs_f64());
+    let pilot = renderer.emitter_verdict().map(|v| {
+        format!("; the pilot found importance {:.2}x as efficient as power at {} points", v.gain, v.points)
+    });
     if let Some(entries) = renderer.emitters().spatial_entries() {
         let triangles = renderer.emitters().len();
         let clusters = if entries < triangles { format!(" (in {entries} clusters)") } else { String::new() };
         eprintln!(
-            "pir: next-event estimation picks among the {triangles} emitting triangles{clusters} by their importance at the receiver (--emitter-choice importance, experimental: see docs/cli.md)"
+            "pir: next-event estimation picks among the {triangles} emitting triangles{clusters} by their importance at the receiver{} (--emitter-choice, docs/cli.md)",
+            pilot.unwrap_or_default()
+        );
+    } else if let Some(pilot) = pilot {
+        eprintln!(
+            "pir: next-event estimation picks the emitting triangles by power{pilot} (--emitter-choice, docs/cli.md)"
         );
     }
     eprintln!("pir: accelerator {}, {} walker", renderer.accel_description(), renderer.walker());

@@ -29,6 +29,7 @@
 pub mod deferred;
 pub mod diffuse_lanes;
 pub mod direct;
+pub mod emitter_pilot;
 pub mod many_light;
 pub mod methods;
 mod path;

@@ -258,7 +258,8 @@ impl Emitters {
     }
 
     /// The emitters with next-event estimation's choice as `choice` says: by power alone
-    /// ([`EmitterChoice::Power`]) drops the choice by importance.
+    /// ([`EmitterChoice::Power`]) drops the choice by importance; [`EmitterChoice::Auto`]
+    /// keeps it for its pilot to decide ([`crate::integrator::emitter_pilot`]).
     pub fn with_choice(mut self, choice: EmitterChoice) -> Self {
         if choice == EmitterChoice::Power {
             self.spatial = None;

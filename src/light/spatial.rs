@@ -49,22 +49,26 @@ pub const DEFENSIVE: f32 = 0.1;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum EmitterChoice {
-    /// By its importance at the receiver where the scene's emitters are [`MIN_SPATIAL`] to
-    /// [`MAX_SPATIAL`] triangles, else by power. Not the default yet: it gives next-event
-    /// estimation more weight near emitters, and where a mesh lists an emitting face twice
-    /// (McGuire's Cornell boxes list one face of each box twice, which the glowing box of
-    /// `tests/data/` makes emit) light samples count that face twice and emitter hits once,
-    /// so its image is further from Mitsuba 3's there than by power. It waits for a clean
-    /// many-light scene measured against Mitsuba.
+    /// By importance where a pilot before the render finds it more efficient than by power
+    /// ([`crate::integrator::emitter_pilot`]), else by power: the default since estimator
+    /// revision 18. The job records the choice made.
+    #[default]
+    Auto,
+    /// By its importance at the receiver where the scene's emitters are at least
+    /// [`MIN_SPATIAL`] triangles (and no other lights), else by power. Where a mesh lists an
+    /// emitting face twice (the loader warns), light samples count that face twice and
+    /// emitter hits once, in any renderer that samples emitters by area; this choice, which
+    /// gives light samples more weight near emitters, shows more of it than the choice by
+    /// power.
     Importance,
     /// By power alone, as the light paths start.
-    #[default]
     Power,
 }
 
 impl std::fmt::Display for EmitterChoice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
+            EmitterChoice::Auto => "auto",
             EmitterChoice::Importance => "importance",
             EmitterChoice::Power => "power",
         })
@@ -75,9 +79,10 @@ impl std::str::FromStr for EmitterChoice {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(EmitterChoice::Auto),
             "importance" => Ok(EmitterChoice::Importance),
             "power" => Ok(EmitterChoice::Power),
-            _ => Err(format!("unknown emitter choice {s:?} (expected importance or power)")),
+            _ => Err(format!("unknown emitter choice {s:?} (expected auto, importance or power)")),
         }
     }
 }

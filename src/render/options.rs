@@ -53,10 +53,11 @@ pub struct SceneOptions {
     /// batched].
     #[arg(long, value_name = "WALKER")]
     pub walker: Option<Walker>,
-    /// How next-event estimation picks an emitting triangle: power (by power alone, as the
-    /// light paths start) or importance (experimental: by a bound on the light it can send to
-    /// the receiver, mixed with its power, where the scene's emitters are 3 to 64 triangles;
-    /// otherwise by power; see docs/cli.md for what is known to be off) [default: power].
+    /// How next-event estimation picks an emitting triangle: importance (by a bound on the
+    /// light it can send to the receiver, mixed with its power, where the scene's emitters
+    /// are three triangles or more and no other lights), power (by power alone, as the light
+    /// paths start), or auto (importance where a pilot before the render finds it more
+    /// efficient, else power; see docs/cli.md) [default: auto].
     #[arg(long, value_name = "CHOICE")]
     pub emitter_choice: Option<EmitterChoice>,
 }

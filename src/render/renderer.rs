@@ -31,8 +31,9 @@ use super::state::{Job, Shard, write_state};
 use super::{Budget, Control, Film, RenderSettings, RenderStats, render_from};
 use crate::accel::{Accelerator, set_flush_denormals};
 use crate::image::{RgbImage, write_exr, write_preview};
+use crate::integrator::emitter_pilot::{self, Verdict};
 use crate::integrator::{Counters, Integrator, MethodConfig, RayByRay, RenderContext, Walker};
-use crate::light::Emitters;
+use crate::light::{EmitterChoice, Emitters};
 use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 
@@ -53,6 +54,9 @@ pub struct Renderer<'s> {
     walker: Walker,
     /// The pilots of the methods that run them, once for the render ([`Integrator::prepare`]).
     pilot: crate::integrator::many_light::Pilots,
+    /// What the pilot of next-event estimation's choice found, where it ran
+    /// (`--emitter-choice auto` and emitters that can be picked by importance).
+    emitter_verdict: Option<Verdict>,
 }
 
 impl<'s> Renderer<'s> {
@@ -72,6 +76,17 @@ impl<'s> Renderer<'s> {
         // render (Embree builds on its own TBB threads, one per core). The pool's threads flush
         // denormals to zero, which the BVH's boxes allow for (padding, `bvh/traverse.rs`).
         let accel = pool.install(|| scene.accelerator(options.backend())).map_err(anyhow::Error::msg)?;
+        // `auto`: the choice by importance where the pilot finds that it pays.
+        let (emitters, emitter_verdict) =
+            if options.emitter_choice() == EmitterChoice::Auto && emitters.is_spatial() {
+                let camera = scene.camera().with_resolution(width, height).rays();
+                let verdict = emitter_pilot::run(scene, accel.as_ref(), &emitters, &camera);
+                let choice =
+                    if verdict.importance_pays() { EmitterChoice::Importance } else { EmitterChoice::Power };
+                (emitters.with_choice(choice), Some(verdict))
+            } else {
+                (emitters, None)
+            };
         Ok(Renderer {
             scene,
             emitters,
@@ -86,6 +101,7 @@ impl<'s> Renderer<'s> {
             max_depth: options.max_depth(scene),
             walker: options.walker(),
             pilot: Default::default(),
+            emitter_verdict,
         })
     }
 
@@ -95,6 +111,11 @@ impl<'s> Renderer<'s> {
 
     pub fn emitters(&self) -> &Emitters {
         &self.emitters
+    }
+
+    /// What the pilot of next-event estimation's choice found, where it ran.
+    pub fn emitter_verdict(&self) -> Option<Verdict> {
+        self.emitter_verdict
     }
 
     /// The image size in pixels.

@@ -140,7 +140,9 @@ pub struct Job {
     /// the iterations, which needs independent iterations (a Sobol sampler's are not; its
     /// tests replicate over seeds instead).
     pub sampler: SamplerKind,
-    /// How next-event estimation picks an emitting triangle (`--emitter-choice`).
+    /// How next-event estimation picks an emitting triangle (`--emitter-choice`): by power
+    /// unless a test asks (`auto`, the renderer's default, runs its pilot in
+    /// [`pir::render::Renderer`] only; here it picks by importance).
     pub emitter_choice: EmitterChoice,
 }
 
@@ -155,7 +157,7 @@ impl Default for Job {
             threads: 2,
             snapshot_at: Vec::new(),
             sampler: SamplerKind::Independent,
-            emitter_choice: EmitterChoice::default(),
+            emitter_choice: EmitterChoice::Power,
         }
     }
 }
