@@ -80,7 +80,8 @@ impl<'s> Renderer<'s> {
         let (emitters, emitter_verdict) =
             if options.emitter_choice() == EmitterChoice::Auto && emitters.is_spatial() {
                 let camera = scene.camera().with_resolution(width, height).rays();
-                let verdict = emitter_pilot::run(scene, accel.as_ref(), &emitters, &camera);
+                // On the worker pool, whose threads flush denormals as the render's do.
+                let verdict = pool.install(|| emitter_pilot::run(scene, accel.as_ref(), &emitters, &camera));
                 let choice =
                     if verdict.importance_pays() { EmitterChoice::Importance } else { EmitterChoice::Power };
                 (emitters.with_choice(choice), Some(verdict))
