@@ -56,6 +56,53 @@ fn resumed_render_equals_uninterrupted_render_bit_for_bit() {
     assert_eq!(a.film.sums_of_squares(), b.film.sums_of_squares());
 }
 
+/// Under `--emitter-choice auto` (the default) a resumed render takes the choice its file
+/// made, not its pilot's again: a render of the glowing box by importance (where the pilot
+/// would pick by power) resumes without the flag, and ends as one uninterrupted render.
+#[test]
+fn a_resumed_render_keeps_the_emitter_choice_of_its_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let glowing = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/glowing-box.toml");
+    let glowing = glowing.to_string_lossy().into_owned();
+    let run = |extra: &[&str]| {
+        let args =
+            [&["render", glowing.as_str(), "--method", "pt", "--resolution", "24", "20", "-q"][..], extra];
+        let o = pir(&args.concat(), d);
+        assert!(o.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["--spp", "4", "--emitter-choice", "importance", "--out", "full.exr"]);
+    run(&["--spp", "2", "--emitter-choice", "importance", "--checkpoint", "1000", "--out", "part.exr"]);
+    run(&["--spp", "4", "--resume", "part.exr"]);
+    assert_eq!(
+        read_state(&d.join("part.exr")).unwrap().job.emitter_choice,
+        pir::light::EmitterChoice::Importance
+    );
+    assert_eq!(pixels(&d.join("part.exr")), pixels(&d.join("full.exr")));
+    // Asked for by power, it is another render.
+    let s = glowing.as_str();
+    let o = pir(
+        &[
+            "render",
+            s,
+            "--method",
+            "pt",
+            "--resolution",
+            "24",
+            "20",
+            "-q",
+            "--spp",
+            "6",
+            "--resume",
+            "part.exr",
+            "--emitter-choice",
+            "power",
+        ],
+        d,
+    );
+    assert!(failure(&o).contains("emitter choice: power here, importance in the file"));
+}
+
 /// `pir-bdpt` chooses its light paths by the scene (a pilot before the first iteration):
 /// in the slit room, where it traces many more than its fewest, a resumed render still
 /// equals the uninterrupted one, and the summary says how many.

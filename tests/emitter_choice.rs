@@ -1,8 +1,9 @@
 //! Next-event estimation's choice of an emitting triangle by its importance at the receiver
-//! (`src/light/spatial.rs`, `--emitter-choice importance`, experimental, where the emitters
-//! are a few triangles) against the choice by power: the same image in expectation for `pt` and
-//! for `pir-bdpt`, whose weights take next-event estimation's density from the receiver, and
-//! less noise where the lights are apart.
+//! (`src/light/spatial.rs`, `--emitter-choice importance`, where the emitters are three
+//! triangles or more, among clusters of them beyond 64) against the choice by power: the same
+//! image in expectation for `pt` and for `pir-bdpt`, whose weights take next-event
+//! estimation's density from the receiver, and less noise where the lights are apart; and
+//! the pilot of `--emitter-choice auto` (`src/integrator/emitter_pilot.rs`).
 
 mod common;
 
@@ -37,15 +38,7 @@ fn three_lamps() -> Scene {
 
 /// [`three_lamps`] with the lamps' centres at `xs`.
 fn lamps_at(xs: [f32; 3]) -> Scene {
-    let mut positions = vec![
-        Vec3::new(-6.0, 0.0, -6.0),
-        Vec3::new(6.0, 0.0, -6.0),
-        Vec3::new(6.0, 0.0, 6.0),
-        Vec3::new(-6.0, 0.0, 6.0),
-    ];
-    // The floor faces up: wound counter-clockwise seen from above.
-    let mut indices = vec![[0, 2, 1], [0, 3, 2]];
-    let mut tri_material = vec![0, 0];
+    let (mut positions, mut indices, mut tri_material) = (Vec::new(), Vec::new(), Vec::new());
     for (k, x) in xs.into_iter().enumerate() {
         let base = positions.len() as u32;
         let h = 0.15;
@@ -57,12 +50,10 @@ fn lamps_at(xs: [f32; 3]) -> Scene {
         ]);
         // Facing down.
         indices.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
-        tri_material.extend([k as u32 + 1; 2]);
+        tri_material.extend([k as u32; 2]);
     }
-    let geometry = Geometry::flat(positions, indices, tri_material);
-    let materials = vec![diffuse(0.5, 0.0), diffuse(0.0, 40.0), diffuse(0.0, 80.0), diffuse(0.0, 160.0)];
-    let camera = Camera::pinhole(Vec3::new(0.0, 6.0, 0.01), Vec3::ZERO, Vec3::Y, 90.0, 32, 32);
-    Scene::new("three-lamps".into(), camera, RenderDefaults::default(), geometry, materials).unwrap()
+    let emissions = [40.0, 80.0, 160.0];
+    over_the_floor("three-lamps", positions, indices, tri_material, &emissions)
 }
 
 /// The floor of [`three_lamps`] under twenty bulbs on a 5 × 4 grid, 2.5 apart, one unit
@@ -71,14 +62,7 @@ fn lamps_at(xs: [f32; 3]) -> Scene {
 /// clusters of them), of radiance 20 to 80; the camera looks down at the floor from above
 /// (and sees the bulbs' dark backs).
 fn bulbs() -> Scene {
-    let mut positions = vec![
-        Vec3::new(-6.0, 0.0, -6.0),
-        Vec3::new(6.0, 0.0, -6.0),
-        Vec3::new(6.0, 0.0, 6.0),
-        Vec3::new(-6.0, 0.0, 6.0),
-    ];
-    let mut indices = vec![[0, 2, 1], [0, 3, 2]];
-    let mut tri_material = vec![0, 0];
+    let (mut positions, mut indices, mut tri_material) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..5 {
         for j in 0..4 {
             let c = Vec3::new(2.5 * i as f32 - 5.0, 1.0, 2.5 * j as f32 - 3.75);
@@ -89,19 +73,37 @@ fn bulbs() -> Scene {
             for (x, y, z) in [(0, 3, 2), (3, 1, 2), (1, 4, 2), (4, 0, 2)] {
                 indices.push([base + x, base + y, base + z]);
             }
-            tri_material.extend([1 + (i + j) as u32 % 4; 4]);
+            tri_material.extend([(i + j) as u32 % 4; 4]);
         }
     }
-    let geometry = Geometry::flat(positions, indices, tri_material);
-    let materials = vec![
-        diffuse(0.5, 0.0),
-        diffuse(0.0, 20.0),
-        diffuse(0.0, 40.0),
-        diffuse(0.0, 60.0),
-        diffuse(0.0, 80.0),
+    over_the_floor("bulbs", positions, indices, tri_material, &[20.0, 40.0, 60.0, 80.0])
+}
+
+/// A grey floor 12 wide (facing up) under the emitting triangles given, whose materials are
+/// black emitters of the radiances `emissions` (by index); the camera looks down at the floor
+/// from 6 above.
+fn over_the_floor(
+    name: &str,
+    positions: Vec<Vec3>,
+    indices: Vec<[u32; 3]>,
+    tri_material: Vec<u32>,
+    emissions: &[f32],
+) -> Scene {
+    let floor = [
+        Vec3::new(-6.0, 0.0, -6.0),
+        Vec3::new(6.0, 0.0, -6.0),
+        Vec3::new(6.0, 0.0, 6.0),
+        Vec3::new(-6.0, 0.0, 6.0),
     ];
+    // Wound counter-clockwise seen from above.
+    let mut all_indices = vec![[0, 2, 1], [0, 3, 2]];
+    all_indices.extend(indices.iter().map(|t| t.map(|i| i + 4)));
+    let all_materials = [vec![0, 0], tri_material.iter().map(|m| m + 1).collect()].concat();
+    let geometry = Geometry::flat([&floor[..], &positions].concat(), all_indices, all_materials);
+    let mut materials = vec![diffuse(0.5, 0.0)];
+    materials.extend(emissions.iter().map(|&e| diffuse(0.0, e)));
     let camera = Camera::pinhole(Vec3::new(0.0, 6.0, 0.01), Vec3::ZERO, Vec3::Y, 90.0, 32, 32);
-    Scene::new("bulbs".into(), camera, RenderDefaults::default(), geometry, materials).unwrap()
+    Scene::new(name.into(), camera, RenderDefaults::default(), geometry, materials).unwrap()
 }
 
 /// z of the difference of two renders' means (independent seeds), per channel, the largest.

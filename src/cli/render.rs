@@ -10,8 +10,9 @@ use pir::accel::{Backend, embree_status};
 use pir::image::RgbImage;
 use pir::integrator::MethodConfig;
 use pir::integrator::many_light::config::{NEAR_SPECULAR_ALPHA, near_specular};
+use pir::light::EmitterChoice;
 use pir::render::memory;
-use pir::render::state::{Job, Shard, read_state};
+use pir::render::state::{Job, Saved, Shard, read_state};
 use pir::render::{Budget, Control, Film, RenderStats, Renderer, SceneOptions, check_resolution};
 use pir::scene::Scene;
 
@@ -94,9 +95,18 @@ pub fn run(a: RenderArgs) -> Result<()> {
     a.config.check_scene(&scene)?;
     let loaded = start.elapsed();
     let memory = check_memory(&a, &scene)?;
-    let renderer = Renderer::new(&scene, &a.options)?;
+    let saved = a.resume.as_ref().map(|path| read_state(path)).transpose()?;
+    // Resumed under `auto`: the choice the file made, not the pilot's again (which could
+    // differ with another build of the accelerator).
+    let mut options = a.options.clone();
+    if let Some(saved) = &saved
+        && matches!(options.emitter_choice, None | Some(EmitterChoice::Auto))
+    {
+        options.emitter_choice = Some(saved.job.emitter_choice);
+    }
+    let renderer = Renderer::new(&scene, &options)?;
     let job = renderer.job(&a.config);
-    let film = starting_film(&a, &renderer, &job, plan.shard)?;
+    let film = starting_film(&a, saved, &renderer, &job, plan.shard)?;
     print_header(&a, &renderer, loaded, &memory);
     let (film, stats) = render(&a, &plan, &renderer, &job, film)?;
     let (image, attributes) = write_output(&a, &plan, &renderer, &job, &film, &stats)?;
@@ -177,12 +187,17 @@ fn check_memory(a: &RenderArgs, scene: &Scene) -> Result<memory::Estimate> {
 }
 
 /// The film the render starts from: a resumed one (of the same job and shard) or an empty one.
-fn starting_film(a: &RenderArgs, renderer: &Renderer, job: &Job, shard: Shard) -> Result<Film> {
-    let Some(path) = &a.resume else {
+fn starting_film(
+    a: &RenderArgs,
+    saved: Option<Saved>,
+    renderer: &Renderer,
+    job: &Job,
+    shard: Shard,
+) -> Result<Film> {
+    let (Some(path), Some(saved)) = (&a.resume, saved) else {
         let (w, h) = renderer.resolution();
         return Ok(Film::new(w as usize, h as usize));
     };
-    let saved = read_state(path)?;
     let mut differences = job.differences(&saved.job);
     if saved.shard != shard {
         differences.push(format!("shard: {shard} here, {} in the file", saved.shard));

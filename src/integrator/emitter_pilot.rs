@@ -46,8 +46,8 @@ pub const PILOT_RAYS: usize = 4096;
 pub const SAMPLES: usize = 4;
 
 /// A shadow ray's cost in units of a path vertex (a closest hit and its shading), and the
-/// choice by importance's bounds' (fitted to veach-bidir's `pt`: 1.16 µs against 1.56 µs per
-/// path, 0.47 against 0.73 shadow rays per vertex, 4.1 vertices).
+/// choice by importance's bounds' per sixteen entries (fitted to veach-bidir's `pt`: 1.16 µs
+/// against 1.56 µs per path, 0.47 against 0.73 shadow rays per vertex, 4.1 vertices).
 pub const SHADOW_COST: f64 = 1.5;
 pub const BOUND_COST: f64 = 0.2;
 
@@ -93,8 +93,16 @@ struct Sums {
 }
 
 /// The pilot for `emitters` (which pick by importance: [`Emitters::is_spatial`]) in `scene`
-/// seen by `camera` through `accel`.
-pub fn run(scene: &Scene, accel: &dyn Accelerator, emitters: &Emitters, camera: &CameraRays) -> Verdict {
+/// seen by `camera` through `accel`, for paths of at most `max_depth` segments (the bounce
+/// needs three).
+pub fn run(
+    scene: &Scene,
+    accel: &dyn Accelerator,
+    emitters: &Emitters,
+    camera: &CameraRays,
+    max_depth: u32,
+) -> Verdict {
+    let bounces = if max_depth >= 3 { SAMPLES } else { 0 };
     let streams = Streams::new(PILOT_SEED, PILOT_ITERATION, Domain::Acceptance);
     let film = camera.film_size();
     let mut points: Vec<Point> = Vec::new();
@@ -134,7 +142,7 @@ pub fn run(scene: &Scene, accel: &dyn Accelerator, emitters: &Emitters, camera: 
         // where they land on a surface that reflects (a Lambertian one of its reflectance).
         let mut bounced = Sums::default();
         let frame = Frame::from_normal(ng);
-        for _ in 0..SAMPLES {
+        for _ in 0..bounces {
             let wi = frame.to_world(cosine_hemisphere(sampler.next_2d()));
             let (u_select, u) = (sampler.next_f32(), sampler.next_2d());
             let next = Ray::new(offset_origin(sp.p, ng, wi), wi);
@@ -163,7 +171,8 @@ pub fn run(scene: &Scene, accel: &dyn Accelerator, emitters: &Emitters, camera: 
             total.shadow_rays += s.shadow_rays;
         }
     }
-    verdict(&points, by_importance.shadow_rays, by_power.shadow_rays)
+    let bound_cost = BOUND_COST * emitters.spatial_entries().unwrap_or(0).div_ceil(16) as f64;
+    verdict(&points, by_importance.shadow_rays, by_power.shadow_rays, bound_cost)
 }
 
 /// The irradiance that the emitter sample `es` estimates at the point `p` of geometric
@@ -198,7 +207,7 @@ struct Point {
 /// variances (the direct light's by the choice, plus the bounced light's and the [`FLOOR`]
 /// common to both) summed over the points (the squared mean padded by a twentieth of the points' average mean, so that the
 /// dark points do not decide), each times its modelled cost.
-fn verdict(points: &[Point], shadows_importance: u64, shadows_power: u64) -> Verdict {
+fn verdict(points: &[Point], shadows_importance: u64, shadows_power: u64, bound_cost: f64) -> Verdict {
     let samples = (points.len() * SAMPLES).max(1) as f64;
     let average = points.iter().map(|p| p.mean).sum::<f64>() / points.len().max(1) as f64;
     let pad = (0.05 * average).powi(2);
@@ -211,7 +220,7 @@ fn verdict(points: &[Point], shadows_importance: u64, shadows_power: u64) -> Ver
             v_pow += (p.power + common) / norm;
         }
     }
-    let cost_imp = 1.0 + SHADOW_COST * shadows_importance as f64 / samples + BOUND_COST;
+    let cost_imp = 1.0 + SHADOW_COST * shadows_importance as f64 / samples + bound_cost;
     let cost_pow = 1.0 + SHADOW_COST * shadows_power as f64 / samples;
     let gain = if v_imp > 0.0 { (v_pow * cost_pow) / (v_imp * cost_imp) } else { 1.0 };
     Verdict { gain: if gain.is_finite() { gain } else { 1.0 }, points: points.len() }
@@ -229,21 +238,21 @@ mod tests {
 
     #[test]
     fn the_verdict_weighs_variance_against_cost() {
-        let v = verdict(&points(100, 1.0, 0.5, 0.5, 0.0), 200, 200);
+        let v = verdict(&points(100, 1.0, 0.5, 0.5, 0.0), 200, 200, BOUND_COST);
         assert!(v.gain < 1.0 && !v.importance_pays(), "{v:?}");
         let halved = points(100, 1.0, 0.15, 0.5, 0.0);
-        assert!(verdict(&halved, 200, 200).importance_pays());
+        assert!(verdict(&halved, 200, 200, BOUND_COST).importance_pays());
         // Four times the shadow rays per sample (2 against 0.5): 4.2 against 1.75 in cost,
         // for 2.4x less variance.
-        assert!(!verdict(&halved, 800, 200).importance_pays());
+        assert!(!verdict(&halved, 800, 200, BOUND_COST).importance_pays());
         // The bounced light's variance dilutes the gain.
-        assert!(!verdict(&points(100, 1.0, 0.15, 0.5, 1.0), 200, 200).importance_pays());
+        assert!(!verdict(&points(100, 1.0, 0.15, 0.5, 1.0), 200, 200, BOUND_COST).importance_pays());
         // So does the floor: 0.15 against 0.2 in variance (0.1 against 0.15 alone would pay).
-        assert!(!verdict(&points(100, 1.0, 0.1, 0.15, 0.0), 200, 200).importance_pays());
+        assert!(!verdict(&points(100, 1.0, 0.1, 0.15, 0.0), 200, 200, BOUND_COST).importance_pays());
         // Dark points weigh little; no points, or no variance, keep the power table.
         let dark = points(100, 0.0, 1e-6, 0.0, 0.0);
-        assert!(verdict(&[halved.clone(), dark].concat(), 200, 200).importance_pays());
-        assert!(!verdict(&[], 0, 0).importance_pays());
-        assert!(!verdict(&points(1, 1.0, 0.0, 0.0, 0.0), 1, 1).importance_pays());
+        assert!(verdict(&[halved.clone(), dark].concat(), 200, 200, BOUND_COST).importance_pays());
+        assert!(!verdict(&[], 0, 0, BOUND_COST).importance_pays());
+        assert!(!verdict(&points(1, 1.0, 0.0, 0.0, 0.0), 1, 1, BOUND_COST).importance_pays());
     }
 }

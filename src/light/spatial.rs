@@ -347,7 +347,11 @@ impl Spatial {
         }
         // Within the cluster by its cumulative shares (`below[0]` = 0 ≤ rest).
         let below = &self.below[range.clone()];
-        let j = below.partition_point(|&c| c <= rest) - 1;
+        let mut j = below.partition_point(|&c| c <= rest) - 1;
+        // (Past the end by rounding onto a member of no share: the last one with a share.)
+        while j > 0 && self.within[self.members[range.start + j] as usize] <= 0.0 {
+            j -= 1;
+        }
         let i = self.members[range.start + j] as usize;
         let w = self.within[i];
         (i, p * w, ((rest - below[j]) / w as f64).clamp(0.0, ONE_BELOW))

@@ -81,7 +81,9 @@ impl<'s> Renderer<'s> {
             if options.emitter_choice() == EmitterChoice::Auto && emitters.is_spatial() {
                 let camera = scene.camera().with_resolution(width, height).rays();
                 // On the worker pool, whose threads flush denormals as the render's do.
-                let verdict = pool.install(|| emitter_pilot::run(scene, accel.as_ref(), &emitters, &camera));
+                let verdict = pool.install(|| {
+                    emitter_pilot::run(scene, accel.as_ref(), &emitters, &camera, options.max_depth(scene))
+                });
                 let choice =
                     if verdict.importance_pays() { EmitterChoice::Importance } else { EmitterChoice::Power };
                 (emitters.with_choice(choice), Some(verdict))

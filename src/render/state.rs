@@ -102,9 +102,15 @@ pub struct Job {
     pub width: usize,
     pub height: usize,
     /// Next-event estimation's choice of an emitting triangle as it rendered: by importance
-    /// only where the scene's emitters allow it ([`crate::light::Emitters::is_spatial`]).
-    #[serde(default)]
+    /// only where the scene's emitters allow it ([`crate::light::Emitters::is_spatial`]); under
+    /// `auto`, the choice its pilot made (never `auto` itself).
+    #[serde(default = "by_power")]
     pub emitter_choice: EmitterChoice,
+}
+
+/// What a job without the field chose (pir before estimator revision 17).
+fn by_power() -> EmitterChoice {
+    EmitterChoice::Power
 }
 
 const LAYOUT_KEY: &str = "pir.job.layout";

@@ -11,11 +11,13 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use glam::Vec3;
+
 use super::Scene;
 
 /// A warning where emitting triangles of `scene` (loaded from `path`) repeat the corners of
-/// another emitting triangle (in any order, either facing): how many, and the first one's
-/// material and corners.
+/// another emitting triangle facing the same way (in any order that keeps the facing): how
+/// many, and the first one's material and corners.
 pub fn repeated_emitter_warning(path: &Path, scene: &Scene) -> Option<String> {
     let mut seen: HashMap<[[u32; 3]; 3], u32> = HashMap::new();
     let mut repeats = 0usize;
@@ -24,8 +26,11 @@ pub fn repeated_emitter_warning(path: &Path, scene: &Scene) -> Option<String> {
         if !scene.material_of(prim).is_emitter() {
             continue;
         }
-        let mut key = scene.triangle(prim).map(|v| v.to_array().map(f32::to_bits));
-        key.sort_unstable();
+        // The corners from the least, in their order (so a copy facing the other way, which
+        // emits on its own side, is another face), −0 as 0.
+        let c = scene.triangle(prim).map(|v| (v + Vec3::ZERO).to_array().map(f32::to_bits));
+        let k = (0..3).min_by_key(|&i| c[i]).unwrap_or(0);
+        let key = [c[k], c[(k + 1) % 3], c[(k + 2) % 3]];
         if let Some(&earlier) = seen.get(&key) {
             repeats += 1;
             first.get_or_insert((earlier, prim));
@@ -47,8 +52,6 @@ pub fn repeated_emitter_warning(path: &Path, scene: &Scene) -> Option<String> {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
-
     use super::*;
     use crate::material::{Bsdf, Material};
     use crate::scene::{Camera, Geometry, RenderDefaults};
@@ -84,16 +87,18 @@ mod tests {
     }
 
     #[test]
-    fn a_repeated_emitting_face_is_named_in_either_order_and_facing() {
+    fn a_repeated_emitting_face_is_named_whatever_corner_it_starts_from() {
         let path = Path::new("room.toml");
         assert_eq!(repeated_emitter_warning(path, &scene(&[], 0)), None);
-        // The same corners rotated, and flipped: both repeat the first triangle.
+        // The same corners from another corner: both repeat the first triangle.
         let w = repeated_emitter_warning(path, &scene(&[[2, 1, 0], [1, 0, 2]], 0)).unwrap();
         assert!(w.starts_with("room.toml: 2 emitting triangle(s)"), "{w}");
         assert!(w.contains("\"lamp\"") && w.contains("repeats triangle 0"), "{w}");
         // Repeated faces that do not emit are not the renderer's concern.
         assert_eq!(repeated_emitter_warning(path, &scene(&[[4, 5, 6]], 1)), None);
-        // A face that shares two corners only is another face.
+        // Facing the other way, it emits on its own side: another face; so is one that
+        // shares two corners only.
+        assert_eq!(repeated_emitter_warning(path, &scene(&[[0, 1, 2]], 0)), None);
         assert_eq!(repeated_emitter_warning(path, &scene(&[[0, 2, 5]], 0)), None);
     }
 }
