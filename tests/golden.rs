@@ -44,7 +44,9 @@ const GLOSSY: &str = "scenes/cornell-box/glossy.toml";
 /// vertex merging and none (the mirror-and-glass caustic), VPLs kept by their share of the
 /// image (the near-mirror floor), no connections at near-specular vertices, explicit counts,
 /// independent numbers and a short path; next-event estimation among a few emitting
-/// triangles by importance, and by power where the default's pilot keeps it (the glowing box).
+/// triangles by importance, and by power where the default's pilot keeps it (the glowing box);
+/// by importance among clusters of 80 emitting triangles, and the pilot's choice there (the
+/// bulbs).
 const EXTRA: &[&str] = &[
     "pt --sampler independent",
     "pt --max-depth 3",
@@ -71,6 +73,8 @@ const EXTRA: &[&str] = &[
     "pt --scene tests/data/glowing-box.toml",
     "pt --emitter-choice importance --scene tests/data/glowing-box.toml",
     "pir-bdpt --emitter-choice importance --scene tests/data/glowing-box.toml",
+    "pt --scene tests/data/bulbs.toml",
+    "pt --emitter-choice importance --scene tests/data/bulbs.toml",
 ];
 
 /// What is rendered, as `pir render` flags (and `--scene`): every method at its defaults on
