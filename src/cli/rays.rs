@@ -108,7 +108,7 @@ pub fn run(a: RaysArgs) -> Result<()> {
 fn bounce(scene: &Scene, ray: &Ray, hit: Option<&Hit>, mut s: Sampler) -> Ray {
     let Some(hit) = hit else { return *ray };
     let sp = scene.surface_of_hit(hit, ray.dir);
-    let n = if sp.ng.dot(ray.dir) > 0.0 { -sp.ng } else { sp.ng };
+    let n = sp.facing(ray.dir);
     let w = Frame::from_normal(n).to_world(cosine_hemisphere(s.next_2d()));
     Ray::new(offset_origin(sp.p, sp.ng, w), w)
 }

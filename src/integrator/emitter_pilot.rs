@@ -33,7 +33,7 @@
 use glam::{Vec2, Vec3};
 
 use super::direct::shadow_ray;
-use crate::accel::Accelerator;
+use crate::accel::{Accelerator, Hit};
 use crate::geometry::{Frame, Ray, offset_origin};
 use crate::light::{EmitterSample, Emitters};
 use crate::sampling::{Domain, Streams, cosine_hemisphere};
@@ -92,6 +92,13 @@ struct Sums {
     shadow_rays: u64,
 }
 
+impl Sums {
+    fn add(&mut self, e: f64) {
+        self.sum += e;
+        self.sum2 += e * e;
+    }
+}
+
 /// The pilot for `emitters` (which pick by importance: [`Emitters::is_spatial`]) in `scene`
 /// seen by `camera` through `accel`, for paths of at most `max_depth` segments (the bounce
 /// needs three).
@@ -106,17 +113,14 @@ pub fn run(
     let streams = Streams::new(PILOT_SEED, PILOT_ITERATION, Domain::Acceptance);
     let film = camera.film_size();
     let mut points: Vec<Point> = Vec::new();
-    let (mut by_importance, mut by_power) = (Sums::default(), Sums::default());
+    // The shadow rays each choice traced.
+    let (mut shadows_importance, mut shadows_power) = (0u64, 0u64);
     for j in 0..PILOT_RAYS {
         let mut sampler = streams.sampler(j as u64);
         let ray = camera.generate_ray(sampler.next_2d() * film, sampler.next_2d());
-        let Some(hit) = accel.intersect(&ray) else { continue };
-        let material = scene.material_of(hit.prim);
-        if material.is_emitter() || material.bsdf.is_delta() {
-            continue;
-        }
+        let Some(hit) = accel.intersect(&ray).filter(|h| reflects(scene, h)) else { continue };
         let sp = scene.surface_of_hit(&hit, ray.dir);
-        let ng = if sp.ng.dot(ray.dir) > 0.0 { -sp.ng } else { sp.ng };
+        let ng = sp.facing(ray.dir);
         let (mut imp, mut pow) = (Sums::default(), Sums::default());
         for k in 0..SAMPLES {
             // Stratified in the number that picks the emitter.
@@ -133,8 +137,7 @@ pub fn run(
                     sums.shadow_rays += 1;
                 }
                 if let Some(e) = irradiance(accel, sp.p, ng, es) {
-                    sums.sum += e;
-                    sums.sum2 += e * e;
+                    sums.add(e);
                 }
             }
         }
@@ -146,17 +149,12 @@ pub fn run(
             let wi = frame.to_world(cosine_hemisphere(sampler.next_2d()));
             let (u_select, u) = (sampler.next_f32(), sampler.next_2d());
             let next = Ray::new(offset_origin(sp.p, ng, wi), wi);
-            let Some(hit) = accel.intersect(&next) else { continue };
-            let material = scene.material_of(hit.prim);
-            if material.is_emitter() || material.bsdf.is_delta() {
-                continue;
-            }
+            let Some(hit) = accel.intersect(&next).filter(|h| reflects(scene, h)) else { continue };
             let y = scene.surface_of_hit(&hit, wi);
-            let ny = if y.ng.dot(wi) > 0.0 { -y.ng } else { y.ng };
+            let ny = y.facing(wi);
             let albedo = scene.bsdf_at(&y).reflectance().dot(Vec3::splat(1.0 / 3.0)) as f64;
             if let Some(e) = irradiance(accel, y.p, ny, emitters.sample(scene, u_select, u)) {
-                bounced.sum += albedo * e;
-                bounced.sum2 += (albedo * e).powi(2);
+                bounced.add(albedo * e);
             }
         }
         let n = SAMPLES as f64;
@@ -167,12 +165,18 @@ pub fn run(
             power: variance(&pow),
             bounced: variance(&bounced),
         });
-        for (total, s) in [(&mut by_importance, imp), (&mut by_power, pow)] {
-            total.shadow_rays += s.shadow_rays;
-        }
+        shadows_importance += imp.shadow_rays;
+        shadows_power += pow.shadow_rays;
     }
     let bound_cost = BOUND_COST * emitters.spatial_entries().unwrap_or(0).div_ceil(16) as f64;
-    verdict(&points, by_importance.shadow_rays, by_power.shadow_rays, bound_cost)
+    verdict(&points, shadows_importance, shadows_power, bound_cost)
+}
+
+/// Whether the surface that `hit` finds reflects light that the pilot measures: neither an
+/// emitter nor a mirror or glass.
+fn reflects(scene: &Scene, hit: &Hit) -> bool {
+    let material = scene.material_of(hit.prim);
+    !material.is_emitter() && !material.bsdf.is_delta()
 }
 
 /// The irradiance that the emitter sample `es` estimates at the point `p` of geometric

@@ -365,6 +365,12 @@ pub struct SurfacePoint {
 }
 
 impl SurfacePoint {
+    /// The geometric normal on the side that a ray along `dir` sees.
+    #[inline]
+    pub fn facing(&self, dir: Vec3) -> Vec3 {
+        if self.ng.dot(dir) > 0.0 { -self.ng } else { self.ng }
+    }
+
     /// The radiance `emission` that the point emits towards `w`: on its front face only.
     #[inline]
     pub fn emitted(&self, emission: Vec3, w: Vec3) -> Vec3 {

@@ -118,7 +118,7 @@ fn trace(ctx: &RenderContext, camera: &CameraRays, counters: &mut Counters) -> V
             continue;
         }
         let sp = ctx.scene.surface_of_hit(&hit, ray.dir);
-        let ng = facing(&sp, ray.dir);
+        let ng = sp.facing(ray.dir);
         let bsdf = ctx.scene.bsdf_at(&sp);
         if let Some(point) = camera_point(&sp, bsdf, ray.dir) {
             points.push(point);
@@ -186,15 +186,9 @@ fn camera_point(sp: &SurfacePoint, bsdf: Bsdf, dir: Vec3) -> Option<CameraPoint>
     if near_specular(&bsdf) {
         return None;
     }
-    let ng = facing(sp, dir);
+    let ng = sp.facing(dir);
     let fx = PreparedBsdf::new(bsdf, sp.geometry(), -dir.normalize(), TransportMode::Radiance);
     fx.is_active().then_some(CameraPoint { p: sp.p, ng, n: sp.frame.n, fx })
-}
-
-/// The geometric normal of `sp` on the side that a ray along `dir` sees.
-#[inline]
-fn facing(sp: &SurfacePoint, dir: Vec3) -> Vec3 {
-    if sp.ng.dot(dir) > 0.0 { -sp.ng } else { sp.ng }
 }
 
 /// The ray a BSDF sample at `sp` continues `ray` with, as the camera path draws it, and what
